@@ -1,0 +1,1 @@
+"""Benchmark sections for ``harness bench``; each module exposes ``run(quick) -> list[Figure]``."""

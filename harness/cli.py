@@ -1,0 +1,169 @@
+"""The ``harness`` command line: argument parsing and dispatch.
+
+Each command group's behaviour lives in ``harness/commands/<group>.py`` and is imported lazily,
+so ``harness --help`` stays fast and a broken optional dependency only affects its own command.
+Every handler returns an exit code. A ``ConfigError`` (or any ``HarnessError``) is printed as one
+line on stderr with exit code 2 -- never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from harness import __version__
+from harness.errors import HarnessError
+
+
+def _handler(module: str, function: str):
+    """Lazy reference to ``harness.commands.<module>.<function>``."""
+
+    def call(args: argparse.Namespace) -> int:
+        mod = importlib.import_module(f"harness.commands.{module}")
+        return int(getattr(mod, function)(args) or 0)
+
+    return call
+
+
+def _add_filter_args(parser: argparse.ArgumentParser) -> None:
+    for axis in "xyz":
+        parser.add_argument(
+            f"--filter-{axis}",
+            nargs="+",
+            metavar=("DIR", "A"),
+            help=f"filter_{axis}_dir: DIR ANGLE [ANGLE2] (DIR: forward|backward|upward|downward)",
+        )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="harness",
+        description="pick-harness: sweep grasp-filter settings of the InternDataEngine Pick "
+        "skill across robots on MuJoCo, and report which settings make picks succeed.",
+    )
+    parser.add_argument("--version", action="version", version=f"pick-harness {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("validate", help="validate task and sweep YAML files")
+    p.add_argument("files", nargs="+", metavar="FILE")
+    p.set_defaults(func=_handler("validate", "main"))
+
+    p = sub.add_parser("run", help="run episodes of one task and write a run directory")
+    p.add_argument("task", nargs="?", metavar="TASK.yaml")
+    p.add_argument("--interndata", metavar="TASK.yaml", help="an InternDataEngine task YAML")
+    p.add_argument("--asset-root", metavar="DIR", help="root for InternDataEngine asset paths")
+    p.add_argument(
+        "--object", action="append", default=[], metavar="NAME=PATH", help="substitute an asset"
+    )
+    p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides")
+    p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
+    p.add_argument("--record", default="failures", help="none|failures|all|sample:N")
+    p.set_defaults(func=_handler("run", "main"))
+
+    p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
+    p.add_argument("sweep", metavar="SWEEP.yaml", nargs="?")
+    p.add_argument("--out", metavar="DIR")
+    p.add_argument("--resume", metavar="RUN_DIR", help="run only the episodes missing in RUN_DIR")
+    p.add_argument("--workers", type=int)
+    p.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
+    p.add_argument("--address", help="Ray cluster address (with --backend ray)")
+    p.add_argument("--record", help="none|failures|all|sample:N (overrides the sweep)")
+    p.add_argument("--episodes-per-point", type=int, help="override episodes_per_point")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=_handler("sweep", "main"))
+
+    p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.set_defaults(func=_handler("report", "main"))
+
+    p = sub.add_parser("compare", help="per-point success-rate differences between two runs")
+    p.add_argument("run_a", metavar="RUN_A")
+    p.add_argument("run_b", metavar="RUN_B")
+    p.add_argument("--csv", metavar="FILE")
+    p.set_defaults(func=_handler("report", "compare"))
+
+    p = sub.add_parser("view", help="open a Rerun recording (or say how to)")
+    p.add_argument("file", metavar="FILE.rrd")
+    p.set_defaults(func=_handler("view", "main"))
+
+    grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
+    gsub = grasps.add_subparsers(dest="grasps_command", metavar="SUBCOMMAND", required=True)
+    p = gsub.add_parser("inspect", help="filter and order the grasps of a file for a robot")
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--robot", required=True)
+    p.add_argument("--arm", choices=["left", "right"], default="left")
+    p.add_argument(
+        "--object-pose", nargs=7, type=float, metavar=("X", "Y", "Z", "QW", "QX", "QY", "QZ")
+    )
+    _add_filter_args(p)
+    p.add_argument("--approach", nargs="+", metavar=("DIR", "A"), help="approach_filter")
+    p.add_argument("--facing", nargs="+", metavar=("DIR", "A"), help="facing_filter")
+    p.add_argument("--direction-to-obj", choices=["left", "right"])
+    p.add_argument("--constraints", nargs=3, metavar=("AXIS", "MIN", "MAX"))
+    p.add_argument("--grasp-scale", type=float, default=1.0)
+    p.add_argument("--semantics", choices=["reference", "strict"], default="reference")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--plot", metavar="FILE.png")
+    p.set_defaults(func=_handler("grasps", "inspect"))
+    p = gsub.add_parser("generate", help="antipodal grasp annotations for a mesh (N x 17)")
+    p.add_argument("mesh", metavar="MESH")
+    p.add_argument("--out", required=True, metavar="FILE.npy")
+    p.add_argument("-n", "--num", type=int, default=3000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--scale", type=float, default=1.0)
+    p.add_argument("--max-width", type=float, default=0.1)
+    p.set_defaults(func=_handler("grasps", "generate"))
+
+    robots = sub.add_parser("robots", help="list and show robots")
+    rsub = robots.add_subparsers(dest="robots_command", metavar="SUBCOMMAND", required=True)
+    p = rsub.add_parser("list", help="list the robots")
+    p.set_defaults(func=_handler("robots", "list_robots"))
+    p = rsub.add_parser("show", help="describe a robot; optionally render it at home")
+    p.add_argument("name", metavar="NAME")
+    p.add_argument("--render", metavar="FILE.png")
+    p.set_defaults(func=_handler("robots", "show"))
+
+    objects = sub.add_parser("objects", help="list, show and build objects")
+    osub = objects.add_subparsers(dest="objects_command", metavar="SUBCOMMAND", required=True)
+    p = osub.add_parser("list", help="list the default objects")
+    p.set_defaults(func=_handler("objects", "list_objects"))
+    p = osub.add_parser("show", help="describe an object or mesh; optionally render it")
+    p.add_argument("name", metavar="NAME_OR_MESH_PATH")
+    p.add_argument("--render", metavar="FILE.png")
+    p.set_defaults(func=_handler("objects", "show"))
+    p = osub.add_parser("build", help="regenerate the default object set under tasks/objects")
+    p.add_argument("--only", nargs="+", metavar="NAME")
+    p.add_argument("--num", type=int, default=3000)
+    p.set_defaults(func=_handler("objects", "build"))
+
+    p = sub.add_parser("bench", help="measure speed on this machine")
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--json", metavar="FILE")
+    p.add_argument("--only", nargs="+", metavar="SECTION")
+    p.set_defaults(func=_handler("bench", "main"))
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return args.func(args)
+    except HarnessError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

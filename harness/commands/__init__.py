@@ -1,0 +1,1 @@
+"""Command implementations behind ``harness`` (one module per command group)."""

@@ -1,0 +1,55 @@
+"""``harness validate FILE...``: check task and sweep YAML files and say what they hold."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from harness.config import ConfigError, SweepConfig, TaskConfig, load_any
+
+
+def describe(kind: str, loaded: object) -> str:
+    """One line describing a validated file."""
+    if isinstance(loaded, TaskConfig):
+        pick = loaded.pick
+        filters = {k: v.as_list() for k, v in pick.axis_filters().items()}
+        for key in ("approach_filter", "facing_filter"):
+            if (spec := getattr(pick, key)) is not None:
+                filters[key] = spec.as_list()
+        objects = ", ".join(obj.name for obj in loaded.objects)
+        return (
+            f"task {loaded.name!r}: robot {loaded.robot} arm {loaded.arm}, objects [{objects}], "
+            f"filters {filters or 'none'}, test_mode {pick.test_mode}, semantics {pick.semantics}"
+        )
+    if isinstance(loaded, SweepConfig):
+        axes = loaded.axes if loaded.mode == "grid" else loaded.random_axes
+        points = 1
+        for values in loaded.axes.values():
+            points *= len(values)
+        if loaded.mode == "random":
+            points = loaded.points
+        return (
+            f"sweep {loaded.name!r}: {len(loaded.tasks)} task(s), {loaded.mode} over "
+            f"{list(axes) or 'no axes'} = {points} point(s) x {loaded.episodes_per_point} "
+            f"episodes, seed {loaded.seed}"
+        )
+    return f"{kind} file"
+
+
+def main(args: argparse.Namespace) -> int:
+    failed = 0
+    for path in args.files:
+        try:
+            kind, loaded = load_any(path)
+            if kind == "interndata":
+                from harness.interndata import load_interndata_tasks
+
+                tasks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
+                print(f"ok {path}: InternDataEngine task file, {len(tasks)} pick task(s)")
+                continue
+        except ConfigError as exc:
+            print(f"error: {exc.one_line()}", file=sys.stderr)
+            failed += 1
+            continue
+        print(f"ok {path}: {describe(kind, loaded)}")
+    return 1 if failed else 0

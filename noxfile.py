@@ -1,0 +1,51 @@
+"""Sessions: ``tests`` (the CI command), ``demo`` (the main job), ``benchmark``, ``lint``.
+
+Each session installs the project from its own files. uv is used when present (fast, cached);
+otherwise nox falls back to virtualenv + pip.
+"""
+
+from __future__ import annotations
+
+import os
+
+import nox
+
+nox.options.default_venv_backend = "uv|virtualenv"
+nox.options.reuse_venv = "yes"
+nox.options.sessions = ["lint", "tests"]
+
+PYTHON = "3.11"
+# Offscreen MuJoCo rendering without a display: EGL on Mesa, unless the user chose otherwise.
+RENDER_ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+
+@nox.session(python=PYTHON)
+def tests(session: nox.Session) -> None:
+    """Run the test suite. Pass pytest arguments after ``--`` (e.g. ``-m "not slow"``)."""
+    session.install("-e", ".[dev,ray]")
+    args = session.posargs or ["-q"]
+    session.run("pytest", *args, env=RENDER_ENV)
+
+
+@nox.session(python=PYTHON)
+def demo(session: nox.Session) -> None:
+    """The main job: the default sweep over the three robots, with report and recording."""
+    session.install("-e", ".")
+    args = session.posargs or ["tasks/sweeps/demo.yaml"]
+    session.run("harness", "sweep", *args, env=RENDER_ENV)
+
+
+@nox.session(python=PYTHON)
+def benchmark(session: nox.Session) -> None:
+    """Measure speed (``harness bench``); writes reports/bench.json."""
+    session.install("-e", ".")
+    args = session.posargs or ["--json", "reports/bench.json"]
+    session.run("harness", "bench", *args, env=RENDER_ENV)
+
+
+@nox.session(python=PYTHON)
+def lint(session: nox.Session) -> None:
+    """ruff check and ruff format --check."""
+    session.install("ruff>=0.6")
+    session.run("ruff", "check", "harness", "tests", "noxfile.py")
+    session.run("ruff", "format", "--check", "harness", "tests", "noxfile.py")
