@@ -117,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scale", type=float, default=1.0)
     p.add_argument("--max-width", type=float, default=0.1)
-    p.set_defaults(func=_handler("grasps", "generate"))
+    p.set_defaults(func=_handler("graspgen", "generate"))
 
     robots = sub.add_parser("robots", help="list and show robots")
     rsub = robots.add_subparsers(dest="robots_command", metavar="SUBCOMMAND", required=True)
