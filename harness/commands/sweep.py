@@ -1,0 +1,77 @@
+"""``harness sweep SWEEP.yaml``: run a sweep with a progress bar, then print its summary."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from harness.sweep import run_sweep
+
+
+def main(args: argparse.Namespace) -> int:
+    console = Console()
+    outcome = run_sweep(
+        Path(args.sweep) if args.sweep else None,
+        resume_dir=Path(args.resume) if args.resume else None,
+        out=Path(args.out) if args.out else None,
+        backend=args.backend,
+        workers=args.workers,
+        address=args.address,
+        record=args.record,
+        episodes_per_point=args.episodes_per_point,
+        progress=not args.no_progress,
+    )
+    stats = outcome.stats
+    if outcome.skipped_existing:
+        console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
+    console.print(
+        f"{stats.finished} episode(s) in {stats.wall_time_s:.1f} s"
+        + (f", {stats.crashed} worker crash(es) recorded as errors" if stats.crashed else "")
+    )
+    print_summary(outcome.run_dir, console)
+    if stats.interrupted:
+        console.print(
+            f"[yellow]interrupted[/]: finished episodes are kept; continue with "
+            f"harness sweep --resume {outcome.run_dir}"
+        )
+        return 130
+    return 0
+
+
+def print_summary(run_dir: Path, console: Console) -> None:
+    """The per-point summary table and the paths of the report and the recording."""
+    import pandas as pd
+    from rich.table import Table
+
+    summary_path = run_dir / "summary.csv"
+    if summary_path.is_file():
+        summary = pd.read_csv(summary_path)
+        table = Table(title=f"success per point ({run_dir})")
+        keys = [c for c in ("robot", "arm", "object") if c in summary.columns]
+        params = [c for c in summary.columns if c.startswith("param.")]
+        for column in [*keys, *params]:
+            table.add_column(column.removeprefix("param."))
+        for column in ("n", "rate", "95% CI", "top failure"):
+            table.add_column(column, justify="right")
+        fail_columns = [c for c in summary.columns if c.startswith("fail.")]
+        for _, row in summary.iterrows():
+            fails = {c.removeprefix("fail."): int(row[c]) for c in fail_columns if row[c] > 0}
+            top = max(fails, key=fails.get) if fails else ""
+            table.add_row(
+                *[str(row[c]) for c in [*keys, *params]],
+                str(int(row["n"])),
+                f"{row['rate']:.0%}",
+                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+                f"{top} ({fails[top]})" if top else "",
+            )
+        console.print(table)
+    for name in ("summary.csv", "episodes.csv", "report.md", "report.html", "recording.rrd"):
+        path = run_dir / name
+        if path.exists():
+            console.print(f"  {name:14s} {path}")
+    episodes_dir = run_dir / "episodes"
+    if episodes_dir.is_dir():
+        count = len(list(episodes_dir.glob("*.rrd")))
+        console.print(f"  {'episodes/':14s} {count} episode recording(s) in {episodes_dir}")

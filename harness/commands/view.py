@@ -1,0 +1,32 @@
+"""``harness view FILE.rrd``: open a recording in the Rerun viewer, or say how to."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from harness.errors import HarnessError
+
+
+def has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) or (
+        sys.platform in ("darwin", "win32")
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    path = Path(args.file)
+    if not path.is_file():
+        raise HarnessError(f"{path}: no such recording")
+    viewer = shutil.which("rerun")
+    if has_display() and viewer:
+        return subprocess.call([viewer, str(path)])
+    print(f"no display here; to look at {path}:")
+    print(f"  - on a machine with a display: pip install rerun-sdk==0.41.* && rerun {path.name}")
+    print(f"  - or serve it to a browser:     rerun --web-viewer {path}")
+    print("  - or drag the file onto https://rerun.io/viewer (version 0.41)")
+    return 0
