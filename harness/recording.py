@@ -1,0 +1,346 @@
+"""Rerun recordings of episodes and sweeps (rerun-sdk 0.41).
+
+Per episode: the scene geometry read from the MuJoCo model (one entity per body, animated by
+replaying the recorded ``qpos`` through forward kinematics), every grasp candidate as an arrow
+along its approach axis coloured by verdict, the planned and executed TCP paths, joint positions,
+gripper width, finger forces and object height on a ``sim_time`` timeline, phase events as a text
+log, and the verdict. Per sweep: success rate with its Wilson interval per point.
+
+Quaternions are wxyz inside the harness; Rerun wants xyzw, converted here and nowhere else.
+Logged transforms are float32 in Rerun, so read-back checks must not expect 1e-9 agreement.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+APP_ID = "pick-harness"
+
+# Candidate verdict -> RGB. Chosen is drawn on top, thicker.
+VERDICT_COLORS: dict[str, tuple[int, int, int]] = {
+    "rejected": (150, 150, 150),
+    "passed": (70, 130, 230),
+    "infeasible": (230, 140, 40),
+    "feasible": (60, 190, 90),
+    "chosen": (220, 30, 200),
+}
+GEOM_COLORS = {
+    "robot": (200, 200, 210),
+    "pad": (40, 40, 40),
+    "object": (230, 170, 40),
+    "table": (150, 110, 80),
+    "other": (180, 180, 180),
+}
+
+
+def wxyz_to_xyzw(q: np.ndarray) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def _rr():
+    import rerun as rr
+
+    return rr
+
+
+def new_recording(path: Path, name: str):
+    """A RecordingStream writing to ``path`` (parents created)."""
+    rr = _rr()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rec = rr.RecordingStream(APP_ID, recording_id=name)
+    rec.save(str(path))
+    return rec
+
+
+# --------------------------------------------------------------------------------------------
+# Scene geometry from a MuJoCo model
+
+
+def _geom_kind(model: Any, geom_id: int) -> str:
+    import mujoco
+
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom_id) or ""
+    body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[geom_id]) or ""
+    if "pad" in name:
+        return "pad"
+    if body.startswith("robot"):
+        return "robot"
+    if "table" in name or "table" in body:
+        return "table"
+    if model.geom_bodyid[geom_id] != 0 and model.body_jntnum[model.geom_bodyid[geom_id]] > 0:
+        return "object"
+    return "other"
+
+
+def body_entity(model: Any, body_id: int, root: str = "/world") -> str:
+    import mujoco
+
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body_id) or f"body{body_id}"
+    return f"{root}/bodies/{name.replace('/', '_')}"
+
+
+def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
+    """Log every collision geom (group 0-2) statically in its body frame; returns body ids used."""
+    import mujoco
+
+    rr = _rr()
+    bodies: dict[int, list[int]] = {}
+    for geom_id in range(model.ngeom):
+        if model.geom_group[geom_id] > 2 or model.geom_rgba[geom_id, 3] == 0:
+            continue
+        bodies.setdefault(int(model.geom_bodyid[geom_id]), []).append(geom_id)
+    for body_id, geoms in bodies.items():
+        entity = body_entity(model, body_id, root)
+        for geom_id in geoms:
+            kind = _geom_kind(model, geom_id)
+            color = GEOM_COLORS[kind]
+            pos = model.geom_pos[geom_id]
+            quat_xyzw = wxyz_to_xyzw(model.geom_quat[geom_id])
+            size = model.geom_size[geom_id]
+            gtype = model.geom_type[geom_id]
+            path = f"{entity}/geom{geom_id}"
+            if gtype == mujoco.mjtGeom.mjGEOM_BOX:
+                archetype = rr.Boxes3D(
+                    half_sizes=[size],
+                    centers=[pos],
+                    quaternions=[quat_xyzw],
+                    colors=[color],
+                    fill_mode="solid",
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_SPHERE:
+                archetype = rr.Ellipsoids3D(
+                    half_sizes=[[size[0]] * 3], centers=[pos], colors=[color], fill_mode="solid"
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+                archetype = rr.Ellipsoids3D(
+                    half_sizes=[size],
+                    centers=[pos],
+                    quaternions=[quat_xyzw],
+                    colors=[color],
+                    fill_mode="solid",
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_CAPSULE:
+                R = _quat_matrix(model.geom_quat[geom_id])
+                start = pos - R[:, 2] * size[1]
+                archetype = rr.Capsules3D(
+                    lengths=[2 * size[1]],
+                    radii=[size[0]],
+                    translations=[start],
+                    quaternions=[quat_xyzw],
+                    colors=[color],
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_CYLINDER:
+                archetype = rr.Cylinders3D(
+                    lengths=[2 * size[1]],
+                    radii=[size[0]],
+                    centers=[pos],
+                    quaternions=[quat_xyzw],
+                    colors=[color],
+                    fill_mode="solid",
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_MESH:
+                mesh_id = model.geom_dataid[geom_id]
+                v0, nv = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
+                f0, nf = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
+                R = _quat_matrix(model.geom_quat[geom_id])
+                vertices = model.mesh_vert[v0 : v0 + nv] @ R.T + pos
+                archetype = rr.Mesh3D(
+                    vertex_positions=vertices,
+                    triangle_indices=model.mesh_face[f0 : f0 + nf],
+                    albedo_factor=[*color, 255],
+                )
+            elif gtype == mujoco.mjtGeom.mjGEOM_PLANE:
+                extent = size[:2] if np.all(size[:2] > 0) else np.array([1.0, 1.0])
+                archetype = rr.Boxes3D(
+                    half_sizes=[[extent[0], extent[1], 1e-4]],
+                    centers=[pos],
+                    colors=[color],
+                    fill_mode="solid",
+                )
+            else:
+                continue
+            rec.log(path, archetype, static=True)
+    return sorted(bodies)
+
+
+def _quat_matrix(q_wxyz: np.ndarray) -> np.ndarray:
+    w, x, y, z = q_wxyz
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def log_body_motion(
+    rec: Any,
+    model: Any,
+    times: np.ndarray,
+    qpos: np.ndarray,
+    body_ids: list[int],
+    root: str = "/world",
+) -> None:
+    """Replay ``qpos`` (T, nq) through forward kinematics and send body transforms as columns."""
+    import mujoco
+
+    rr = _rr()
+    data = mujoco.MjData(model)
+    positions = np.zeros((len(times), len(body_ids), 3))
+    quats = np.zeros((len(times), len(body_ids), 4))
+    for k, q in enumerate(qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        positions[k] = data.xpos[body_ids]
+        quats[k] = data.xquat[body_ids]
+    index = [rr.TimeColumn("sim_time", duration=np.asarray(times, dtype=float))]
+    for j, body_id in enumerate(body_ids):
+        if body_id == 0:
+            continue
+        rec.send_columns(
+            body_entity(model, body_id, root),
+            indexes=index,
+            columns=rr.Transform3D.columns(
+                translation=positions[:, j], quaternion=wxyz_to_xyzw(quats[:, j])
+            ),
+        )
+
+
+def log_series(
+    rec: Any, path: str, times: np.ndarray, values: np.ndarray, names: list[str]
+) -> None:
+    """A (T,) or (T, k) series as Scalars on the sim_time timeline, with named lines."""
+    rr = _rr()
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        values = values[:, None]
+    rec.log(path, rr.SeriesLines(names=names), static=True)
+    rec.send_columns(
+        path,
+        indexes=[rr.TimeColumn("sim_time", duration=np.asarray(times, dtype=float))],
+        columns=rr.Scalars.columns(scalars=values),
+    )
+
+
+def episode_blueprint():
+    import rerun.blueprint as rrb
+
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(name="scene", origin="/world"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="object height", origin="/plots/object_z"),
+                rrb.TimeSeriesView(name="finger forces", origin="/plots/finger_force"),
+                rrb.TimeSeriesView(name="gripper width", origin="/plots/gripper_width"),
+                rrb.TimeSeriesView(name="joints", origin="/plots/joints"),
+                rrb.TextLogView(name="events", origin="/events"),
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Sweep overview
+
+
+def record_sweep(run_dir: Path) -> Path | None:
+    """``recording.rrd``: success rate (and Wilson interval) per point, per task, plus the summary."""
+    import pandas as pd
+    import rerun.blueprint as rrb
+
+    rr = _rr()
+    run_dir = Path(run_dir)
+    summary_path = run_dir / "summary.csv"
+    if not summary_path.is_file():
+        return None
+    summary = pd.read_csv(summary_path)
+    path = run_dir / "recording.rrd"
+    rec = new_recording(path, f"sweep-{run_dir.name}")
+    rec.send_blueprint(
+        rrb.Blueprint(
+            rrb.Horizontal(
+                rrb.TimeSeriesView(name="success rate per point", origin="/sweep"),
+                rrb.Vertical(
+                    rrb.TextDocumentView(name="summary", origin="/summary"),
+                    rrb.TextLogView(name="episodes", origin="/episodes"),
+                ),
+            )
+        )
+    )
+    group_column = "task" if "task" in summary.columns else "robot"
+    for group, frame in summary.groupby(group_column, sort=True):
+        frame = frame.sort_values("point_id") if "point_id" in frame.columns else frame
+        entity = f"/sweep/{str(group).replace('/', '_')}"
+        points = (
+            frame["point_id"].to_numpy() if "point_id" in frame.columns else np.arange(len(frame))
+        )
+        values = frame[["rate", "wilson_lo", "wilson_hi"]].to_numpy(dtype=float)
+        rec.log(entity, rr.SeriesLines(names=["rate", "wilson_lo", "wilson_hi"]), static=True)
+        rec.send_columns(
+            entity,
+            indexes=[rr.TimeColumn("point", sequence=points.astype(np.int64))],
+            columns=rr.Scalars.columns(scalars=values),
+        )
+    rec.log(
+        "/summary",
+        rr.TextDocument(_summary_markdown(summary), media_type="text/markdown"),
+        static=True,
+    )
+    episodes_csv = run_dir / "episodes.csv"
+    if episodes_csv.is_file():
+        episodes = pd.read_csv(episodes_csv)
+        for order, row in enumerate(episodes.itertuples(index=False)):
+            rec.set_time("episode", sequence=order)
+            ok = bool(getattr(row, "success", False))
+            reason = getattr(row, "failure_reason", "")
+            reason = "" if (isinstance(reason, float) and np.isnan(reason)) else reason
+            text = (
+                f"{row.episode_id}: {'success' if ok else 'failure ' + str(reason)}"
+                f" point {getattr(row, 'point', '')}"
+            )
+            level = rr.TextLogLevel.INFO if ok else rr.TextLogLevel.WARN
+            rec.log("/episodes", rr.TextLog(text, level=level))
+    rec.disconnect()
+    return path
+
+
+def _summary_markdown(summary: Any) -> str:
+    columns = [
+        c
+        for c in (
+            "task",
+            "robot",
+            "arm",
+            "object",
+            "point",
+            "n",
+            "successes",
+            "rate",
+            "wilson_lo",
+            "wilson_hi",
+        )
+        if c in summary.columns
+    ]
+    columns += [c for c in summary.columns if c.startswith("param.") and c not in columns]
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for _, row in summary[columns].iterrows():
+        cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.tolist()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "# Sweep summary\n\n" + "\n".join(lines)
+
+
+def point_label(point: Any) -> str:
+    if isinstance(point, str):
+        try:
+            point = json.loads(point)
+        except json.JSONDecodeError:
+            return point
+    return ", ".join(f"{k}={v}" for k, v in dict(point).items()) or "default"
