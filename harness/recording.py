@@ -252,7 +252,7 @@ def episode_blueprint():
 
 
 def record_sweep(run_dir: Path) -> Path | None:
-    """``recording.rrd``: success rate (and Wilson interval) per point, per task, plus the summary."""
+    """``recording.rrd``: success rate and Wilson interval per point and task, plus a summary."""
     import pandas as pd
     import rerun.blueprint as rrb
 
