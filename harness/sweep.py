@@ -229,6 +229,7 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
         row = error_row(episode, f"{type(exc).__name__}: {exc}")
     row.update(_identity(episode))
     row.setdefault("wall_time_s", time.perf_counter() - start)
+    row["worker_peak_rss_mb"] = _peak_rss_mb()
     failed = not bool(row.get("success"))
     wants = episode.record or (record_policy == "failures" and failed)
     if wants and result is not None and getattr(result, "trace", None) is not None:
@@ -241,6 +242,15 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
         except Exception as exc:  # a recording problem must not lose the episode
             row["recording_error"] = f"{type(exc).__name__}: {exc}"
     return row
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process in MiB (Linux reports KiB, macOS bytes)."""
+    import resource
+    import sys
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
 
 
 def _identity(episode: SweepEpisode) -> dict[str, Any]:
