@@ -1,0 +1,94 @@
+"""Sweep expansion: points, deterministic ids and seeds, overrides, located errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from harness.config import ConfigError, SweepConfig
+from harness.sweep import episode_id, episode_seed, expand, select_samples, sweep_points
+
+TASK = {
+    "name": "t",
+    "robot": "fr3",
+    "objects": [{"name": "cube", "mesh": "cube"}],
+    "pick": {"filter_z_dir": ["downward", 140]},
+}
+
+
+def make_sweep(**kwargs) -> SweepConfig:
+    data = {"name": "s", "tasks": [TASK], "episodes_per_point": 3, **kwargs}
+    return SweepConfig.model_validate(data)
+
+
+def test_grid_is_the_cartesian_product_in_axis_order():
+    sweep = make_sweep(axes={"pick.pre_grasp_offset": [0.05, 0.1], "object.friction": [0.5, 1, 2]})
+    points = sweep_points(sweep)
+    assert len(points) == 6
+    assert points[0] == {"pick.pre_grasp_offset": 0.05, "object.friction": 0.5}
+    assert points[1] == {"pick.pre_grasp_offset": 0.05, "object.friction": 1}
+    assert points[-1] == {"pick.pre_grasp_offset": 0.1, "object.friction": 2}
+
+
+def test_random_points_are_seeded_and_within_bounds():
+    spec = {
+        "pick.pre_grasp_offset": {"low": 0.02, "high": 0.1},
+        "pick.approach_filter": {"choices": [["downward", 120], ["downward", 160]]},
+    }
+    a = sweep_points(make_sweep(mode="random", random_axes=spec, points=20, seed=3))
+    b = sweep_points(make_sweep(mode="random", random_axes=spec, points=20, seed=3))
+    c = sweep_points(make_sweep(mode="random", random_axes=spec, points=20, seed=4))
+    assert a == b and a != c
+    assert all(0.02 <= p["pick.pre_grasp_offset"] <= 0.1 for p in a)
+    assert {tuple(p["pick.approach_filter"]) for p in a} == {("downward", 120), ("downward", 160)}
+
+
+def test_expand_applies_overrides_and_ids_are_deterministic():
+    sweep = make_sweep(
+        axes={
+            "pick.approach_filter": [["downward", 120], ["downward", 160]],
+            "object.mass": [0.05, 0.2],
+        }
+    )
+    episodes = expand(sweep, None)
+    assert len(episodes) == 1 * 4 * 3
+    assert len({e.episode_id for e in episodes}) == len(episodes)
+    again = expand(sweep, None)
+    assert [e.episode_id for e in again] == [e.episode_id for e in episodes]
+    first = episodes[0]
+    assert first.task.pick.approach_filter.as_list() == ["downward", 120.0]
+    assert first.task.objects[0].mass == 0.05
+    # Common random numbers: episode k has the same seed at every point.
+    by_index = {}
+    for e in episodes:
+        by_index.setdefault(e.episode_index, set()).add(e.seed)
+    assert all(len(seeds) == 1 for seeds in by_index.values())
+    assert len({next(iter(s)) for s in by_index.values()}) == 3
+
+
+def test_seed_and_id_functions():
+    assert episode_seed(0, 1) == episode_seed(0, 1) != episode_seed(1, 1)
+    assert episode_id("t", {"a": 1}, 0) != episode_id("t", {"a": 2}, 0)
+    assert episode_id("t", {"a": 1}, 0).startswith("t-e0000-")
+
+
+def test_override_that_breaks_validation_names_the_axis(tmp_path: Path):
+    sweep = make_sweep(axes={"pick.filter_z_dir": [["down", 140]]})
+    with pytest.raises(ConfigError) as info:
+        expand(sweep, tmp_path / "s.yaml")
+    assert "axes.pick.filter_z_dir" in str(info.value)
+    assert "unknown direction" in str(info.value)
+
+
+def test_unknown_axis_key_is_rejected_with_suggestion():
+    with pytest.raises(ValueError, match="did you mean 'pre_grasp_offset'"):
+        make_sweep(axes={"pick.pre_grasp_ofset": [0.1]})
+
+
+def test_sample_selection_is_deterministic_and_sized():
+    episodes = expand(make_sweep(episodes_per_point=10), None)
+    chosen = select_samples(episodes, 4)
+    assert len(chosen) == 4 and chosen == select_samples(episodes, 4)
+    tagged = expand(make_sweep(episodes_per_point=10, record="sample:4"), None)
+    assert {e.episode_id for e in tagged if e.record} == chosen
