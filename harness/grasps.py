@@ -183,7 +183,7 @@ def _check_cells(
         return
     row, column = np.unravel_index(int(np.argmax(bad)), bad.shape)
     column += first_column
-    value = data[row, column]
+    value = float(data[row, column])
     raise InputFileError(path, f"value {value!r} {message}", _cell(int(row), int(column)))
 
 
