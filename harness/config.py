@@ -59,13 +59,27 @@ class ConfigError(HarnessError, ValueError):
             where = self.file + (f":{self.line}" if self.line else "")
         if self.key:
             where = f"{where} {self.key}" if where else self.key
-        return f"{where}: {self.message}" if where else self.message
+        text = f"{where}: {self.message}" if where else self.message
+        return text.replace("\r", "\\r").replace("\n", "\\n")  # always exactly one line
 
     def with_file(self, file: str | Path | None) -> ConfigError:
         """The same error attributed to ``file`` when it has no file yet."""
         if file and not self.file:
             return ConfigError(self.message, file=file, line=self.line, key=self.key)
         return self
+
+
+class KeyedValueError(ValueError):
+    """A cross-key validation failure that names the key it is about.
+
+    A model validator sees the whole model, so pydantic locates its errors at the model itself;
+    raising this instead lets ``error_from_validation`` point at ``key`` (relative to the model),
+    so the one-line error carries the key path and that key's line.
+    """
+
+    def __init__(self, key: str | KeyPath, message: str) -> None:
+        super().__init__(message)
+        self.key: KeyPath = (key,) if isinstance(key, str) else tuple(key)
 
 
 # --------------------------------------------------------------------------------------------
@@ -131,10 +145,18 @@ def _parse_axis_filter(value: Any) -> Any:
         raise ValueError(
             f"unknown direction {direction!r}; Pick knows only {', '.join(DIRECTIONS)}"
         )
+    degrees: list[float] = []
     for angle in angles:
         if isinstance(angle, bool) or not isinstance(angle, (int, float)):
             raise ValueError(f"angle {angle!r} must be a number of degrees")
-    return {"direction": direction, "angles": tuple(float(a) for a in angles)}
+        try:
+            degrees.append(float(angle))
+        except OverflowError:  # an int too large for a float
+            raise ValueError(f"angle {_short_repr(angle)} must be in [0, 180] degrees") from None
+    for angle in degrees:  # checked here too, so the error names the filter key, not 'angles'
+        if not math.isfinite(angle) or not 0.0 <= angle <= 180.0:
+            raise ValueError(f"angle {angle!r} must be in [0, 180] degrees")
+    return {"direction": direction, "angles": tuple(degrees)}
 
 
 FilterSpec = Annotated[
@@ -146,8 +168,8 @@ FilterSpec = Annotated[
 # --------------------------------------------------------------------------------------------
 # Small value types
 
-Vec3 = tuple[float, float, float]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 Probability = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]
 
 
@@ -236,12 +258,17 @@ class PickConfig(_Strict):
     @model_validator(mode="after")
     def _cross_checks(self) -> PickConfig:
         if self.post_grasp_offset_min > self.post_grasp_offset_max:
-            raise ValueError(
+            given_max = "post_grasp_offset_max" in self.model_fields_set
+            raise KeyedValueError(
+                "post_grasp_offset_max" if given_max else "post_grasp_offset_min",
                 f"post_grasp_offset_min ({self.post_grasp_offset_min}) must be <= "
-                f"post_grasp_offset_max ({self.post_grasp_offset_max})"
+                f"post_grasp_offset_max ({self.post_grasp_offset_max})",
             )
         if self.constraints is not None and self.constraints[1] > self.constraints[2]:
-            raise ValueError("constraints [axis, rmin, rmax] needs rmin <= rmax")
+            raise KeyedValueError(
+                "constraints",
+                f"constraints [axis, rmin, rmax] needs rmin <= rmax, got {list(self.constraints)}",
+            )
         if self.semantics == "strict":
             for key in (
                 "filter_x_dir",
@@ -252,7 +279,7 @@ class PickConfig(_Strict):
             ):
                 spec: AxisFilter | None = getattr(self, key)
                 if spec is not None and spec.never_passes():
-                    raise ValueError(reversed_band_message(key, spec))
+                    raise KeyedValueError(key, reversed_band_message(key, spec))
         return self
 
     def axis_filters(self) -> dict[str, AxisFilter]:
@@ -297,10 +324,14 @@ class Placement(_Strict):
     def _ordered(self) -> Placement:
         lo, hi = self.pos_range
         for axis, (a, b) in enumerate(zip(lo, hi, strict=True)):
-            if not (math.isfinite(a) and math.isfinite(b)) or a > b:
-                raise ValueError(f"pos_range axis {'xyz'[axis]}: min {a} must be <= max {b}")
+            if a > b:
+                raise KeyedValueError(
+                    "pos_range", f"pos_range axis {'xyz'[axis]}: min {a} must be <= max {b}"
+                )
         if self.yaw_range[0] > self.yaw_range[1]:
-            raise ValueError("yaw_range min must be <= max")
+            raise KeyedValueError(
+                "yaw_range", f"yaw_range min {self.yaw_range[0]} must be <= max {self.yaw_range[1]}"
+            )
         return self
 
 
@@ -376,18 +407,33 @@ class TaskConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> TaskConfig:
         names = [obj.name for obj in self.objects]
-        if len(set(names)) != len(names):
-            raise ValueError(f"object names must be unique, got {names}")
+        for index, name in enumerate(names):
+            if name in names[:index]:
+                raise KeyedValueError(
+                    ("objects", index, "name"), f"object names must be unique, {name!r} repeats"
+                )
         if self.pick.objects is None:
             self.pick = self.pick.model_copy(update={"objects": [names[0]]})
-        missing = [name for name in self.pick.objects or [] if name not in names]
-        if missing:
-            raise ValueError(f"pick.objects names unknown objects {missing}; known: {names}")
+        for index, name in enumerate(self.pick.objects or []):
+            if name not in names:
+                raise KeyedValueError(
+                    ("pick", "objects", index),
+                    f"unknown object {name!r}{_suggest(name, names)} (objects: {names})",
+                )
         if self.control_dt < self.physics.timestep:
-            raise ValueError("control_dt must be at least physics.timestep")
+            given_dt = "control_dt" in self.model_fields_set
+            raise KeyedValueError(
+                "control_dt" if given_dt else ("physics", "timestep"),
+                f"control_dt ({self.control_dt:g} s) must be at least physics.timestep "
+                f"({self.physics.timestep:g} s)",
+            )
         both = self.home is not None and self.home_noise_std is not None
         if both and len(self.home) != len(self.home_noise_std):  # type: ignore[arg-type]
-            raise ValueError("home and home_noise_std must have the same length")
+            raise KeyedValueError(
+                "home_noise_std",
+                f"home_noise_std has {len(self.home_noise_std)} values but home has "  # type: ignore[arg-type]
+                f"{len(self.home)}",  # type: ignore[arg-type]
+            )
         return self
 
     @property
@@ -417,9 +463,9 @@ class RandomAxis(_Strict):
         if ranged == (self.choices is not None):
             raise ValueError("give either low and high, or choices")
         if ranged and self.low > self.high:  # type: ignore[operator]
-            raise ValueError(f"low ({self.low}) must be <= high ({self.high})")
+            raise KeyedValueError("high", f"low ({self.low}) must be <= high ({self.high})")
         if self.choices is not None and not self.choices:
-            raise ValueError("choices must not be empty")
+            raise KeyedValueError("choices", "choices must not be empty")
         return self
 
 
@@ -429,17 +475,22 @@ TASK_KEYS = frozenset(TaskConfig.model_fields)
 def _check_dotted_key(key: str) -> str:
     parts = key.split(".")
     if not all(parts):
-        raise ValueError(f"axis key {key!r} is not a dotted key like 'pick.filter_z_dir'")
+        raise KeyedValueError(
+            (key,), f"axis key {key!r} is not a dotted key like 'pick.filter_z_dir'"
+        )
     head = parts[0]
     if head == "object":  # shorthand for the target object
         parts = ["objects", "0", *parts[1:]]
         head = "objects"
     if head not in TASK_KEYS:
-        raise ValueError(f"axis key {key!r}: unknown task key {head!r}{_suggest(head, TASK_KEYS)}")
+        raise KeyedValueError(
+            (key,), f"axis key {key!r}: unknown task key {head!r}{_suggest(head, TASK_KEYS)}"
+        )
     if head == "pick" and len(parts) > 1 and parts[1] not in PickConfig.model_fields:
-        raise ValueError(
+        raise KeyedValueError(
+            (key,),
             f"axis key {key!r}: unknown pick key {parts[1]!r}"
-            f"{_suggest(parts[1], PickConfig.model_fields)}"
+            f"{_suggest(parts[1], PickConfig.model_fields)}",
         )
     return key
 
@@ -468,7 +519,7 @@ class SweepConfig(_Strict):
         for key, values in axes.items():
             _check_dotted_key(key)
             if not values:
-                raise ValueError(f"axis {key!r} has no values")
+                raise KeyedValueError((key,), f"axis {key!r} has no values")
         return axes
 
     @field_validator("random_axes")
@@ -481,9 +532,9 @@ class SweepConfig(_Strict):
     @model_validator(mode="after")
     def _mode_matches(self) -> SweepConfig:
         if self.mode == "random" and not self.random_axes:
-            raise ValueError("mode 'random' needs random_axes")
+            raise KeyedValueError("mode", "mode 'random' needs random_axes")
         if self.mode == "grid" and self.random_axes:
-            raise ValueError("random_axes are only used with mode: random")
+            raise KeyedValueError("random_axes", "random_axes are only used with mode: random")
         return self
 
 
@@ -545,22 +596,52 @@ def error_from_validation(
     prefix: KeyPath = (),
 ) -> ConfigError:
     """Turn the first pydantic error into a located one-line ConfigError."""
-    err = exc.errors(include_url=False)[0]
+    errors = exc.errors(include_url=False)
+    err = errors[0]
+    if err.get("type") == "missing":
+        # A misspelt key shows up as "missing" plus "extra"; the extra one explains both.
+        parent = tuple(err.get("loc", ()))[:-1]
+        for other in errors:
+            if other.get("type") == "extra_forbidden" and tuple(other["loc"])[:-1] == parent:
+                err = other
+                break
     loc = _clean_loc(tuple(err.get("loc", ())))
+    cause = (err.get("ctx") or {}).get("error")
+    if isinstance(cause, KeyedValueError):
+        loc = (*loc, *cause.key)
     message = str(err.get("msg", "invalid value"))
     if message.startswith("Value error, "):
         message = message[len("Value error, ") :]
+    line_path: KeyPath | None = None
     if err.get("type") == "extra_forbidden" and loc:
         parent = _model_at(model, loc[:-1]) or model
         message = f"unknown key{_suggest(str(loc[-1]), parent.model_fields)}"
+    elif err.get("type") == "invalid_key":
+        # YAML read a key as a non-string (1, null, a date); pydantic stringifies it in loc.
+        bad_key = err.get("input")
+        loc = loc[:-1]
+        line_path = (*prefix, *loc, bad_key)
+        message = (
+            f"key {bad_key!r} is a {type(bad_key).__name__}, keys must be strings "
+            "(quote it, or fix the name)"
+        )
+    elif err.get("type") == "missing" and loc and isinstance(loc[-1], int):
+        message = f"too few values: item [{loc[-1]}] is missing"  # a short tuple
+        loc = loc[:-1]
     elif err.get("type") == "missing":
         message = "required key is missing"
     elif "input" in err and err.get("type") not in ("value_error", "assertion_error"):
-        message = f"{message} (got {err['input']!r})"
+        message = f"{message} (got {_short_repr(err['input'])})"
     full = (*prefix, *loc)
-    line = doc.line_of(full) if doc is not None else None
+    line = doc.line_of(line_path or full) if doc is not None else None
     file = doc.path if doc is not None else None
     return ConfigError(message, file=file, line=line, key=format_key_path(full) if full else None)
+
+
+def _short_repr(value: Any, limit: int = 60) -> str:
+    """``repr`` cut to ``limit`` characters, so one huge value cannot flood the error line."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def read_yaml(path: str | Path) -> YamlDocument:
@@ -583,6 +664,9 @@ def parse_text(text: str, path: str | Path | None = None) -> YamlDocument:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        context = getattr(exc, "context", None)
+        if context and not context.startswith("while "):  # e.g. "expected a single document"
+            problem = f"{context}, {problem}"
         raise ConfigError(f"invalid YAML: {problem}", file=path, line=line) from None
     except (RecursionError, ValueError, TypeError) as exc:  # pathological documents
         raise ConfigError(f"invalid YAML: {exc}", file=path) from None
