@@ -1,7 +1,18 @@
 """Grasp core: GraspNet-style annotations -> end-effector poses -> direction filters -> order.
 
 Implements the reference Pick skill's pose post-processing and candidate selection
-(../shared/reference/pick-skill.md sections 2-4) as vectorised numpy.
+(../shared/reference/pick-skill.md sections 2-4, 11, 12) as vectorised numpy, with no Python
+loop over grasps:
+
+- :class:`GraspSet` / :func:`load_grasp_file`: a validated N x 17 grasp file;
+- :func:`post_process` -> :class:`EEPoses`: the 2N poses ``T_obj_ee`` for a robot's
+  :class:`GripperConvention` (N grasps plus their 180-degree flips);
+- :func:`filter_poses` / :func:`filter_ee_poses` -> :class:`FilterResult`: the direction filters
+  and ``direction_to_obj`` in the arm base frame, every mask kept;
+- :func:`resolve_filters` / :func:`neutral_form`: robot-neutral ``approach_filter`` /
+  ``facing_filter`` <-> per-axis ``filter_{x,y,z}_dir``;
+- :func:`reference_order` / :func:`strict_order` -> :class:`CandidateOrder`;
+- :func:`select_candidates` -> :class:`CandidateSelection`: all of it for one pick.
 """
 
 from __future__ import annotations
@@ -506,16 +517,17 @@ def filter_poses(
 ) -> FilterResult:
     """Direction filters on base-frame poses ``T_base_ee`` ``(M, 4, 4)`` (sections 4.2-4.4).
 
-    ``filters`` maps ``filter_{x,y,z}_dir`` to an :class:`AxisFilter`; the key's letter selects
-    the EE axis (column of the rotation). ``direction_to_obj`` ("left" / "right") compares the EE
-    origin's base y with the object's, ``T_base_obj[1, 3]``.
+    ``filters`` maps ``filter_{x,y,z}_dir`` (or the bare letter) to an :class:`AxisFilter`; the
+    letter selects the EE axis (column of the rotation); masks are keyed ``filter_{x,y,z}_dir``.
+    ``direction_to_obj`` ("left" / "right") compares the EE origin's base y with the object's,
+    ``T_base_obj[1, 3]``.
     """
     T = np.asarray(T_base_ee, dtype=np.float64)
     masks: dict[str, np.ndarray] = {}
     for key, spec in filters.items():
         column = _filter_column(key)
         row, _ = DIRECTION_ROW_SIGN[spec.direction]
-        masks[key] = axis_filter_mask(T[:, row, column], spec)
+        masks[FILTER_KEYS[AXES[column]]] = axis_filter_mask(T[:, row, column], spec)
     if direction_to_obj is not None:
         if T_base_obj is None:
             raise ValueError("direction_to_obj needs T_base_obj")
@@ -539,8 +551,9 @@ def filter_ee_poses(
     masks: dict[str, np.ndarray] = {}
     for key, spec in filters.items():
         row, _ = DIRECTION_ROW_SIGN[spec.direction]
-        component = ee_poses.axis_component(_filter_column(key), T_bo[row, :3])
-        masks[key] = axis_filter_mask(component, spec)
+        column = _filter_column(key)
+        component = ee_poses.axis_component(column, T_bo[row, :3])
+        masks[FILTER_KEYS[AXES[column]]] = axis_filter_mask(component, spec)
     if direction_to_obj is not None:
         ee_y = ee_poses.grasp_positions @ T_bo[1, :3] + T_bo[1, 3]
         side = _direction_to_obj_mask(ee_y, float(T_bo[1, 3]), direction_to_obj)
@@ -549,8 +562,9 @@ def filter_ee_poses(
 
 
 def _filter_column(key: str) -> int:
+    """EE axis (rotation column) of a filter key: ``filter_y_dir`` (or just ``y``) -> 1."""
     for axis, name in FILTER_KEYS.items():
-        if key == name:
+        if key in (name, axis):
             return AXES.index(axis)
     raise ValueError(f"unknown filter key {key!r}; expected one of {list(FILTER_KEYS.values())}")
 

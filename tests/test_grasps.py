@@ -233,6 +233,8 @@ def test_filters_read_only_their_own_axis() -> None:
     assert filter_poses(T_base_ee, {"filter_x_dir": spec("forward", 80)}).passed == 0
     assert filter_poses(T_base_ee, {"filter_x_dir": spec("upward", 10)}).passed == 1
     assert filter_poses(T_base_ee, {"filter_y_dir": spec("downward", 170)}).passed == 0
+    # A bare axis letter works as a key too; masks always carry the config key name.
+    assert filter_poses(T_base_ee, {"z": spec("forward", 10)}).counts() == {"filter_z_dir": 1}
     # No filter: everything passes (the reference's all-ones flags).
     assert filter_poses(T_base_ee, {}).combined.tolist() == [True]
 

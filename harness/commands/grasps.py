@@ -168,11 +168,14 @@ def format_text(selection: CandidateSelection, info: dict[str, Any]) -> str:
         title = "fallback list" if order.outcome == "fallback" else "top candidates"
         lines += ["", f"{title} (deterministic, before any draw):"]
         lines += _candidate_rows(selection, order.top_candidates)
-    if order.indices.size and order.outcome == "ok":
+    same_as_top = np.array_equal(order.indices, order.top_candidates)
+    if order.outcome == "ok" and same_as_top:
+        lines += ["", "candidate order: the top candidates above, each once"]
+    elif order.outcome == "ok":
         how = (
-            "20 weighted draws with replacement, sorted by score"
+            f"{len(order)} weighted draws with replacement, sorted by score"
             if order.semantics == "reference"
-            else "unique candidates by score"
+            else "weighted sample without replacement, sorted by score"
         )
         lines += ["", f"candidate order ({how}):"]
         lines += _candidate_rows(selection, order.indices)
