@@ -118,6 +118,8 @@ def test_inspect_plot_writes_png(
 def test_inspect_errors(bottle: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["grasps", "inspect", str(bottle), "--robot", "no_such_robot"]) == 2
     assert "no_such_robot" in capsys.readouterr().err
+    assert main(["grasps", "inspect", str(bottle), "--robot", "fr3", "--arm", "right"]) == 2
+    assert "no right arm" in capsys.readouterr().err
     bad = tmp_path / "bad.npy"
     np.save(bad, np.zeros((4, 16), np.float32))
     assert main(["grasps", "inspect", str(bad), "--robot", "fr3"]) == 2
@@ -133,3 +135,18 @@ def test_inspect_errors(bottle: Path, tmp_path: Path, capsys: pytest.CaptureFixt
         == 2
     )
     assert "--filter-x" in capsys.readouterr().err
+
+
+def test_robot_convention_fallback_without_robot_module(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from harness.commands.grasps import robot_convention
+    from harness.errors import HarnessError
+    from harness.grasps import REFERENCE_CONVENTIONS
+
+    monkeypatch.setitem(sys.modules, "harness.robot", None)  # import raises ImportError
+    assert robot_convention("lift2", "right") is REFERENCE_CONVENTIONS["lift2"]
+    with pytest.raises(HarnessError, match="known robots: fr3, lift2, split_aloha"):
+        robot_convention("ur5", "left")
+    with pytest.raises(HarnessError, match="no right arm"):
+        robot_convention("fr3", "right")

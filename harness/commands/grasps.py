@@ -29,20 +29,26 @@ from harness.grasps import (
 from harness.transforms import matrix_to_quat, pose_to_T
 
 
-def robot_convention(name: str) -> GripperConvention:
-    """The gripper convention of robot ``name``: from ``harness.robot`` when it is available.
+def robot_convention(name: str, arm: str) -> GripperConvention:
+    """The gripper convention of robot ``name`` (checking it has ``arm``), from ``harness.robot``.
 
-    Until ``harness/robot.py`` lands, fall back to the reference tables (REFERENCE_CONVENTIONS).
-    Remove the fallback once the robot models exist.
+    Until ``harness/robot.py`` is importable, fall back to the reference tables
+    (REFERENCE_CONVENTIONS; fr3 has one arm, ``left``). Remove the fallback once it is.
     """
     try:
-        from harness.robot import RobotModel  # type: ignore[import-not-found]
+        from harness.robot import RobotModel
     except ImportError:
         if name not in REFERENCE_CONVENTIONS:
             known = ", ".join(sorted(REFERENCE_CONVENTIONS))
             raise HarnessError(f"unknown robot {name!r}; known robots: {known}") from None
-        return REFERENCE_CONVENTIONS[name]
-    return RobotModel.load(name).convention
+        arms = ["left"] if name == "fr3" else ["left", "right"]
+        convention = REFERENCE_CONVENTIONS[name]
+    else:
+        model = RobotModel.load(name)
+        arms, convention = list(model.arms), model.convention
+    if arm not in arms:
+        raise HarnessError(f"robot {name!r} has no {arm} arm; its arms: {', '.join(arms)}")
+    return convention
 
 
 def _filter_value(flag: str, values: list[str] | None) -> list[Any] | None:
@@ -234,7 +240,7 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
 
 def inspect(args: argparse.Namespace) -> int:
     """Entry point of ``harness grasps inspect``."""
-    convention = robot_convention(args.robot)
+    convention = robot_convention(args.robot, args.arm)
     pick = pick_from_args(args)
     grasps = load_grasp_file(args.file)
     poses = ee_poses_for_pick(grasps, convention, pick)
