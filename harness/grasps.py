@@ -35,6 +35,12 @@ FloatArray = NDArray[np.float64]
 AXES = ("x", "y", "z")
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """Mark an array read-only: grasp sets and poses are shared, never edited in place."""
+    array.flags.writeable = False
+    return array
+
+
 @dataclass(frozen=True)
 class GripperConvention:
     """How a robot's end-effector frame relates to GraspNet grasp axes.
@@ -175,13 +181,13 @@ class GraspSet:
         _check_rotations(path, rotations)
         return cls(
             path=path,
-            scores=data[:, 0].copy(),
-            widths=data[:, 1].copy(),
-            heights=data[:, 2].copy(),
-            depths=data[:, 3].copy(),
-            rotations=np.ascontiguousarray(rotations),
-            translations=data[:, 13:16].copy(),
-            object_ids=data[:, 16].copy(),
+            scores=_read_only(data[:, 0].copy()),
+            widths=_read_only(data[:, 1].copy()),
+            heights=_read_only(data[:, 2].copy()),
+            depths=_read_only(data[:, 3].copy()),
+            rotations=_read_only(np.ascontiguousarray(rotations)),
+            translations=_read_only(data[:, 13:16].copy()),
+            object_ids=_read_only(data[:, 16].copy()),
         )
 
 
@@ -240,9 +246,9 @@ def load_grasp_file(path: str | Path) -> GraspSet:
 
 # Right-multiplied onto R_obj_ee: a 180-degree turn about the approach axis (step 7).
 FLIP_DIAGONALS: dict[str, FloatArray] = {
-    "x": np.array([1.0, -1.0, -1.0]),
-    "y": np.array([-1.0, 1.0, -1.0]),
-    "z": np.array([-1.0, -1.0, 1.0]),
+    "x": _read_only(np.array([1.0, -1.0, -1.0])),
+    "y": _read_only(np.array([-1.0, 1.0, -1.0])),
+    "z": _read_only(np.array([-1.0, -1.0, 1.0])),
 }
 
 Constraints = tuple[str, float, float]
@@ -287,12 +293,13 @@ class EEPoses:
         return np.asarray(indices, dtype=np.int64) % max(self.n_grasps, 1)
 
     def _twice(self, values: np.ndarray) -> np.ndarray:
-        return np.concatenate([values, values])
+        return _read_only(np.concatenate([values, values]))
 
     @cached_property
     def rotations(self) -> FloatArray:
         """``R_obj_ee`` of all 2N poses, ``(2N, 3, 3)``."""
-        return np.concatenate([self.grasp_rotations, self.grasp_rotations * self.flip_diagonal])
+        flipped = self.grasp_rotations * self.flip_diagonal
+        return _read_only(np.concatenate([self.grasp_rotations, flipped]))
 
     @cached_property
     def positions(self) -> FloatArray:
@@ -310,7 +317,7 @@ class EEPoses:
 
     @cached_property
     def flipped(self) -> np.ndarray:
-        return np.arange(len(self)) >= self.n_grasps
+        return _read_only(np.arange(len(self)) >= self.n_grasps)
 
     @cached_property
     def tcp_points(self) -> FloatArray:
@@ -407,14 +414,15 @@ def post_process(
     approach = rotations[:, :, convention.approach_index]
     positions = approach * (depths - offset)[:, None]
     positions += tcp
+    widths = np.clip(widths, convention.gripper_min_width, convention.gripper_max_width)
     return EEPoses(
-        grasp_rotations=rotations,
-        grasp_positions=positions,
-        grasp_scores=scores,
-        grasp_rows=rows,
-        grasp_tcp_points=tcp,
-        grasp_widths=np.clip(widths, convention.gripper_min_width, convention.gripper_max_width),
-        grasp_depths=depths,
+        grasp_rotations=_read_only(rotations),
+        grasp_positions=_read_only(positions),
+        grasp_scores=_read_only(scores),
+        grasp_rows=_read_only(rows),
+        grasp_tcp_points=_read_only(tcp),
+        grasp_widths=_read_only(widths),
+        grasp_depths=_read_only(depths),
         approach_index=convention.approach_index,
         flip_diagonal=FLIP_DIAGONALS[convention.ee_axis],
         tcp_offset=offset,

@@ -504,6 +504,10 @@ def test_load_valid_file(tmp_path: Path) -> None:
     grasps = load_grasp_file(_save(tmp_path, _valid()))
     assert len(grasps) == 6 and grasps.rotations.shape == (6, 3, 3)
     assert grasps.rotations.dtype == np.float64
+    poses = post_process(grasps, REFERENCE_CONVENTIONS["fr3"])
+    for shared in (grasps.scores, grasps.rotations, poses.grasp_rotations, poses.scores):
+        with pytest.raises(ValueError, match="read-only"):
+            shared[0] = 0.0  # sets and poses are shared between selections, never edited
     np.testing.assert_allclose(grasps.translations[:, 2], 0.01 * np.arange(6), rtol=1e-6)
 
 
