@@ -233,6 +233,11 @@ class PickConfig(_Strict):
         default=None,
         description="Robot-neutral filter on the facing axis (robot.yaml facing_axis).",
     )
+    strict_sampling: bool = Field(
+        default=False,
+        description="strict: order candidates by weighted sampling without replacement "
+        "(weights 1/score) instead of plain score order.",
+    )
     timing: Literal["toppra", "ruckig"] = "toppra"
     speed_scale: FiniteFloat = Field(default=1.0, gt=0.0, le=1.0)
     min_finger_force: FiniteFloat = Field(
@@ -589,13 +594,14 @@ def _clean_loc(loc: tuple[Any, ...]) -> KeyPath:
     return tuple(out)
 
 
-def error_from_validation(
-    exc: ValidationError,
-    model: type[BaseModel],
-    doc: YamlDocument | None = None,
-    prefix: KeyPath = (),
-) -> ConfigError:
-    """Turn the first pydantic error into a located one-line ConfigError."""
+def describe_validation_error(
+    exc: ValidationError, model: type[BaseModel]
+) -> tuple[KeyPath, str, KeyPath]:
+    """The first pydantic error as ``(key path, message, path to take the line from)``.
+
+    Key paths are relative to ``model``. Used by ``error_from_validation`` and by loaders whose
+    model keys come from other places in a file (``harness.interndata``).
+    """
     errors = exc.errors(include_url=False)
     err = errors[0]
     if err.get("type") == "missing":
@@ -612,7 +618,7 @@ def error_from_validation(
     message = str(err.get("msg", "invalid value"))
     if message.startswith("Value error, "):
         message = message[len("Value error, ") :]
-    line_path: KeyPath | None = None
+    line_loc: KeyPath | None = None
     if err.get("type") == "extra_forbidden" and loc:
         parent = _model_at(model, loc[:-1]) or model
         message = f"unknown key{_suggest(str(loc[-1]), parent.model_fields)}"
@@ -620,7 +626,7 @@ def error_from_validation(
         # YAML read a key as a non-string (1, null, a date); pydantic stringifies it in loc.
         bad_key = err.get("input")
         loc = loc[:-1]
-        line_path = (*prefix, *loc, bad_key)
+        line_loc = (*loc, bad_key)
         message = (
             f"key {bad_key!r} is a {type(bad_key).__name__}, keys must be strings "
             "(quote it, or fix the name)"
@@ -632,8 +638,19 @@ def error_from_validation(
         message = "required key is missing"
     elif "input" in err and err.get("type") not in ("value_error", "assertion_error"):
         message = f"{message} (got {_short_repr(err['input'])})"
+    return loc, message, line_loc if line_loc is not None else loc
+
+
+def error_from_validation(
+    exc: ValidationError,
+    model: type[BaseModel],
+    doc: YamlDocument | None = None,
+    prefix: KeyPath = (),
+) -> ConfigError:
+    """Turn the first pydantic error into a located one-line ConfigError."""
+    loc, message, line_loc = describe_validation_error(exc, model)
     full = (*prefix, *loc)
-    line = doc.line_of(line_path or full) if doc is not None else None
+    line = doc.line_of((*prefix, *line_loc)) if doc is not None else None
     file = doc.path if doc is not None else None
     return ConfigError(message, file=file, line=line, key=format_key_path(full) if full else None)
 

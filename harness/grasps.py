@@ -853,7 +853,7 @@ def select_candidates(
     rng: np.random.Generator,
     *,
     max_candidates: int = CANDIDATE_BATCH,
-    strict_sampling: bool = False,
+    strict_sampling: bool | None = None,
 ) -> CandidateSelection:
     """Resolve the pick's filters for this robot, apply them in the arm base frame, order.
 
@@ -867,6 +867,8 @@ def select_candidates(
     if pick.semantics == "strict":
         check_strict_filters(filters)
     result = filter_ee_poses(ee_poses, T_bo, filters, pick.direction_to_obj)
+    if strict_sampling is None:
+        strict_sampling = pick.strict_sampling
     order = order_candidates(
         ee_poses.scores, result.combined, pick.semantics, rng, max_candidates, strict_sampling
     )
