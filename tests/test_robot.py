@@ -1,0 +1,401 @@
+"""Robot models: robot.yaml vs URDF, reference conventions, home poses, gripper frames, errors."""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import placo
+import pytest
+from scipy.spatial.transform import Rotation
+
+from harness.config import AxisFilter, ConfigError
+from harness.errors import HarnessError
+from harness.grasps import REFERENCE_CONVENTIONS, filter_ee_poses, load_grasp_file, post_process
+from harness.robot import ROBOTS_DIR, RobotModel, available_robots
+from harness.robot_mujoco import build_robot_spec, robot_addresses, set_configuration
+
+ROBOTS = ["fr3", "lift2", "split_aloha"]
+AXIS = {"x": 0, "y": 1, "z": 2}
+
+# Franka TCP (hand + 0.1034 z) versus the reference's tcp_offset 0.1043 (sic).
+TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125}
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def robot(request: pytest.FixtureRequest) -> RobotModel:
+    return RobotModel.load(request.param)
+
+
+def _placo(robot: RobotModel) -> placo.RobotWrapper:
+    wrapper = placo.RobotWrapper(str(robot.urdf_path), placo.Flags.ignore_collisions)
+    for joint, value in robot.home_configuration().items():
+        wrapper.set_joint(joint, value)
+    wrapper.update_kinematics()
+    return wrapper
+
+
+# --------------------------------------------------------------------------------------------
+# Loading and the reference values
+
+
+def test_available_robots() -> None:
+    assert available_robots() == ROBOTS
+
+
+def test_load_by_name_path_and_folder(robot: RobotModel) -> None:
+    by_path = RobotModel.load(robot.yaml_path)
+    by_folder = RobotModel.load(str(robot.yaml_path.parent))
+    assert by_path.urdf_path == by_folder.urdf_path == robot.urdf_path
+    assert robot.urdf_path == ROBOTS_DIR / robot.name / f"{robot.name}.urdf"
+
+
+def test_convention_equals_reference(robot: RobotModel) -> None:
+    ours, ref = robot.convention, REFERENCE_CONVENTIONS[robot.name]
+    np.testing.assert_array_equal(ours.R_ee_graspnet, ref.R_ee_graspnet)
+    assert (ours.ee_axis, ours.facing_axis, ours.approach_axis) == (
+        ref.ee_axis,
+        ref.facing_axis,
+        ref.approach_axis,
+    )
+    assert ours.tcp_offset == ref.tcp_offset
+    assert (ours.gripper_min_width, ours.gripper_max_width) == (
+        ref.gripper_min_width,
+        ref.gripper_max_width,
+    )
+
+
+def test_arm_names_frames_and_home(robot: RobotModel) -> None:
+    expected_arms = ["left"] if robot.name == "fr3" else ["left", "right"]
+    assert list(robot.arms) == expected_arms
+    q = robot.home_configuration()
+    assert set(q) == set(robot.movable_joints)
+    for joint, value in q.items():
+        lo, hi = robot.joint_limits(joint)
+        assert lo <= value <= hi, joint
+    for arm in robot.arms.values():
+        assert arm.base_frame == f"{arm.name}_arm_base"
+        assert arm.tcp_frame == f"{arm.name}_tcp"
+        assert arm.ee_frame == f"{arm.name}_{'hand' if robot.name == 'fr3' else 'link6'}"
+        for finger in arm.finger_joints:
+            assert q[finger] == pytest.approx(arm.open_width / 2)
+    assert robot.root_frame == "base"
+
+
+def test_reference_homes_and_widths() -> None:
+    fr3, lift2, aloha = (RobotModel.load(n) for n in ("fr3", "lift2", "split_aloha"))
+    assert fr3.arms["left"].home == [0.0, -0.143, 0.0, -2.435, 0.0, 2.235, 0.789]
+    assert lift2.lift_joint == "lift_joint" and lift2.lift_home == 0.46
+    assert lift2.joint_limits("lift_joint") == (0.0, 0.46)
+    assert all(abs(v) < 0.006 for v in lift2.arms["right"].home)
+    assert aloha.arms["left"].home_noise_std[1] == pytest.approx(0.24539099)
+    widths = {r.name: r.arms["left"].open_width for r in (fr3, lift2, aloha)}
+    assert widths == {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.07}
+    # Known typos fixed: Piper and R5a J1 upper 2.168 -> 2.618.
+    assert aloha.joint_limits("left_joint1") == (-2.618, 2.618)
+    assert lift2.joint_limits("right_joint1") == (-2.618, 2.618)
+    # FR3: the older (franka_description / Menagerie) table.
+    assert fr3.joint_limits("left_joint4") == (-3.0421, -0.1518)
+    assert fr3.joint_limits("left_joint6") == (0.5445, 4.5169)
+    assert fr3.velocity_limit("left_joint5") == 5.26
+    assert fr3.jerk_limit("left_joint1") == 5000.0
+
+
+def test_placements_follow_reference_offsets() -> None:
+    for name, y, z_range in (
+        ("fr3", (-0.495, -0.445), (0.0, 0.05)),
+        ("lift2", (-0.80, -0.80), (-0.775, -0.67)),
+        ("split_aloha", (-0.86, -0.86), (-0.765, -0.715)),
+    ):
+        placement = RobotModel.load(name).placement
+        lo, hi = placement.pos_range
+        assert (lo[1], hi[1]) == y and (lo[2], hi[2]) == z_range
+        assert placement.yaw_range == (90.0, 90.0)
+
+
+# --------------------------------------------------------------------------------------------
+# Kinematics at home (placo)
+
+
+def test_tcp_is_tcp_offset_along_the_approach_axis_at_home(robot: RobotModel) -> None:
+    wrapper = _placo(robot)
+    axis = AXIS[robot.convention.approach_axis]
+    for arm in robot.arms.values():
+        T_ee_tcp = wrapper.get_T_a_b(arm.ee_frame, arm.tcp_frame)
+        expected = np.zeros(3)
+        expected[axis] = TCP_FRAME_OFFSET[robot.name]
+        np.testing.assert_allclose(T_ee_tcp[:3, 3], expected, atol=1e-12)
+        np.testing.assert_allclose(T_ee_tcp[:3, :3], np.eye(3), atol=1e-12)
+    # fr3: the frame is Franka's 0.1034; the reference convention keeps its 0.1043 (sic).
+    delta = robot.convention.tcp_offset - TCP_FRAME_OFFSET[robot.name]
+    assert delta == pytest.approx(0.0009 if robot.name == "fr3" else 0.0, abs=1e-12)
+
+
+def test_approach_axis_direction_at_home(robot: RobotModel) -> None:
+    """fr3 points down; split_aloha forward and 15 deg down; lift2 straight forward."""
+    wrapper = _placo(robot)
+    axis = AXIS[robot.convention.approach_axis]
+    expected = {
+        "fr3": np.array([-0.057, 0.0, -0.998]),
+        "split_aloha": np.array([0.967, 0.007, -0.256]),
+        "lift2": np.array([1.0, 0.0, 0.002]),
+    }[robot.name]
+    for arm in robot.arms.values():
+        approach = wrapper.get_T_a_b(arm.base_frame, arm.ee_frame)[:3, axis]
+        np.testing.assert_allclose(approach, expected, atol=2e-3)
+
+
+def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
+    wrapper = _placo(robot)
+    for arm in robot.arms.values():
+        R = wrapper.get_T_a_b(robot.root_frame, arm.base_frame)[:3, :3]
+        np.testing.assert_allclose(R, np.eye(3), atol=1e-12)
+    if len(robot.arms) == 2:
+        left = wrapper.get_T_a_b(robot.root_frame, "left_arm_base")[:3, 3]
+        right = wrapper.get_T_a_b(robot.root_frame, "right_arm_base")[:3, 3]
+        spacing = {"lift2": 0.50, "split_aloha": 0.594}[robot.name]
+        assert left[1] - right[1] == pytest.approx(spacing, abs=1e-9)
+
+
+def test_fingers_travel_along_the_grasp_closing_axis(robot: RobotModel) -> None:
+    """The EE axis R_ee_graspnet maps g_y (closing) onto is the axis the fingers slide along,
+    the approach (g_x) runs from the EE through the pad midpoint, at random configurations."""
+    spec = build_robot_spec(robot)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    addresses = robot_addresses(model, robot)
+    R_ee_g = robot.convention.R_ee_graspnet  # grasp coordinates -> EE coordinates
+    closing_in_ee, approach_in_ee = R_ee_g[:, 1], R_ee_g[:, 0]
+    rng = np.random.default_rng(3)
+    limits = robot.position_limits(robot.movable_joints)
+    for _ in range(20):
+        q = dict(zip(robot.movable_joints, rng.uniform(limits[:, 0], limits[:, 1]), strict=True))
+        for arm in robot.arms.values():  # the fingers are coupled in MuJoCo
+            q[arm.finger_joints[1]] = q[arm.finger_joints[0]]
+        set_configuration(model, data, addresses, q)
+        mujoco.mj_kinematics(model, data)
+        for a in addresses.arms.values():
+            R_ee = data.xmat[a.ee_body].reshape(3, 3)
+            slide = R_ee.T @ data.xaxis[a.finger_joint_ids[0]]
+            assert abs(slide @ closing_in_ee) == pytest.approx(1.0, abs=1e-9)
+            midpoint = (data.geom_xpos[a.pad_geoms[0]] + data.geom_xpos[a.pad_geoms[1]]) / 2
+            offset = R_ee.T @ (midpoint - data.xpos[a.ee_body])
+            along = offset @ approach_in_ee
+            assert along > 0.09
+            np.testing.assert_allclose(offset, along * approach_in_ee, atol=5e-4)
+
+
+def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -> None:
+    """Reference section 11: with robot.yaml's conventions, FR3 x-forward-90 + z-downward-140,
+    Lift-2 x-downward-140 + z-forward-90 and Split ALOHA y-forward-90 + z-downward-140 keep
+    the same poses for the same object pose in each arm's base frame."""
+    canonical = {
+        "fr3": {"filter_x_dir": ("forward", 90.0), "filter_z_dir": ("downward", 140.0)},
+        "lift2": {"filter_x_dir": ("downward", 140.0), "filter_z_dir": ("forward", 90.0)},
+        "split_aloha": {"filter_y_dir": ("forward", 90.0), "filter_z_dir": ("downward", 140.0)},
+    }
+    rng = np.random.default_rng(11)
+    for folder in example_objects[:4]:
+        grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
+        for _ in range(3):
+            T_base_obj = np.eye(4)
+            T_base_obj[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+            T_base_obj[:3, 3] = [0.45, 0.1, 0.05]
+            masks = {}
+            for name, filters in canonical.items():
+                convention = RobotModel.load(name).convention
+                poses = post_process(grasps, convention)
+                specs = {k: AxisFilter(direction=d, angles=(a,)) for k, (d, a) in filters.items()}
+                masks[name] = filter_ee_poses(poses, T_base_obj, specs).combined
+            assert masks["fr3"].any()
+            np.testing.assert_array_equal(masks["fr3"], masks["lift2"])
+            np.testing.assert_array_equal(masks["fr3"], masks["split_aloha"])
+
+
+# --------------------------------------------------------------------------------------------
+# URDF properties
+
+
+def _inertials(urdf: Path) -> dict[str, tuple[float, np.ndarray]]:
+    out = {}
+    for link in ET.parse(urdf).getroot().findall("link"):
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        mass = float(inertial.find("mass").get("value"))
+        i = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
+        out[link.get("name")] = (
+            mass,
+            np.array(
+                [
+                    [i["ixx"], i["ixy"], i["ixz"]],
+                    [i["ixy"], i["iyy"], i["iyz"]],
+                    [i["ixz"], i["iyz"], i["izz"]],
+                ]
+            ),
+        )
+    return out
+
+
+def test_inertials_are_physical_with_reference_masses(robot: RobotModel) -> None:
+    inertials = _inertials(robot.urdf_path)
+    for link, (mass, inertia) in inertials.items():
+        assert mass > 0
+        principal = np.linalg.eigvalsh(inertia)
+        assert principal.min() > 0, link
+        assert 2 * principal.max() <= principal.sum() * (1 + 1e-9), f"{link}: triangle inequality"
+    masses = {link: m for link, (m, _) in inertials.items()}
+    if robot.name == "fr3":
+        fr3 = [2.397, 2.927, 2.936, 2.245, 2.616, 2.327, 1.817, 0.627]
+        assert [masses[f"left_link{i}"] for i in range(8)] == fr3
+        assert masses["left_hand"] == 0.73 and masses["left_leftfinger"] == 0.015
+    elif robot.name == "split_aloha":
+        piper = [1.02, 0.71, 1.17, 0.5, 0.38, 0.383]
+        assert [
+            masses[f"right_{n}"] for n in ["base_link"] + [f"link{i}" for i in range(1, 6)]
+        ] == piper
+    else:
+        r5a = [0.423, 0.097, 1.199, 0.841, 0.124, 0.636, 0.441]
+        assert [
+            masses[f"left_{n}"] for n in ["base_link"] + [f"link{i}" for i in range(1, 7)]
+        ] == r5a
+        assert masses["base"] == 21.0 and masses["lift_link"] == 14.2
+    for arm in robot.arms.values():  # massless planning frames
+        assert arm.base_frame not in masses and arm.tcp_frame not in masses
+
+
+@functools.cache
+def _generator():
+    """robots/build_urdfs.py (not a package module) imported by path."""
+    spec = importlib.util.spec_from_file_location("build_urdfs", ROBOTS_DIR / "build_urdfs.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses resolve annotations through sys.modules
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_committed_urdfs_equal_the_generator_output(robot: RobotModel) -> None:
+    generator = _generator()
+    text = generator.urdf_text(generator.BUILDERS[robot.name]())
+    assert robot.urdf_path.read_text() == text, "run python robots/build_urdfs.py"
+
+
+def test_collision_pairs_are_clear_at_home_and_not_adjacent(robot: RobotModel) -> None:
+    pairs = json.loads(robot.collisions_path.read_text())
+    assert pairs, "no self-collision pairs"
+    links = set(robot.frames)
+    generator = _generator()
+    assert sorted(map(sorted, pairs)) == sorted(
+        map(sorted, generator.candidate_pairs(generator.BUILDERS[robot.name]()))
+    )
+    for a, b in pairs:
+        assert a in links and b in links
+    wrapper = placo.RobotWrapper(str(robot.urdf_path), placo.Flags.ignore_collisions)
+    wrapper.load_collision_pairs(str(robot.collisions_path))
+    for joint, value in robot.home_configuration().items():
+        wrapper.set_joint(joint, value)
+    wrapper.update_kinematics()
+    assert len(wrapper.self_collisions(False)) == 0
+
+
+# --------------------------------------------------------------------------------------------
+# Command line
+
+
+def test_robots_list_and_show(capsys: pytest.CaptureFixture[str]) -> None:
+    from harness.cli import main
+
+    assert main(["robots", "list"]) == 0
+    out = capsys.readouterr().out
+    assert all(name in out for name in ROBOTS)
+    assert main(["robots", "show", "lift2"]) == 0
+    out = capsys.readouterr().out
+    assert "lift lift_joint: range 0.0-0.46 m, home 0.46" in out
+    assert "right arm base at [0.249, -0.646, 0.032]" in out
+    assert main(["robots", "show", "ur5"]) == 2
+    assert "available robots: fr3, lift2, split_aloha" in capsys.readouterr().err
+
+
+def test_robots_show_renders_a_png(tmp_path: Path) -> None:
+    """Offscreen render in a fresh process (MuJoCo picks its GL backend at import)."""
+    out = tmp_path / "fr3.png"
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    code = "import sys; from harness.cli import main; sys.exit(main(sys.argv[1:]))"
+    result = subprocess.run(
+        [sys.executable, "-c", code, "robots", "show", "fr3", "--render", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    from PIL import Image
+
+    image = np.asarray(Image.open(out))
+    assert image.shape == (720, 960, 3)
+    assert image.std() > 20  # not a blank frame
+
+
+# --------------------------------------------------------------------------------------------
+# Errors
+
+
+def test_unknown_robot_lists_the_available_ones() -> None:
+    with pytest.raises(HarnessError, match=r"unknown robot 'ur5'; available robots: fr3, lift2"):
+        RobotModel.load("ur5")
+    with pytest.raises(HarnessError, match="robot file not found"):
+        RobotModel.load("no/such/robot.yaml")
+    with pytest.raises(HarnessError, match="has no arm 'right'"):
+        RobotModel.load("fr3").arm("right")
+
+
+def _copy_robot(tmp_path: Path, name: str, old: str, new: str) -> Path:
+    folder = tmp_path / name
+    shutil.copytree(ROBOTS_DIR / name, folder)
+    path = folder / "robot.yaml"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def test_joint_missing_from_urdf_names_file_and_key(tmp_path: Path) -> None:
+    path = _copy_robot(tmp_path, "lift2", "left_joint3,", "left_joint33,")
+    with pytest.raises(ConfigError) as info:
+        RobotModel.load(path)
+    error = info.value
+    assert error.file == str(path) and error.key == "arms.left.joints[2]"
+    assert "'left_joint33' is not in the URDF" in str(error)
+    assert str(error).startswith(f"{path}:")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key", "message"),
+    [
+        ("ee_frame: left_hand", "ee_frame: left_palm", "arms.left.ee_frame", "not a link"),
+        ("home: [0.0, -0.143", "home: [0.0, -1.9", "arms.left.home[1]", "outside"),
+        ("velocity: [2.62,", "velocity: [9.0,", "arms.left.limits.velocity[0]", "exceeds"),
+        ("open_width: 0.08", "open_width: 0.09", "arms.left.open_width", "per finger"),
+        ("tcp_offset: 0.1043", "tcp_ofset: 0.1043", "convention.tcp_ofset", "unknown key"),
+        ("approach_axis: z", "approach_axis: x", "convention", "must equal ee_axis"),
+        ("frictionloss: [1.137,", "frictionloss: [", "arms.left", "entries for 7 joints"),
+    ],
+)
+def test_bad_robot_yaml_is_located(
+    tmp_path: Path, old: str, new: str, key: str, message: str
+) -> None:
+    path = _copy_robot(tmp_path, "fr3", old, new)
+    with pytest.raises(ConfigError) as info:
+        RobotModel.load(path)
+    assert info.value.file == str(path)
+    assert info.value.key == key
+    assert message in str(info.value)
