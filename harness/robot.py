@@ -24,9 +24,9 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from harness.config import ConfigError, FiniteFloat, Placement, _Strict, read_yaml, validate_model
+from harness.config import ConfigError, FiniteFloat, Placement, read_yaml, validate_model
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
 from harness.yamlio import KeyPath, YamlDocument, format_key_path
@@ -37,6 +37,13 @@ ROBOTS_DIR = Path(__file__).resolve().parents[1] / "robots"
 Axis = Literal["x", "y", "z"]
 NonNegative = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    """Base of the robot.yaml models: unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid")
+
 
 # --------------------------------------------------------------------------------------------
 # yaml schema

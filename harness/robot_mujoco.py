@@ -18,7 +18,8 @@ MuJoCo Menagerie gripper recipe (../shared/reference/robots.md sections 7-8):
   at the robot's ``gripper.speed`` for realistic timing;
 - box pads (geoms ``<finger>_pad``) with high friction (1.5), condim 4 (torsional friction
   against pivoting) and a stiffer solref; finger-finger contacts are excluded (the pads meet when
-  closed).
+  closed), and so are contacts across each joint (links that overlap by construction; MuJoCo's
+  own parent-child filter does not apply when the parent is welded to the world).
 
 Geoms: URDF visuals are group 1 (no contact), collision geoms group 3 (hidden by default),
 named ``<link>_col<i>`` / ``<finger>_pad``.
