@@ -179,39 +179,6 @@ def _quat_matrix(q_wxyz: np.ndarray) -> np.ndarray:
     )
 
 
-def log_body_motion(
-    rec: Any,
-    model: Any,
-    times: np.ndarray,
-    qpos: np.ndarray,
-    body_ids: list[int],
-    root: str = "/world",
-) -> None:
-    """Replay ``qpos`` (T, nq) through forward kinematics and send body transforms as columns."""
-    import mujoco
-
-    rr = _rr()
-    data = mujoco.MjData(model)
-    positions = np.zeros((len(times), len(body_ids), 3))
-    quats = np.zeros((len(times), len(body_ids), 4))
-    for k, q in enumerate(qpos):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        positions[k] = data.xpos[body_ids]
-        quats[k] = data.xquat[body_ids]
-    index = [rr.TimeColumn("sim_time", duration=np.asarray(times, dtype=float))]
-    for j, body_id in enumerate(body_ids):
-        if body_id == 0:
-            continue
-        rec.send_columns(
-            body_entity(model, body_id, root),
-            indexes=index,
-            columns=rr.Transform3D.columns(
-                translation=positions[:, j], quaternion=wxyz_to_xyzw(quats[:, j])
-            ),
-        )
-
-
 def log_series(
     rec: Any, path: str, times: np.ndarray, values: np.ndarray, names: list[str]
 ) -> None:
@@ -344,3 +311,184 @@ def point_label(point: Any) -> str:
         except json.JSONDecodeError:
             return point
     return ", ".join(f"{k}={v}" for k, v in dict(point).items()) or "default"
+
+
+# --------------------------------------------------------------------------------------------
+# Episodes
+
+MAX_FRAME_RATE = 30.0  # Hz of logged body transforms; physics runs at 500 Hz
+
+
+def _frame_indices(times: np.ndarray, rate: float = MAX_FRAME_RATE) -> np.ndarray:
+    """Indices of trace samples spaced at least 1/rate apart (always keeping the last)."""
+    if len(times) == 0:
+        return np.zeros(0, dtype=int)
+    keep = [0]
+    for index in range(1, len(times)):
+        if times[index] - times[keep[-1]] >= 1.0 / rate:
+            keep.append(index)
+    if keep[-1] != len(times) - 1:
+        keep.append(len(times) - 1)
+    return np.asarray(keep, dtype=int)
+
+
+def _candidate_arrows(trace: Any, approach_index: int, tcp_offset: float) -> dict[str, tuple]:
+    """Per verdict: arrow origins (EE origins) and vectors (to the TCP along the approach)."""
+    groups: dict[str, tuple[list, list, list]] = {}
+    for T, status, index in zip(
+        trace.candidate_T_world_ee, trace.candidate_status, trace.candidate_index, strict=True
+    ):
+        origins, vectors, labels = groups.setdefault(str(status), ([], [], []))
+        origins.append(T[:3, 3])
+        vectors.append(T[:3, approach_index] * tcp_offset)
+        labels.append(str(int(index)))
+    return groups
+
+
+def record_episode(result: Any, path: Path, task: Any) -> Path:
+    """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model)."""
+    import mujoco
+
+    from harness.robot import RobotModel
+
+    rr = _rr()
+    trace = result.trace
+    model = result.model
+    if trace is None or model is None:
+        raise ValueError("the episode has no trace to record (it stopped before the scene ran)")
+    row = result.row
+    rec = new_recording(Path(path), str(row.get("episode_id") or Path(path).stem))
+    rec.send_blueprint(episode_blueprint())
+    rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+
+    body_ids = log_model_geometry(rec, model)
+    data = mujoco.MjData(model)
+    if model.nmocap:
+        data.mocap_pos[:] = trace.mocap_pos
+        data.mocap_quat[:] = trace.mocap_quat
+    frames = _frame_indices(np.asarray(trace.time))
+    _log_body_motion_with_mocap(rec, model, data, trace.time[frames], trace.qpos[frames], body_ids)
+
+    robot = RobotModel.load(task.robot)
+    convention = robot.convention
+    tcp_offset = task.pick.tcp_offset or convention.tcp_offset
+    for status, (origins, vectors, labels) in _candidate_arrows(
+        trace, convention.approach_index, tcp_offset
+    ).items():
+        color = VERDICT_COLORS.get(status, (255, 255, 255))
+        radius = 0.004 if status == "chosen" else 0.0015
+        rec.log(
+            f"/world/candidates/{status}",
+            rr.Arrows3D(
+                origins=origins,
+                vectors=vectors,
+                colors=[color] * len(origins),
+                radii=[radius] * len(origins),
+                labels=labels if status == "chosen" else None,
+            ),
+            static=True,
+        )
+    if len(trace.planned_tcp):
+        rec.log(
+            "/world/plan/tcp",
+            rr.LineStrips3D([trace.planned_tcp], colors=[(60, 200, 255)], radii=[0.002]),
+            static=True,
+        )
+    tcp = np.asarray(trace.tcp_pose)[:, :3]
+    if len(tcp):
+        rec.log(
+            "/world/executed/tcp",
+            rr.LineStrips3D([tcp], colors=[(255, 80, 80)], radii=[0.0015]),
+            static=True,
+        )
+        rec.send_columns(
+            "/world/executed/tcp_now",
+            indexes=[rr.TimeColumn("sim_time", duration=trace.time[frames])],
+            columns=rr.Points3D.columns(positions=tcp[frames]).partition([1] * len(frames)),
+        )
+
+    times = np.asarray(trace.time, dtype=float)
+    if len(times):
+        log_series(rec, "/plots/object_z", times, trace.object_pose[:, 2], ["object z (m)"])
+        log_series(
+            rec,
+            "/plots/finger_force",
+            times,
+            trace.finger_forces,
+            ["left finger (N)", "right finger (N)"],
+        )
+        log_series(rec, "/plots/gripper_width", times, trace.gripper_width, ["width (m)"])
+        log_series(rec, "/plots/joints", times, trace.q, list(trace.joint_names))
+    for t, text in trace.events:
+        rec.set_time("sim_time", duration=float(t))
+        rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+    verdict = "SUCCESS" if row.get("success") else f"FAILURE: {row.get('failure_reason', '')}"
+    end = float(times[-1]) if len(times) else 0.0
+    rec.set_time("sim_time", duration=end)
+    level = rr.TextLogLevel.INFO if row.get("success") else rr.TextLogLevel.ERROR
+    rec.log("/events", rr.TextLog(f"verdict: {verdict}", level=level))
+    rec.log(
+        "/verdict",
+        rr.TextDocument(_verdict_markdown(row, verdict), media_type="text/markdown"),
+        static=True,
+    )
+    rec.disconnect()
+    return Path(path)
+
+
+def _log_body_motion_with_mocap(
+    rec: Any, model: Any, data: Any, times: np.ndarray, qpos: np.ndarray, body_ids: list[int]
+) -> None:
+    import mujoco
+
+    rr = _rr()
+    positions = np.zeros((len(times), len(body_ids), 3))
+    quats = np.zeros((len(times), len(body_ids), 4))
+    for k, q in enumerate(qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        positions[k] = data.xpos[body_ids]
+        quats[k] = data.xquat[body_ids]
+    index = [rr.TimeColumn("sim_time", duration=np.asarray(times, dtype=float))]
+    for j, body_id in enumerate(body_ids):
+        if body_id == 0:
+            continue
+        rec.send_columns(
+            body_entity(model, body_id),
+            indexes=index,
+            columns=rr.Transform3D.columns(
+                translation=positions[:, j], quaternion=wxyz_to_xyzw(quats[:, j])
+            ),
+        )
+
+
+def _verdict_markdown(row: dict[str, Any], verdict: str) -> str:
+    keys = (
+        "robot",
+        "arm",
+        "object",
+        "seed",
+        "semantics",
+        "test_mode",
+        "timing",
+        "n_total",
+        "n_passed_filter",
+        "n_feasible",
+        "chosen_index",
+        "chosen_score",
+        "approach_angle_deg",
+        "lift_height_m",
+        "finger_force_left_n",
+        "finger_force_right_n",
+        "slip_m",
+        "tcp_grasp_error_m",
+        "error_message",
+    )
+    lines = [f"# {verdict}", "", "| key | value |", "|---|---|"]
+    for key in keys:
+        if key in row and row[key] not in ("", None):
+            value = row[key]
+            lines.append(
+                f"| {key} | {value:.4g} |" if isinstance(value, float) else f"| {key} | {value} |"
+            )
+    return "\n".join(lines)
