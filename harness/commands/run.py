@@ -1,0 +1,189 @@
+"""``harness run TASK.yaml``: run episodes of one task, live, into a run directory.
+
+The run is written exactly like a one-point sweep (``sweep.yaml``, ``episodes.csv``, parquet,
+summary and report), so every report tool works on it and ``harness sweep --resume RUN_DIR``
+can continue it. ``--set key=value`` overrides become the point's parameters (``param.<key>``
+columns). Episode seeds and ids are those a sweep with the same seed would use.
+
+``--interndata FILE`` runs every pick skill of an InternDataEngine task file (each as its own
+task), with ``--asset-root`` and ``--object NAME=PATH[@SCALE]`` substitutions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.live import Live
+from rich.table import Table
+
+from harness.config import (
+    ConfigError,
+    SweepConfig,
+    TaskConfig,
+    apply_overrides,
+    load_task,
+    parse_set_value,
+)
+from harness.errors import HarnessError
+
+LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
+
+
+def parse_overrides(items: list[str]) -> dict[str, Any]:
+    """``["pick.test_mode=forward", ...]`` -> ``{"pick.test_mode": "forward"}`` (YAML values)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
+        out[key.strip()] = parse_set_value(value)
+    return out
+
+
+def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
+    """The task(s) of this run, with paths made absolute."""
+    from harness.sweep import _absolute_paths
+
+    if args.interndata:
+        if args.task:
+            raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
+        if importlib.util.find_spec("harness.interndata") is None:
+            raise HarnessError("--interndata is not yet supported (harness/interndata.py missing)")
+        from harness.interndata import load_interndata_tasks, parse_object_substitutions
+
+        picks = load_interndata_tasks(
+            args.interndata,
+            asset_root=Path(args.asset_root) if args.asset_root else None,
+            objects=parse_object_substitutions(args.object),
+        )
+        if not picks:
+            raise HarnessError(f"{args.interndata}: the file has no pick skill")
+        return [_absolute_paths(pick.task) for pick in picks]
+    if not args.task:
+        raise HarnessError("give a task YAML (harness run TASK.yaml) or --interndata FILE")
+    if args.object:
+        raise HarnessError("--object substitutes InternDataEngine assets; use it with --interndata")
+    return [_absolute_paths(load_task(args.task))]
+
+
+def run_name(tasks: list[TaskConfig]) -> str:
+    name = tasks[0].name if len(tasks) == 1 else f"{tasks[0].name}+{len(tasks) - 1}"
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name) or "run"
+
+
+def _table(rows: list[dict[str, Any]], total: int) -> Table:
+    table = Table(title=f"episodes {len(rows)}/{total}", expand=False)
+    for column in ("#", "task", "seed", "result", "reason", "lift mm", "forces N", "wall s"):
+        table.add_column(column, justify="right" if column not in ("task", "reason") else "left")
+    for row in rows[-LIVE_ROWS:]:
+        ok = bool(row.get("success"))
+        lift = row.get("lift_height_m")
+        left, right = row.get("finger_force_left_n"), row.get("finger_force_right_n")
+        table.add_row(
+            str(row.get("episode_index", "")),
+            str(row.get("task", "")),
+            str(row.get("seed", ""))[:8],
+            "[green]success[/]" if ok else "[red]fail[/]",
+            str(row.get("failure_reason", "")),
+            _fmt(lift, 1e3, "{:.0f}"),
+            f"{_fmt(left, 1, '{:.1f}')}/{_fmt(right, 1, '{:.1f}')}",
+            _fmt(row.get("wall_time_s"), 1, "{:.2f}"),
+        )
+    return table
+
+
+def _fmt(value: Any, scale: float, pattern: str) -> str:
+    try:
+        number = float(value) * scale
+    except (TypeError, ValueError):
+        return ""
+    return "" if number != number else pattern.format(number)
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """95% Wilson score interval of a binomial proportion (harness.stats when present)."""
+    try:
+        from harness.stats import wilson_interval as wilson
+
+        lo, hi = wilson(successes, n)
+        return float(lo), float(hi)
+    except ImportError:
+        if n == 0:
+            return 0.0, 1.0
+        p = successes / n
+        denom = 1 + z * z / n
+        centre = (p + z * z / (2 * n)) / denom
+        half = z * ((p * (1 - p) / n + z * z / (4 * n * n)) ** 0.5) / denom
+        return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def main(args: argparse.Namespace) -> int:
+    from harness.results import ResultStore
+    from harness.sweep import execute, expand, finalize_run, write_sweep_yaml
+
+    if args.episodes < 1:
+        raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
+    console = Console()
+    tasks = load_run_tasks(args)
+    overrides = parse_overrides(args.overrides)
+    for task in tasks:  # fail early, with the task file named, on a bad override
+        apply_overrides(task, overrides)
+    sweep = SweepConfig(
+        name=run_name(tasks),
+        tasks=[task.model_dump(mode="json") for task in tasks],
+        axes={key: [value] for key, value in overrides.items()},
+        episodes_per_point=args.episodes,
+        seed=args.seed,
+        record=args.record,
+    )
+    episodes = expand(sweep, None)
+    run_dir = (
+        Path(args.out)
+        if args.out
+        else Path("reports") / f"{sweep.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    )
+    if (run_dir / "sweep.yaml").exists():
+        raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
+    write_sweep_yaml(run_dir, sweep, tasks)
+    store = ResultStore(run_dir)
+    rows: list[dict[str, Any]] = []
+    start = time.perf_counter()
+    try:
+        with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
+            for episode in episodes:
+                row = execute(episode, str(run_dir), sweep.record)
+                store.append(row)
+                rows.append(row)
+                live.update(_table(rows, len(episodes)))
+    except KeyboardInterrupt:
+        console.print("[yellow]interrupted[/]: finished episodes are kept")
+    finalize_run(run_dir)
+    successes = sum(bool(row.get("success")) for row in rows)
+    n = len(rows)
+    lo, hi = wilson_interval(successes, n)
+    rate = successes / n if n else 0.0
+    console.print(
+        f"success {successes}/{n} = {rate:.0%} (95% Wilson interval {lo:.2f}-{hi:.2f}) "
+        f"in {time.perf_counter() - start:.1f} s"
+    )
+    failures: dict[str, int] = {}
+    for row in rows:
+        if not row.get("success"):
+            reason = str(row.get("failure_reason") or "unknown")
+            failures[reason] = failures.get(reason, 0) + 1
+    if failures:
+        console.print(
+            "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
+        )
+    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report)")
+    return 0 if n == len(episodes) else 130
+
+
+def _count(item: tuple[str, int]) -> tuple[int, str]:
+    return (-item[1], item[0])

@@ -1,0 +1,617 @@
+"""The Pick skill executed in MuJoCo: the reference command list, progress, and the verdict.
+
+Commands (pick-skill.md section 6), each a target pose plus a gripper action, in order:
+
+1. current EE, ``update_pose_cost_metric``    2. current EE, ``update_specific``
+3. pre-grasp, ``open_gripper``                 4. pre-grasp, ``update_pose_cost_metric`` (if set)
+5. grasp, ``open_gripper``                     6. grasp, final gripper command x
+                                                  ``gripper_change_steps``
+7. grasp, ``update_specific``                  8. grasp, ``attach_obj`` -- an EVENT only: the
+                                                  object is held by friction, never welded
+9. lift (grasp + U(post_min, post_max) along arm-base z), final gripper command (skipped if 0)
+10. pre-grasp, final gripper command (``return_to_pregrasp``)
+
+Progress (section 7): once per control step the head command pops when the EE is within
+``t_eps`` (m) and ``o_eps`` (rad) of its target, or after more than 10 idle control steps (no
+active arm trajectory). A command whose target differs from the previous one starts the next
+planned trajectory segment (transport, approach, lift, retreat) as soon as the previous segment
+has finished -- the harness plays each planned segment to its end rather than re-planning from a
+moving state, so the arm never jumps. The gripper action of the head command is applied while it
+is head; closing ramps the servo target to the closed width.
+
+Verdict:
+
+- ``reference``: evaluated once, at the step the list becomes empty: at least one finger touches
+  the object with force > 0 (when the final command closes), max |joint velocity| < 5 and max
+  |object linear velocity component| < 5 (``process_valid``), and lift > ``lift_th`` measured from
+  the object's position before settling (``obj_init_trans``).
+- ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends; no robot
+  collision with the environment during the motion; after the lift the trajectory finishes, the
+  object comes to rest, then is held for ``hold_time`` s with slip (object motion relative to the
+  TCP) below ``max_slip``; both fingers still carry the force; lift > ``lift_th``.
+
+Execution: the control loop runs in Python once per control step (``control_dt``, the
+reference's 1/30 s); inside it the position servos get new setpoints every few physics steps
+(a chunk of ~10 ms, stepped inside MuJoCo with ``mj_step(m, d, n)``), sampled in advance from
+the timed trajectory with velocity feed-forward ``ctrl = q + (kv / kp) * qd``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from harness.config import PickConfig, TaskConfig
+from harness.planning.motion import CollisionChecker, Phase
+from harness.planning.timing import Trajectory, gripper_trajectory
+from harness.scene import Scene, invert
+
+IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps
+MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the reference)
+SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
+STATIC_SPEED = 0.02  # m/s: the object is "at rest" below this (strict)
+STATIC_WAIT_S = 1.0  # strict: how long to wait for the object to come to rest
+
+FailureReason = Literal[
+    "",
+    "filter_empty",
+    "no_feasible_candidate",
+    "plan_failed",
+    "collision",
+    "no_contact",
+    "dropped",
+    "lift_below_threshold",
+    "velocity_invalid",
+    "sim_unstable",
+    "timeout",
+    "error",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Commands
+
+
+@dataclass(frozen=True)
+class PickCommand:
+    """One reference command: a target (by name), the function, the gripper action."""
+
+    number: int  # the row of pick-skill.md section 6
+    function: str
+    target: Literal["current", "pregrasp", "grasp", "lift"]
+    gripper: Literal["open", "close"] | None = None
+    event: str | None = None
+
+
+def build_commands(pick: PickConfig, lift_offset: float) -> list[PickCommand]:
+    """The reference command list for a pick block (``lift_offset`` already sampled)."""
+    final = "open" if pick.final_gripper_state == 1 else "close"
+    final_name = "open_gripper" if final == "open" else "close_gripper"
+    commands = [
+        PickCommand(1, "update_pose_cost_metric", "current"),
+        PickCommand(2, "update_specific", "current", event="object_out_of_planning_world"),
+        PickCommand(3, "open_gripper", "pregrasp", gripper="open"),
+    ]
+    if pick.pre_grasp_hold_vec_weight is not None:
+        commands.append(PickCommand(4, "update_pose_cost_metric", "pregrasp"))
+    commands.append(PickCommand(5, "open_gripper", "grasp", gripper="open"))
+    commands += [
+        PickCommand(6, final_name, "grasp", gripper=final) for _ in range(pick.gripper_change_steps)
+    ]
+    commands.append(PickCommand(7, "update_specific", "grasp", event="object_in_planning_world"))
+    commands.append(PickCommand(8, "attach_obj", "grasp", gripper=final, event="attach"))
+    if lift_offset != 0.0:
+        commands.append(PickCommand(9, final_name, "lift", gripper=final))
+    if pick.return_to_pregrasp:
+        commands.append(PickCommand(10, final_name, "pregrasp", gripper=final))
+    return commands
+
+
+SEGMENT_OF_TARGET = {"pregrasp": "transport", "grasp": "approach", "lift": "lift"}
+
+
+# --------------------------------------------------------------------------------------------
+# Trace
+
+
+@dataclass
+class ExecutionTrace:
+    """Per-control-step record of an execution (arrays are trimmed to ``steps``)."""
+
+    time: np.ndarray  # (T,) s since the start of the execution
+    qpos: np.ndarray  # (T, nq) full MuJoCo qpos
+    q_active: np.ndarray  # (T, n) the arm's active joints
+    tcp_pose: np.ndarray  # (T, 7) world position + wxyz quaternion of the TCP frame
+    ee_pose: np.ndarray  # (T, 7) world pose of the EE frame
+    gripper_width: np.ndarray  # (T,) m (sum of both fingers)
+    finger_forces: np.ndarray  # (T, 2) N, left and right finger on the target object
+    object_pose: np.ndarray  # (T, 7) world pose of the target object
+    phase: np.ndarray  # (T,) str: the head command's function / target
+    events: list[tuple[float, str]] = field(default_factory=list)
+
+
+class TraceRecorder:
+    """Preallocated per-step buffers; ``finish()`` trims them into an ExecutionTrace."""
+
+    def __init__(self, scene: Scene, arm: str, object_name: str, capacity: int) -> None:
+        self.scene = scene
+        self.handles = scene.arms[arm]
+        self.arm = arm
+        self.object_name = object_name
+        self.obj = scene.objects[object_name]
+        n = capacity
+        nq = scene.model.nq
+        self.time = np.zeros(n)
+        self.qpos = np.zeros((n, nq))
+        self.q_active = np.zeros((n, len(self.handles.active_qpos)))
+        self.tcp_pose = np.zeros((n, 7))
+        self.ee_pose = np.zeros((n, 7))
+        self.gripper_width = np.zeros(n)
+        self.finger_forces = np.zeros((n, 2))
+        self.object_pose = np.zeros((n, 7))
+        self.phase = np.empty(n, dtype=object)
+        self.events: list[tuple[float, str]] = []
+        self.count = 0
+
+    def record(self, t: float, phase: str, forces: tuple[float, float]) -> None:
+        k = self.count
+        if k >= len(self.time):
+            return
+        d = self.scene.data
+        h = self.handles
+        self.time[k] = t
+        self.qpos[k] = d.qpos
+        self.q_active[k] = d.qpos[h.active_qpos]
+        self.tcp_pose[k, :3] = d.xpos[h.tcp_body]
+        self.tcp_pose[k, 3:] = d.xquat[h.tcp_body]
+        self.ee_pose[k, :3] = d.xpos[h.ee_body]
+        self.ee_pose[k, 3:] = d.xquat[h.ee_body]
+        self.gripper_width[k] = float(np.sum(d.qpos[h.finger_qpos]))
+        self.finger_forces[k] = forces
+        self.object_pose[k, :3] = d.xpos[self.obj.body_id]
+        self.object_pose[k, 3:] = d.xquat[self.obj.body_id]
+        self.phase[k] = phase
+        self.count = k + 1
+
+    def event(self, t: float, text: str) -> None:
+        self.events.append((t, text))
+
+    def finish(self) -> ExecutionTrace:
+        n = self.count
+        return ExecutionTrace(
+            time=self.time[:n].copy(),
+            qpos=self.qpos[:n].copy(),
+            q_active=self.q_active[:n].copy(),
+            tcp_pose=self.tcp_pose[:n].copy(),
+            ee_pose=self.ee_pose[:n].copy(),
+            gripper_width=self.gripper_width[:n].copy(),
+            finger_forces=self.finger_forces[:n].copy(),
+            object_pose=self.object_pose[:n].copy(),
+            phase=self.phase[:n].astype(str),
+            events=list(self.events),
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# Outcome
+
+
+@dataclass
+class PickOutcome:
+    """What the execution measured and concluded."""
+
+    success: bool = False
+    failure_reason: FailureReason = ""
+    message: str = ""
+    sim_time_s: float = 0.0
+    sim_steps: int = 0
+    control_steps: int = 0
+    finger_force_left_n: float = 0.0
+    finger_force_right_n: float = 0.0
+    lift_height_m: float = float("nan")
+    slip_m: float = float("nan")
+    max_joint_vel: float = 0.0
+    max_object_vel: float = 0.0
+    tcp_grasp_error_m: float = float("nan")
+    object_z_before: float = float("nan")
+    object_z_after: float = float("nan")
+    contact_during_close: bool = False
+    collisions: list[str] = field(default_factory=list)
+    trace: ExecutionTrace | None = None
+
+
+# --------------------------------------------------------------------------------------------
+# Executor
+
+
+@dataclass
+class PickTargets:
+    """World poses of the EE targets, and the timed segments that reach them."""
+
+    T_world_pregrasp: np.ndarray
+    T_world_grasp: np.ndarray
+    T_world_lift: np.ndarray | None
+    segments: dict[str, Trajectory]  # transport, approach, lift, retreat
+
+
+class PickExecutor:
+    """Runs the command list on the scene, control step by control step; see the module doc."""
+
+    def __init__(
+        self,
+        scene: Scene,
+        task: TaskConfig,
+        targets: PickTargets,
+        object_init_position: np.ndarray,
+        lift_offset: float,
+        checker: CollisionChecker | None = None,
+        record: bool = True,
+    ) -> None:
+        self.scene = scene
+        self.data = scene.data
+        self.task = task
+        self.pick = task.pick
+        self.arm = task.arm
+        self.handles = scene.arms[task.arm]
+        self.arm_spec = scene.robot.arm(task.arm)
+        self.targets = targets
+        self.object_name = task.target_object.name
+        self.obj = scene.objects[self.object_name]
+        self.object_init_position = np.asarray(object_init_position, dtype=float)
+        self.commands = build_commands(task.pick, lift_offset)
+        self.checker = checker if task.pick.semantics == "strict" else None
+        m = scene.model
+        self.timestep = float(m.opt.timestep)
+        self.substeps = max(1, round(task.control_dt / self.timestep))
+        self.control_dt = self.substeps * self.timestep
+        chunks = max(1, math.ceil(self.control_dt / SERVO_CHUNK_S - 1e-9))
+        chunks = min(chunks, self.substeps)
+        sizes = np.full(chunks, self.substeps // chunks)
+        sizes[: self.substeps % chunks] += 1
+        self.chunk_sizes = [int(size) for size in sizes]
+        self.chunk_ends = np.cumsum(self.chunk_sizes) * self.timestep
+        # Velocity feed-forward kv / kp per active servo (position servos damp absolute speed).
+        active = self.handles.active_actuators
+        kp = m.actuator_gainprm[active, 0]
+        kv = -m.actuator_biasprm[active, 2]
+        self.feedforward = np.where(kp > 0, kv / np.maximum(kp, 1e-12), 0.0)
+        self.ctrl_lower = m.actuator_ctrlrange[active, 0].copy()
+        self.ctrl_upper = m.actuator_ctrlrange[active, 1].copy()
+        capacity = task.max_episode_length + 2
+        self.recorder = (
+            TraceRecorder(scene, self.arm, self.object_name, capacity) if record else None
+        )
+        # Loop state.
+        self.out = PickOutcome()
+        self.step = 0
+        self.head = 0
+        self.idle = 0
+        self.previous_target = "current"
+        self.pending_segment: str | None = None
+        self.started_segments: set[str] = set()
+        self.arm_plan: np.ndarray | None = None
+        self.arm_row = 0
+        self.arm_segment = ""
+        self.gripper_plan: np.ndarray | None = None
+        self.gripper_row = 0
+        self.gripper_state: str | None = None
+        self.post: str | None = None  # strict, after the list: "finish", "settle", "hold"
+        self.post_start = 0
+        self.hold_reference: np.ndarray | None = None
+
+    # -- timing helpers -------------------------------------------------------------------------
+
+    def _chunk_times(self, duration: float) -> np.ndarray:
+        rows = math.ceil(duration / self.control_dt - 1e-9) + 1
+        return (np.arange(rows)[:, None] * self.control_dt + self.chunk_ends[None, :]).reshape(-1)
+
+    def _arm_setpoints(self, trajectory: Trajectory) -> np.ndarray:
+        """(rows, chunks, n) servo targets ``q + (kv/kp) qd`` for every chunk of the segment."""
+        ts = self._chunk_times(trajectory.duration)
+        q, qd, _ = trajectory.sample_many(ts)
+        ctrl = np.clip(q + qd * self.feedforward, self.ctrl_lower, self.ctrl_upper)
+        return ctrl.reshape(-1, len(self.chunk_sizes), q.shape[1])
+
+    def _gripper_setpoints(self, start: float, goal: float) -> np.ndarray:
+        """(rows, chunks) gripper targets: a ramp at the robot's finger speed, sped up if needed
+        to finish within half of the closing window (``gripper_change_steps`` control steps)."""
+        window = 0.5 * self.pick.gripper_change_steps * self.control_dt
+        speed = max(self.arm_spec.gripper.speed, abs(goal - start) / max(window, 1e-3))
+        trajectory = gripper_trajectory(start, goal, speed)
+        q, _, _ = trajectory.sample_many(self._chunk_times(trajectory.duration))
+        return q[:, 0].reshape(-1, len(self.chunk_sizes))
+
+    @property
+    def time(self) -> float:
+        return self.out.sim_steps * self.timestep
+
+    def _event(self, text: str) -> None:
+        if self.recorder is not None:
+            self.recorder.event(self.time, text)
+
+    # -- commands -------------------------------------------------------------------------------
+
+    def _target_pose(self, target: str, T_current: np.ndarray) -> np.ndarray:
+        if target == "current":
+            return T_current
+        if target == "pregrasp":
+            return self.targets.T_world_pregrasp
+        if target == "grasp":
+            return self.targets.T_world_grasp
+        assert self.targets.T_world_lift is not None
+        return self.targets.T_world_lift
+
+    def _start_command(self, index: int) -> None:
+        """The head command changed: queue its segment, apply its gripper action."""
+        command = self.commands[index]
+        if command.event:
+            self._event(f"{command.function}: {command.event}")
+        if command.target not in ("current", self.previous_target):
+            segment = "retreat" if command.number == 10 else SEGMENT_OF_TARGET[command.target]
+            if segment in self.targets.segments and segment not in self.started_segments:
+                self.pending_segment = segment
+        if command.gripper is not None and command.gripper != self.gripper_state:
+            self.gripper_state = command.gripper
+            d, h = self.data, self.handles
+            current = float(d.ctrl[h.gripper_actuator])
+            goal = (
+                self.arm_spec.finger_open_position
+                if command.gripper == "open"
+                else self.arm_spec.finger_closed_position
+            )
+            if abs(goal - current) > 1e-6:
+                self.gripper_plan = self._gripper_setpoints(current, goal)
+                self.gripper_row = 0
+                self._event(f"gripper {command.gripper}")
+
+    def _reached(self, T_ee: np.ndarray, T_target: np.ndarray) -> bool:
+        """The reference ``is_done`` pose test (m, rad)."""
+        if float(np.linalg.norm(T_ee[:3, 3] - T_target[:3, 3])) >= self.pick.t_eps:
+            return False
+        R = T_ee[:3, :3].T @ T_target[:3, :3]
+        angle = math.acos(max(-1.0, min(1.0, 0.5 * (float(np.trace(R)) - 1.0))))
+        return angle < self.pick.o_eps
+
+    def _tcp_error(self) -> float:
+        """Distance between the executed and the planned TCP point at the grasp."""
+        convention = self.scene.robot.convention
+        axis = convention.approach_index
+        offset = self.pick.tcp_offset or convention.tcp_offset
+        planned = self.targets.T_world_grasp
+        executed = self.scene.T_world_body(self.handles.ee_body)
+        p_planned = planned[:3, 3] + planned[:3, axis] * offset
+        p_executed = executed[:3, 3] + executed[:3, axis] * offset
+        return float(np.linalg.norm(p_executed - p_planned))
+
+    # -- one control step -----------------------------------------------------------------------
+
+    def _control_step(self) -> None:
+        d, h = self.data, self.handles
+        if self.pending_segment is not None and self.arm_plan is None:
+            segment = self.pending_segment
+            self.arm_plan = self._arm_setpoints(self.targets.segments[segment])
+            self.arm_row = 0
+            self.arm_segment = segment
+            self.started_segments.add(segment)
+            self.pending_segment = None
+            self._event(f"segment {segment} ({self.targets.segments[segment].duration:.3f} s)")
+        arm_plan, gripper_plan = self.arm_plan, self.gripper_plan
+        for chunk, size in enumerate(self.chunk_sizes):
+            if arm_plan is not None:
+                d.ctrl[h.active_actuators] = arm_plan[self.arm_row, chunk]
+            if gripper_plan is not None:
+                d.ctrl[h.gripper_actuator] = gripper_plan[self.gripper_row, chunk]
+            self.scene.step(size)
+        self.out.sim_steps += self.substeps
+        self.step += 1
+        if arm_plan is not None:
+            self.arm_row += 1
+            if self.arm_row >= len(arm_plan):
+                self.arm_plan = None
+                if self.arm_segment == "approach":
+                    self.out.tcp_grasp_error_m = self._tcp_error()
+                    self._event(f"at grasp, TCP error {self.out.tcp_grasp_error_m * 1e3:.2f} mm")
+        else:
+            self.idle += 1
+        if gripper_plan is not None:
+            self.gripper_row += 1
+            if self.gripper_row >= len(gripper_plan):
+                self.gripper_plan = None
+
+    def _unstable(self) -> str | None:
+        reason = self.scene.unstable()
+        if reason is None and float(np.max(np.abs(self.data.qvel))) > 1e3:
+            reason = "a velocity above 1000 (rad or m)/s"
+        return reason
+
+    def _check_collisions(self) -> None:
+        """Strict: robot-environment collisions at the executed configuration (check model,
+        so they are seen even where the physics ignores robot-table contact)."""
+        checker = self.checker
+        assert checker is not None
+        target = self.commands[min(self.head, len(self.commands) - 1)].target
+        phase: Phase = "approach" if target == "grasp" else "transport"
+        if target == "lift" or self.head >= len(self.commands) or self.head_after_attach():
+            phase = "carry"
+        checker.data.qpos[:] = self.data.qpos
+        pairs = checker.contacts(self.data.qpos[self.handles.active_qpos], phase)
+        if pairs:
+            self.out.collisions.append(f"t={self.time:.3f}s {checker.describe(pairs)}")
+
+    def head_after_attach(self) -> bool:
+        return any(c.event == "attach" for c in self.commands[: self.head])
+
+    def _progress(self, forces: tuple[float, float]) -> bool:
+        """Pop at most one command; returns True when the list just became empty."""
+        command = self.commands[self.head]
+        T_ee = self.scene.T_world_body(self.handles.ee_body)
+        if not (
+            self._reached(T_ee, self._target_pose(command.target, T_ee))
+            or self.idle > IDLE_POP_STEPS
+        ):
+            return False
+        if command.target != "current":
+            self.previous_target = command.target
+        last_close = command.number == 6 and self.commands[self.head + 1].number != 6
+        if last_close:
+            self.out.contact_during_close = max(forces) > 0.0
+            self.out.finger_force_left_n, self.out.finger_force_right_n = forces
+            self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
+            strict = self.pick.semantics == "strict" and self.pick.final_gripper_state == -1
+            if strict and min(forces) < self.pick.min_finger_force:
+                self._fail(
+                    "no_contact",
+                    f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after closing, "
+                    f"below {self.pick.min_finger_force} N",
+                )
+                return False
+        self.head += 1
+        self.idle = 0
+        if self.head < len(self.commands):
+            self._start_command(self.head)
+            return False
+        self._event("command list empty")
+        return True
+
+    def _fail(self, reason: FailureReason, message: str) -> None:
+        if not self.out.failure_reason:
+            self.out.failure_reason = reason
+            self.out.message = message
+
+    # -- run ------------------------------------------------------------------------------------
+
+    def run(self) -> PickOutcome:
+        """Execute until the verdict, a failure, or the episode length limit."""
+        out, d = self.out, self.data
+        out.object_z_before = float(d.xpos[self.obj.body_id][2])
+        self._start_command(0)
+        done = False
+        while not done and not out.failure_reason:
+            self._control_step()
+            reason = self._unstable()
+            if reason is not None:
+                self._fail("sim_unstable", reason)
+                break
+            forces = self.scene.finger_forces(self.arm, self.object_name)
+            if self.recorder is not None:
+                phase = (
+                    f"{self.commands[self.head].function}:{self.commands[self.head].target}"
+                    if self.head < len(self.commands)
+                    else (self.post or "verdict")
+                )
+                self.recorder.record(self.time, phase, forces)
+            if self.checker is not None:
+                self._check_collisions()
+            if self.head < len(self.commands):
+                if self._progress(forces):
+                    if self.pick.semantics == "reference":
+                        self._reference_verdict()
+                        done = True
+                    else:
+                        self.post = "finish"
+            else:
+                done = self._strict_post_step()
+            if not done and not out.failure_reason and self.step >= self.task.max_episode_length:
+                self._fail(
+                    "timeout",
+                    f"episode length limit ({self.task.max_episode_length} control steps) reached",
+                )
+        out.control_steps = self.step
+        out.sim_time_s = self.time
+        out.object_z_after = float(d.xpos[self.obj.body_id][2])
+        if not np.isfinite(out.lift_height_m):
+            self._measure()
+        out.success = not out.failure_reason
+        self._event(f"verdict: {'success' if out.success else out.failure_reason}")
+        if self.recorder is not None:
+            out.trace = self.recorder.finish()
+        return out
+
+    # -- verdicts -------------------------------------------------------------------------------
+
+    def _measure(self) -> tuple[float, float]:
+        out, d = self.out, self.data
+        forces = self.scene.finger_forces(self.arm, self.object_name)
+        out.finger_force_left_n, out.finger_force_right_n = forces
+        out.max_joint_vel = self.scene.robot_joint_speed()
+        velocity = d.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]
+        out.max_object_vel = float(np.max(np.abs(velocity)))
+        out.lift_height_m = float(d.xpos[self.obj.body_id][2] - self.object_init_position[2])
+        return forces
+
+    def _velocity_valid(self) -> bool:
+        return not self.pick.process_valid or (
+            self.out.max_joint_vel < MAX_VELOCITY and self.out.max_object_vel < MAX_VELOCITY
+        )
+
+    def _reference_verdict(self) -> None:
+        """The reference ``is_success``, evaluated at this instant (section 7)."""
+        out, pick = self.out, self.pick
+        forces = self._measure()
+        if pick.final_gripper_state == -1 and not max(forces) > 0.0:
+            reason: FailureReason = "dropped" if out.contact_during_close else "no_contact"
+            self._fail(reason, "no finger touches the object when the command list empties")
+        elif not self._velocity_valid():
+            self._fail(
+                "velocity_invalid",
+                f"max joint speed {out.max_joint_vel:.2f}, max object speed "
+                f"{out.max_object_vel:.2f} (bound {MAX_VELOCITY})",
+            )
+        elif pick.lift_th > 0 and not out.lift_height_m > pick.lift_th:
+            self._fail(
+                "lift_below_threshold",
+                f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
+            )
+
+    def _object_speed(self) -> float:
+        velocity = self.data.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]
+        return float(np.linalg.norm(velocity))
+
+    def _object_in_tcp(self) -> np.ndarray:
+        T_tcp = self.scene.T_world_body(self.handles.tcp_body)
+        return (invert(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
+
+    def _strict_post_step(self) -> bool:
+        """Strict, after the list: finish the motion, wait for rest, hold; True when decided."""
+        out, pick = self.out, self.pick
+        if out.collisions:
+            self._fail("collision", f"robot collided: {out.collisions[0]}")
+            return True
+        if self.post == "finish":
+            if self.arm_plan is None and self.pending_segment is None and self.gripper_plan is None:
+                self.post, self.post_start = "settle", self.step
+            return False
+        if self.post == "settle":
+            if self._object_speed() < STATIC_SPEED:
+                self.post, self.post_start = "hold", self.step
+                self.hold_reference = self._object_in_tcp()
+                self._event("object at rest: hold")
+            elif (self.step - self.post_start) * self.control_dt > STATIC_WAIT_S:
+                self._measure()
+                self._fail("dropped", "the object did not come to rest after the lift")
+                return True
+            return False
+        if (self.step - self.post_start) * self.control_dt + 1e-9 < pick.hold_time:
+            return False
+        assert self.hold_reference is not None
+        out.slip_m = float(np.linalg.norm(self._object_in_tcp() - self.hold_reference))
+        forces = self._measure()
+        if pick.final_gripper_state == -1 and min(forces) < pick.min_finger_force:
+            self._fail(
+                "dropped",
+                f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after the hold, below "
+                f"{pick.min_finger_force} N",
+            )
+        elif out.slip_m > pick.max_slip:
+            self._fail("dropped", f"the object slipped {out.slip_m * 1e3:.1f} mm in the hold")
+        elif not self._velocity_valid():
+            self._fail("velocity_invalid", "velocities above the bound after the hold")
+        elif not out.lift_height_m > pick.lift_th:
+            self._fail(
+                "lift_below_threshold",
+                f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
+            )
+        return True

@@ -1,0 +1,577 @@
+"""Motion planning for a pick: collision checks, joint paths, Cartesian paths, feasibility.
+
+Collision checks run on the scene's ``check_model`` (robot-table contact always on) with a
+private ``MjData``: set the active joints, ``mj_kinematics`` + ``mj_collision``, classify the
+contacts. What counts as a collision depends on the phase of the motion:
+
+- ``transport`` (current state -> pre-grasp): any robot part except the parts welded to the root
+  against the table or any object; robot-robot pairs listed in the robot's ``collisions.json``
+  (the self-collision pairs) and any pair across the two arms;
+- ``approach`` (pre-grasp -> grasp): the same, except the picking arm's fingers may touch the
+  target object;
+- ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
+  is checked against the target object.
+
+Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
+
+- ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
+  current joint state, within 5 mm / 0.05 rad. Reachability only, as in the reference.
+- ``forward``: the chained plan: a collision-free joint path from the current state to the
+  pre-grasp (direct interpolation first, RRT-Connect within a time budget otherwise), the
+  straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
+  asked). The plan found is the one executed.
+
+Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
+with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
+from harness.scene import Scene
+
+Phase = Literal["transport", "approach", "carry"]
+Collides = Callable[[np.ndarray], bool]
+
+
+# --------------------------------------------------------------------------------------------
+# Settings
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Resolutions, budgets and tolerances of the planner (SI units, joint space in rad / m)."""
+
+    ik: IKSettings = field(default_factory=IKSettings)
+    collision_resolution: float = 0.03  # max joint step between collision checks
+    cartesian_step: float = 0.01  # m between Cartesian IK waypoints
+    max_joint_jump: float = 0.3  # largest joint change allowed between Cartesian waypoints
+    penetration_tolerance: float = 1e-4  # contacts shallower than this are not collisions
+    rrt_time_budget: float = 0.2  # s per RRT-Connect query
+    rrt_step: float = 0.2  # joint-space extension step
+    rrt_max_nodes: int = 4000
+    shortcut_iterations: int = 40
+
+
+# --------------------------------------------------------------------------------------------
+# Collision checking
+
+
+class CollisionChecker:
+    """Collision queries for one arm's active joints on the scene's check model."""
+
+    def __init__(self, scene: Scene, arm: str, penetration_tolerance: float = 1e-4) -> None:
+        self.scene = scene
+        self.tolerance = penetration_tolerance
+        self.model = scene.check_model
+        self.data = mujoco.MjData(self.model)
+        self.handles = scene.arms[arm]
+        m = self.model
+        self.robot = scene.robot_geom.copy()
+        self.moving = scene.robot_geom & ~scene.static_robot_geom
+        self.finger = self.handles.finger_geom_side >= 0
+        self.geom_object = scene.geom_object
+        self.geom_body = m.geom_bodyid.copy()
+        self.geom_arm = scene._geom_arm
+        self.self_pairs = _self_collision_pairs(scene)
+        self.target_index = -1
+        self.allowed: set[tuple[int, int]] = set()
+        self.checks = 0
+
+    def sync(self, target_object: str) -> None:
+        """Copy the scene's current state (robot root, all joints, objects) into the checker.
+
+        Contacts present in that state between the robot and the table (e.g. a first link
+        standing in the table top) are structural, not planning failures: they are allowed for
+        the queries that follow.
+        """
+        src, dst = self.scene.data, self.data
+        dst.qpos[:] = src.qpos
+        dst.mocap_pos[:] = src.mocap_pos
+        dst.mocap_quat[:] = src.mocap_quat
+        self.target_index = self.scene.object_names.index(target_object)
+        self.allowed = set()
+        table = self.scene.table_geom
+        q_now = src.qpos[self.handles.active_qpos].copy()
+        self.allowed = {pair for pair in self.contacts(q_now, "transport") if table in pair}
+
+    def contacts(self, q_active: np.ndarray, phase: Phase) -> list[tuple[int, int]]:
+        """Offending (geom, geom) pairs at ``q_active`` for ``phase``."""
+        m, d = self.model, self.data
+        d.qpos[self.handles.active_qpos] = q_active
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        self.checks += 1
+        ncon = d.ncon
+        if ncon == 0:
+            return []
+        geoms = d.contact.geom[:ncon]
+        deep = d.contact.dist[:ncon] < -self.tolerance
+        g1, g2 = geoms[:, 0], geoms[:, 1]
+        robot, moving = self.robot, self.moving
+        obj = self.geom_object
+        env_hit = (moving[g1] & ~robot[g2]) | (moving[g2] & ~robot[g1])
+        if phase == "approach":
+            fingers_on_target = (self.finger[g1] & (obj[g2] == self.target_index)) | (
+                self.finger[g2] & (obj[g1] == self.target_index)
+            )
+            env_hit &= ~fingers_on_target
+        elif phase == "carry":
+            on_target = (robot[g1] & (obj[g2] == self.target_index)) | (
+                robot[g2] & (obj[g1] == self.target_index)
+            )
+            env_hit &= ~on_target
+        robot_pair = robot[g1] & robot[g2]
+        hits = deep & (env_hit | robot_pair)
+        out = []
+        for i in np.flatnonzero(hits):
+            a, b = int(g1[i]), int(g2[i])
+            if robot_pair[i] and not self._self_collision(a, b):
+                continue
+            if (a, b) in self.allowed:
+                continue
+            out.append((a, b))
+        return out
+
+    def _self_collision(self, a: int, b: int) -> bool:
+        arm_a, arm_b = self.geom_arm[a], self.geom_arm[b]
+        if arm_a >= 0 and arm_b >= 0 and arm_a != arm_b:
+            return True
+        pair = (int(self.geom_body[a]), int(self.geom_body[b]))
+        return pair in self.self_pairs
+
+    def collides(self, q_active: np.ndarray, phase: Phase) -> bool:
+        return bool(self.contacts(q_active, phase))
+
+    def segment_collides(
+        self, qa: np.ndarray, qb: np.ndarray, phase: Phase, resolution: float
+    ) -> bool:
+        """Check the straight joint-space segment ``qa -> qb`` (both ends included)."""
+        span = float(np.max(np.abs(qb - qa))) if len(qa) else 0.0
+        count = max(1, int(np.ceil(span / resolution)))
+        # Coarse-to-fine order finds a collision in the middle of a long segment early.
+        order = _van_der_corput_order(count + 1)
+        return any(self.collides(qa + (qb - qa) * (k / count), phase) for k in order)
+
+    def describe(self, pairs: list[tuple[int, int]]) -> str:
+        m = self.model
+        return ", ".join(
+            f"{m.body(int(m.geom_bodyid[a])).name}/{m.body(int(m.geom_bodyid[b])).name}"
+            for a, b in pairs
+        )
+
+
+def _van_der_corput_order(n: int) -> list[int]:
+    """0..n-1 with the ends first, then midpoints of ever finer halvings."""
+    if n <= 2:
+        return list(range(n))
+    order = [0, n - 1]
+    seen = set(order)
+    step = n - 1
+    while step > 1:
+        half = step // 2 if step // 2 else 1
+        for start in range(0, n - 1, step):
+            k = start + half
+            if k < n and k not in seen:
+                seen.add(k)
+                order.append(k)
+        step = half
+    order.extend(k for k in range(n) if k not in seen)
+    return order
+
+
+def _self_collision_pairs(scene: Scene) -> set[tuple[int, int]]:
+    """Body-id pairs from the robot's collisions.json (both orders); empty without the file."""
+    path = scene.robot.collisions_path
+    if not path.is_file():
+        return set()
+    try:
+        pairs = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    out: set[tuple[int, int]] = set()
+    for a, b in pairs:
+        ia = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, a)
+        ib = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, b)
+        if ia >= 0 and ib >= 0:
+            out.add((ia, ib))
+            out.add((ib, ia))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# RRT-Connect in joint space
+
+
+def rrt_connect(
+    start: np.ndarray,
+    goal: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    config_free: Callable[[np.ndarray], bool],
+    edge_free: Callable[[np.ndarray, np.ndarray], bool],
+    rng: np.random.Generator,
+    step: float,
+    time_budget: float,
+    max_nodes: int,
+) -> list[np.ndarray] | None:
+    """Bidirectional RRT (RRT-Connect) from ``start`` to ``goal``; None when the budget runs out.
+
+    ``config_free(q)`` and ``edge_free(qa, qb)`` are the collision tests. Trees grow by at most
+    ``step`` (max-norm) per extension; the other tree greedily connects towards each new node.
+    """
+    deadline = time.perf_counter() + time_budget
+    trees: list[tuple[list[np.ndarray], list[int]]] = [([start], [-1]), ([goal], [-1])]
+
+    def nearest(nodes: list[np.ndarray], q: np.ndarray) -> int:
+        return int(np.argmin(np.max(np.abs(np.asarray(nodes) - q), axis=1)))
+
+    def extend(tree: tuple[list[np.ndarray], list[int]], q: np.ndarray) -> tuple[str, int]:
+        nodes, parents = tree
+        i = nearest(nodes, q)
+        delta = q - nodes[i]
+        dist = float(np.max(np.abs(delta)))
+        new = q if dist <= step else nodes[i] + delta * (step / dist)
+        if not config_free(new) or not edge_free(nodes[i], new):
+            return "trapped", -1
+        nodes.append(new)
+        parents.append(i)
+        return ("reached" if dist <= step else "advanced"), len(nodes) - 1
+
+    def path_to_root(tree: tuple[list[np.ndarray], list[int]], index: int) -> list[np.ndarray]:
+        nodes, parents = tree
+        out = []
+        while index >= 0:
+            out.append(nodes[index])
+            index = parents[index]
+        return out
+
+    a, b = 0, 1
+    while time.perf_counter() < deadline and len(trees[0][0]) + len(trees[1][0]) < max_nodes:
+        sample = lower + (upper - lower) * rng.random(len(lower))
+        status, new_index = extend(trees[a], sample)
+        if status != "trapped":
+            target = trees[a][0][new_index]
+            while True:
+                status_b, index_b = extend(trees[b], target)
+                if status_b != "advanced":
+                    break
+            if status_b == "reached":
+                half_a = path_to_root(trees[a], new_index)[::-1]
+                half_b = path_to_root(trees[b], index_b)
+                path = half_a + half_b[1:]
+                return path if a == 0 else path[::-1]
+        a, b = b, a
+    return None
+
+
+def shortcut(
+    path: list[np.ndarray],
+    edge_free: Callable[[np.ndarray, np.ndarray], bool],
+    rng: np.random.Generator,
+    iterations: int,
+) -> list[np.ndarray]:
+    """Random shortcutting: replace sub-paths by straight segments when they are free."""
+    path = list(path)
+    for _ in range(iterations):
+        if len(path) <= 2:
+            break
+        i, j = sorted(rng.choice(len(path), size=2, replace=False))
+        if j - i < 2:
+            continue
+        if edge_free(path[i], path[j]):
+            path = path[: i + 1] + path[j:]
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# Plans and verdicts
+
+
+@dataclass
+class ChainPlan:
+    """Joint waypoints (active joints) of one candidate's executed motion, and its targets."""
+
+    transport: np.ndarray  # (K, n) current -> pre-grasp
+    approach: np.ndarray  # (K, n) pre-grasp -> grasp (Cartesian straight line)
+    lift: np.ndarray | None  # (K, n) grasp -> lifted (Cartesian), None without a lift
+    retreat: np.ndarray | None  # (K, n) lifted -> pre-grasp, with return_to_pregrasp
+    T_world_pregrasp: np.ndarray
+    T_world_grasp: np.ndarray
+    T_world_lift: np.ndarray | None
+    used_rrt: bool = False
+
+    @property
+    def q_grasp(self) -> np.ndarray:
+        return self.approach[-1]
+
+
+@dataclass
+class CandidateVerdict:
+    """Outcome of testing one candidate (one entry of the ordered candidate list)."""
+
+    position: int  # position in the candidate list
+    pose_index: int  # index into the 2N EE poses
+    score: float
+    feasible: bool
+    stage: str  # "" when feasible, else where it failed (ik_pregrasp, transport, ...)
+    detail: str = ""
+    ik_pregrasp: IKResult | None = None
+    ik_grasp: IKResult | None = None
+    plan: ChainPlan | None = None
+    time_s: float = 0.0
+
+
+@dataclass
+class Selection:
+    """The candidate chosen for execution and how the choice was made."""
+
+    chosen: CandidateVerdict | None
+    verdicts: list[CandidateVerdict]
+    outcome: Literal["feasible", "fallback_last", "none"]
+    ik_time_s: float
+    plan_time_s: float
+
+    @property
+    def n_feasible(self) -> int:
+        return sum(v.feasible for v in self.verdicts)
+
+
+# --------------------------------------------------------------------------------------------
+# Planner
+
+
+class PickPlanner:
+    """Feasibility tests and chained plans for one arm of a scene."""
+
+    def __init__(
+        self, scene: Scene, arm: str, ik: WholeBodyIK, settings: PlannerSettings | None = None
+    ) -> None:
+        self.scene = scene
+        self.arm = arm
+        self.ik = ik
+        self.settings = settings or PlannerSettings()
+        self.checker = CollisionChecker(scene, arm, self.settings.penetration_tolerance)
+        self.lower = ik.lower
+        self.upper = ik.upper
+
+    # -- helpers --------------------------------------------------------------------------------
+
+    def sync(self, target_object: str) -> None:
+        """Take the scene's current state as the planning world and IK posture."""
+        scene = self.scene
+        self.checker.sync(target_object)
+        self.ik.set_base_pose(scene.T_world_root())
+        posture = {
+            name: float(scene.data.qpos[adr])
+            for name, adr in scene.joint_qpos.items()
+            if name in scene.robot.movable_joints
+        }
+        self.ik.set_posture(posture)
+
+    def solve_ik(
+        self, T_world_target: np.ndarray, seed: np.ndarray, rng: np.random.Generator | None
+    ) -> IKResult:
+        return self.ik.solve(T_world_target, seed, rng, self.settings.ik)
+
+    def edge_free(self, phase: Phase) -> Callable[[np.ndarray, np.ndarray], bool]:
+        resolution = self.settings.collision_resolution
+
+        def free(qa: np.ndarray, qb: np.ndarray) -> bool:
+            return not self.checker.segment_collides(qa, qb, phase, resolution)
+
+        return free
+
+    def joint_path(
+        self, q_from: np.ndarray, q_to: np.ndarray, phase: Phase, rng: np.random.Generator
+    ) -> tuple[np.ndarray | None, bool, str]:
+        """Collision-free joint path: direct line, else RRT-Connect. (waypoints, used_rrt, why)."""
+        if self.checker.collides(q_to, phase):
+            pairs = self.checker.contacts(q_to, phase)
+            return None, False, f"goal in collision ({self.checker.describe(pairs)})"
+        if self.checker.collides(q_from, phase):
+            pairs = self.checker.contacts(q_from, phase)
+            return None, False, f"start in collision ({self.checker.describe(pairs)})"
+        edge_free = self.edge_free(phase)
+        if edge_free(q_from, q_to):
+            return np.stack([q_from, q_to]), False, ""
+        s = self.settings
+        path = rrt_connect(
+            q_from,
+            q_to,
+            self.lower,
+            self.upper,
+            lambda q: not self.checker.collides(q, phase),
+            edge_free,
+            rng,
+            s.rrt_step,
+            s.rrt_time_budget,
+            s.rrt_max_nodes,
+        )
+        if path is None:
+            return None, True, "RRT-Connect found no path within its budget"
+        path = shortcut(path, edge_free, rng, s.shortcut_iterations)
+        return np.stack(path), True, ""
+
+    def cartesian_path(
+        self, q_start: np.ndarray, T_from: np.ndarray, T_to: np.ndarray, phase: Phase
+    ) -> tuple[np.ndarray | None, str]:
+        """Joint waypoints following the straight line ``T_from -> T_to`` (fixed orientation
+        interpolated by slerp), each an IK solution seeded by the previous one."""
+        s = self.settings
+        distance = float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3]))
+        count = max(1, int(np.ceil(distance / s.cartesian_step)))
+        waypoints = [q_start]
+        q = q_start
+        for k in range(1, count + 1):
+            T = interpolate_pose(T_from, T_to, k / count)
+            result = self.ik.solve(T, q, None, s.ik)
+            if not result.success:
+                return None, (
+                    f"IK failed at {k}/{count} of the line ({result.position_error * 1e3:.1f} mm, "
+                    f"{result.orientation_error:.3f} rad)"
+                )
+            if float(np.max(np.abs(result.q - q))) > s.max_joint_jump:
+                return None, f"joint jump at {k}/{count} of the line (IK branch change)"
+            if self.checker.segment_collides(q, result.q, phase, s.collision_resolution):
+                pairs = self.checker.contacts(result.q, phase)
+                return None, f"collision at {k}/{count} ({self.checker.describe(pairs)})"
+            waypoints.append(result.q)
+            q = result.q
+        return np.stack(waypoints), ""
+
+    # -- feasibility ----------------------------------------------------------------------------
+
+    def test_ik(
+        self,
+        position: int,
+        pose_index: int,
+        score: float,
+        q_current: np.ndarray,
+        T_world_pregrasp: np.ndarray,
+        T_world_grasp: np.ndarray,
+        test_grasp: bool,
+        rng: np.random.Generator,
+    ) -> CandidateVerdict:
+        """``ik`` mode: the pre-grasp and the grasp, each from the current state."""
+        start = time.perf_counter()
+        pre = self.solve_ik(T_world_pregrasp, q_current, rng)
+        verdict = CandidateVerdict(position, pose_index, score, False, "", ik_pregrasp=pre)
+        if not pre.success:
+            verdict.stage = "ik_pregrasp"
+            verdict.detail = _ik_detail(pre)
+        elif test_grasp:
+            grasp = self.solve_ik(T_world_grasp, q_current, rng)
+            verdict.ik_grasp = grasp
+            if not grasp.success:
+                verdict.stage = "ik_grasp"
+                verdict.detail = _ik_detail(grasp)
+        verdict.feasible = verdict.stage == ""
+        verdict.time_s = time.perf_counter() - start
+        return verdict
+
+    def plan_chain(
+        self,
+        position: int,
+        pose_index: int,
+        score: float,
+        q_current: np.ndarray,
+        T_world_pregrasp: np.ndarray,
+        T_world_grasp: np.ndarray,
+        T_world_lift: np.ndarray | None,
+        return_to_pregrasp: bool,
+        rng: np.random.Generator,
+    ) -> CandidateVerdict:
+        """``forward`` mode (and execution planning): the whole chained, checked motion."""
+        start = time.perf_counter()
+        verdict = CandidateVerdict(position, pose_index, score, False, "")
+
+        def fail(stage: str, detail: str) -> CandidateVerdict:
+            verdict.stage, verdict.detail = stage, detail
+            verdict.time_s = time.perf_counter() - start
+            return verdict
+
+        pre = self.solve_ik(T_world_pregrasp, q_current, rng)
+        verdict.ik_pregrasp = pre
+        if not pre.success:
+            return fail("ik_pregrasp", _ik_detail(pre))
+        transport, used_rrt, why = self.joint_path(q_current, pre.q, "transport", rng)
+        if transport is None:
+            return fail("transport", why)
+        # The approach starts from the exact pre-grasp pose the transport ends at.
+        T_pre_exact = self.ik.fk(pre.q)
+        approach, why = self.cartesian_path(pre.q, T_pre_exact, T_world_grasp, "approach")
+        if approach is None:
+            return fail("approach", why)
+        verdict.ik_grasp = IKResult(approach[-1], True, 0.0, 0.0, 0, 0)
+        lift = None
+        retreat = None
+        q_end = approach[-1]
+        if T_world_lift is not None:
+            T_grasp_exact = self.ik.fk(q_end)
+            lift, why = self.cartesian_path(q_end, T_grasp_exact, T_world_lift, "carry")
+            if lift is None:
+                return fail("lift", why)
+            q_end = lift[-1]
+        if return_to_pregrasp:
+            T_now = self.ik.fk(q_end)
+            retreat, why = self.cartesian_path(q_end, T_now, T_pre_exact, "carry")
+            if retreat is None:
+                return fail("return", why)
+        verdict.plan = ChainPlan(
+            transport=transport,
+            approach=approach,
+            lift=lift,
+            retreat=retreat,
+            T_world_pregrasp=T_world_pregrasp,
+            T_world_grasp=T_world_grasp,
+            T_world_lift=T_world_lift,
+            used_rrt=used_rrt,
+        )
+        verdict.feasible = True
+        verdict.time_s = time.perf_counter() - start
+        return verdict
+
+
+def _ik_detail(result: IKResult) -> str:
+    return (
+        f"IK residual {result.position_error * 1e3:.1f} mm / {result.orientation_error:.3f} rad "
+        f"after {result.iterations} iterations, {result.restarts} restarts"
+    )
+
+
+def interpolate_pose(T_a: np.ndarray, T_b: np.ndarray, s: float) -> np.ndarray:
+    """Linear position and slerp orientation between two poses, ``s`` in [0, 1]."""
+    out = np.eye(4)
+    out[:3, 3] = T_a[:3, 3] + (T_b[:3, 3] - T_a[:3, 3]) * s
+    R_rel = T_a[:3, :3].T @ T_b[:3, :3]
+    angle = float(np.arccos(np.clip(0.5 * (np.trace(R_rel) - 1.0), -1.0, 1.0)))
+    if angle < 1e-9:
+        out[:3, :3] = T_a[:3, :3] if s < 0.5 else T_b[:3, :3]
+        return out
+    axis = np.array(
+        [R_rel[2, 1] - R_rel[1, 2], R_rel[0, 2] - R_rel[2, 0], R_rel[1, 0] - R_rel[0, 1]]
+    )
+    norm = np.linalg.norm(axis)
+    if norm < 1e-12:  # angle ~ pi: pick the axis from the symmetric part
+        w, v = np.linalg.eigh(R_rel)
+        axis = v[:, int(np.argmax(w))]
+    else:
+        axis = axis / norm
+    out[:3, :3] = T_a[:3, :3] @ _axis_angle(axis, angle * s)
+    return out
+
+
+def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    x, y, z = axis
+    K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
