@@ -31,6 +31,7 @@ import ruckig
 import toppra as ta
 import toppra.algorithm as ta_algo
 import toppra.constraint as ta_constraint
+from toppra.algorithm.algorithm import ParameterizationReturnCode
 
 TimingMethod = Literal["toppra", "ruckig"]
 
@@ -103,8 +104,10 @@ class ConstAccelPathProfile:
             dt = 2.0 * ds / (self.sd[:-1] + self.sd[1:])
         self.ts = np.concatenate([[0.0], np.cumsum(dt)])
         self.duration = float(self.ts[-1])
-        self.q_start = np.asarray(self.path(self.ss[0]), dtype=float)
-        self.q_end = np.asarray(self.path(self.ss[-1]), dtype=float)
+        # The spline reproduces its end waypoints only to rounding; snap to them exactly.
+        waypoints = np.asarray(self.path.waypoints[1], dtype=float)
+        self.q_start = waypoints[0]
+        self.q_end = waypoints[-1]
 
     def limit_ratios(
         self, vel: np.ndarray, acc: np.ndarray, per_interval: int = 8
@@ -434,13 +437,15 @@ def time_parameterize_toppra(
     instance = ta_algo.TOPPRA(
         constraints, path, gridpoints=grid, parametrizer="ParametrizeConstAccel"
     )
-    result = instance.compute_trajectory(0.0, 0.0)
-    if result is None:
-        raise TimingError(
-            "TOPP-RA found no feasible parameterisation of the path",
-            instance.problem_data.return_code,
-        )
+    # ``compute_trajectory`` = this + building toppra's (Python-loop) ConstAccel evaluator,
+    # which ConstAccelPathProfile replaces; it returns None exactly when the code is not Ok.
+    with np.errstate(divide="ignore", invalid="ignore"):  # degenerate grids: checked below
+        instance.compute_parameterization(0.0, 0.0)
     data = instance.problem_data
+    if data.return_code != ParameterizationReturnCode.Ok:
+        raise TimingError(
+            "TOPP-RA found no feasible parameterisation of the path", data.return_code
+        )
     profile = ConstAccelPathProfile(path, data.gridpoints, data.sd_vec)
     if not np.isfinite(profile.duration):
         raise TimingError("TOPP-RA left the path at rest on a grid interval (too few grid points?)")
