@@ -1,0 +1,372 @@
+"""The episode row schema and the append-only, crash-safe, resumable episode store.
+
+One episode = one flat row. ``SCHEMA`` is the single definition of its columns (name -> dtype,
+null value, description); ``run_episode`` produces such rows, sweeps and ``harness run`` append
+them to ``<run_dir>/episodes.jsonl`` through ``ResultStore``, and reports read them back as a
+typed ``pandas.DataFrame``. Besides the fixed columns a row carries one ``param.<dotted key>``
+column per swept axis (dynamic, typed by inference).
+
+The store is append-only JSON lines: each ``append`` writes one line and fsyncs, so a crash
+loses at most the line being written. A torn line is skipped on read (and a resumed run starts
+on a fresh line), an episode written twice (a resumed or retried episode) keeps its last row.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from harness.errors import HarnessError
+
+Dtype = Literal["str", "int", "float", "bool"]
+PARAM_PREFIX = "param."
+JSONL_NAME = "episodes.jsonl"
+CSV_NAME = "episodes.csv"
+PARQUET_NAME = "episodes.parquet"
+
+# The failure taxonomy (ARCHITECTURE.md), in pipeline order: first cause wins.
+FAILURE_REASONS: tuple[str, ...] = (
+    "filter_empty",
+    "no_feasible_candidate",
+    "plan_failed",
+    "collision",
+    "no_contact",
+    "dropped",
+    "lift_below_threshold",
+    "velocity_invalid",
+    "sim_unstable",
+    "timeout",
+    "error",
+)
+FILTER_OUTCOMES: tuple[str, ...] = ("ok", "fallback", "filter_empty")
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of the episode row: its type, the value used when a row lacks it, meaning."""
+
+    name: str
+    dtype: Dtype
+    description: str
+    null: Any = None
+
+    @property
+    def null_value(self) -> Any:
+        if self.null is not None:
+            return self.null
+        return {"str": "", "int": 0, "float": math.nan, "bool": False}[self.dtype]
+
+
+def _columns(*columns: Column) -> dict[str, Column]:
+    return {column.name: column for column in columns}
+
+
+SCHEMA: dict[str, Column] = _columns(
+    # Identity
+    Column("episode_id", "str", "deterministic id: hash of (task, point, episode index)"),
+    Column("run", "str", "run / sweep name"),
+    Column("point_id", "int", "index of the sweep point", -1),
+    Column("point", "str", "JSON of the swept parameter values of the point", "{}"),
+    Column("task", "str", "task name"),
+    Column("robot", "str", "robot name"),
+    Column("arm", "str", "arm used (left | right)"),
+    Column("object", "str", "name of the picked object"),
+    Column("seed", "int", "seed of the episode's random generator", -1),
+    Column("episode_index", "int", "index of the episode within its point", -1),
+    # Configuration
+    Column("semantics", "str", "reference | strict"),
+    Column("test_mode", "str", "feasibility test: forward | ik"),
+    Column("timing", "str", "transport timing: toppra | ruckig"),
+    Column("filter_x_dir", "str", "reference filter as JSON, '' when unset"),
+    Column("filter_y_dir", "str", "reference filter as JSON, '' when unset"),
+    Column("filter_z_dir", "str", "reference filter as JSON, '' when unset"),
+    Column("approach_filter", "str", "robot-neutral approach-axis filter as JSON, '' when unset"),
+    Column("facing_filter", "str", "robot-neutral facing-axis filter as JSON, '' when unset"),
+    Column("direction_to_obj", "str", "left | right | '' when unset"),
+    Column("pre_grasp_offset", "float", "pre-grasp distance along the approach axis (m)"),
+    Column("post_grasp_offset", "float", "lift height drawn for this episode (m)"),
+    # Candidates
+    Column("n_total", "int", "grasp poses considered (grasps x symmetric flips)"),
+    Column("n_passed_filter", "int", "poses that passed the direction filters"),
+    Column("n_feasible", "int", "candidates found feasible by the feasibility test"),
+    Column("n_tested", "int", "candidates run through the feasibility test"),
+    Column("filter_outcome", "str", "ok | fallback | filter_empty"),
+    Column("chosen_index", "int", "index of the chosen grasp pose, -1 for none", -1),
+    Column("chosen_score", "float", "grasp score of the chosen candidate"),
+    Column("approach_angle_deg", "float", "angle of the chosen approach axis from straight down"),
+    # Timing
+    Column("ik_time_s", "float", "wall time spent in IK (s)"),
+    Column("plan_time_s", "float", "wall time spent planning and timing (s)"),
+    Column("traj_duration_s", "float", "duration of the executed trajectory (s)"),
+    Column("sim_time_s", "float", "simulated time (s)"),
+    Column("sim_steps", "int", "MuJoCo steps taken"),
+    Column("wall_time_s", "float", "wall time of the whole episode (s)"),
+    # Physics
+    Column("finger_force_left_n", "float", "normal force on the left finger after closing (N)"),
+    Column("finger_force_right_n", "float", "normal force on the right finger after closing (N)"),
+    Column("lift_height_m", "float", "object z rise over the lift (m)"),
+    Column("slip_m", "float", "object motion relative to the gripper during the hold (m)"),
+    Column("max_joint_vel", "float", "peak |joint velocity| (rad/s or m/s)"),
+    Column("max_object_vel", "float", "peak object speed (m/s)"),
+    Column(
+        "tcp_grasp_error_m", "float", "executed vs planned TCP at grasp (m), NaN if not reached"
+    ),
+    # Verdict
+    Column("success", "bool", "the pick succeeded under its semantics"),
+    Column("failure_reason", "str", "first failure cause (FAILURE_REASONS), '' on success"),
+    Column("error_message", "str", "message of an error or of the failure"),
+    Column("harness_version", "str", "pick-harness version"),
+    Column("mujoco_version", "str", "MuJoCo version"),
+    # Added by the sweep executors
+    Column("worker_peak_rss_mb", "float", "peak memory of the worker process (MiB)"),
+    Column("recording", "str", "episode recording (.rrd) relative to the run directory"),
+    Column("recording_error", "str", "why the episode recording could not be written"),
+)
+KEY_COLUMNS: tuple[str, ...] = ("task", "robot", "arm", "object")
+
+
+def param_columns(columns: Any) -> list[str]:
+    """The ``param.*`` columns among ``columns``, in their order."""
+    return [str(c) for c in columns if str(c).startswith(PARAM_PREFIX)]
+
+
+def empty_row() -> dict[str, Any]:
+    """A row with every schema column at its null value."""
+    return {name: column.null_value for name, column in SCHEMA.items()}
+
+
+# --------------------------------------------------------------------------------------------
+# Typing
+
+
+def _to_bool(value: Any) -> bool:
+    if isinstance(value, str):
+        return value.strip().lower() in ("true", "1", "yes")
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return False
+    return bool(value)
+
+
+def _is_null(value: Any) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def typed_frame(rows: list[dict[str, Any]] | pd.DataFrame) -> pd.DataFrame:
+    """A DataFrame in schema order and types; missing cells get the column's null value.
+
+    Columns: the schema's, then ``param.*`` (in first-seen order), then any other columns found
+    (kept, types inferred).
+    """
+    frame = pd.DataFrame(rows) if not isinstance(rows, pd.DataFrame) else rows.copy()
+    params = param_columns(frame.columns)
+    extras = [c for c in frame.columns if c not in SCHEMA and c not in params]
+    out: dict[str, pd.Series] = {}
+    index = frame.index
+    for name, column in SCHEMA.items():
+        values = frame[name] if name in frame.columns else pd.Series([None] * len(frame), index)
+        try:
+            out[name] = _typed(values, column)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"column {name!r} ({column.dtype}): {exc}") from None
+    for name in params:
+        out[name] = _param_series(frame[name])
+    for name in extras:
+        out[name] = frame[name]
+    return pd.DataFrame(out, index=index).reset_index(drop=True)
+
+
+def _typed(values: pd.Series, column: Column) -> pd.Series:
+    null = column.null_value
+    if column.dtype == "str":
+        cleaned = values.astype("object").where(values.notna(), null)
+        return cleaned.map(str).astype("str")
+    if column.dtype == "bool":
+        return values.astype("object").map(_to_bool).astype("bool")
+    blank = values.astype("object").map(lambda v: isinstance(v, str) and not v.strip())
+    numbers = pd.to_numeric(values.astype("object").mask(blank, None), errors="raise")
+    numbers = numbers.astype("float64")
+    if column.dtype == "int":
+        return numbers.fillna(float(null)).round().astype("int64")
+    return numbers
+
+
+def _param_series(values: pd.Series) -> pd.Series:
+    """A swept-parameter column: numeric when every value is a number, else strings.
+
+    Non-scalar values (lists such as ``["downward", 140]``) are written as JSON by the sweep;
+    booleans stay booleans.
+    """
+    items = values.tolist()
+    present = [v for v in items if not _is_null(v)]
+    if present and all(isinstance(v, (bool, np.bool_)) for v in present):
+        return pd.Series(items, index=values.index, dtype="object")
+    numeric = pd.to_numeric(values, errors="coerce")
+    if present and all(
+        not isinstance(v, (bool, np.bool_)) and not _is_null(n)
+        for v, n in zip(items, numeric.tolist(), strict=True)
+        if not _is_null(v)
+    ):
+        return numeric.astype("float64")
+    return pd.Series(
+        ["" if _is_null(v) else (v if isinstance(v, str) else json.dumps(v)) for v in items],
+        index=values.index,
+        dtype="str",
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The store
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    return str(value)
+
+
+class ResultStore:
+    """Append-only episode rows of one run directory (``episodes.jsonl``).
+
+    ``append`` is crash-safe (one line per row, flushed and fsynced); ``completed_ids`` tells a
+    resumed sweep what is already done; ``load`` returns the typed DataFrame (last row per
+    episode id wins); ``export`` writes ``episodes.csv`` and ``episodes.parquet``. A run
+    directory without ``episodes.jsonl`` (e.g. only an exported or hand-made ``episodes.csv``)
+    is read from ``episodes.parquet`` or ``episodes.csv`` instead.
+    """
+
+    def __init__(self, run_dir: str | Path) -> None:
+        self.run_dir = Path(run_dir)
+        self.path = self.run_dir / JSONL_NAME
+        self.skipped_lines: list[int] = []  # line numbers of unreadable lines, last read
+        self._checked_tail = False
+
+    # -- writing ------------------------------------------------------------------------------
+
+    def append(self, row: dict[str, Any]) -> None:
+        """Write one row as a JSON line and force it to disk."""
+        if not row.get("episode_id"):
+            raise ValueError("an episode row needs a non-empty episode_id")
+        line = json.dumps(row, default=_json_default, allow_nan=True)
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        prefix = "" if self._checked_tail else self._separator()
+        self._checked_tail = True
+        with open(self.path, "a", encoding="utf-8") as handle:
+            handle.write(prefix + line + "\n")
+            handle.flush()
+            os.fsync(handle.fileno())
+
+    def _separator(self) -> str:
+        """A newline if the file ends in a torn line, so the next row starts on its own line."""
+        try:
+            with open(self.path, "rb") as handle:
+                handle.seek(0, os.SEEK_END)
+                if handle.tell() == 0:
+                    return ""
+                handle.seek(-1, os.SEEK_END)
+                return "" if handle.read(1) == b"\n" else "\n"
+        except FileNotFoundError:
+            return ""
+
+    # -- reading ------------------------------------------------------------------------------
+
+    def exists(self) -> bool:
+        return any((self.run_dir / name).is_file() for name in (JSONL_NAME, PARQUET_NAME, CSV_NAME))
+
+    def rows(self) -> Iterator[dict[str, Any]]:
+        """The parsed rows of ``episodes.jsonl`` in file order; torn or corrupt lines skipped."""
+        self.skipped_lines = []
+        if not self.path.is_file():
+            return
+        with open(self.path, encoding="utf-8", errors="replace") as handle:
+            for number, line in enumerate(handle, start=1):
+                text = line.strip()
+                if not text:
+                    continue
+                try:
+                    row = json.loads(text)
+                except json.JSONDecodeError:
+                    row = None
+                if not isinstance(row, dict) or not row.get("episode_id"):
+                    # A line torn by a crash (the last one, or one a resumed run wrote past).
+                    self.skipped_lines.append(number)
+                    continue
+                yield row
+
+    def completed_ids(self) -> set[str]:
+        """Episode ids that have a row (whatever their outcome)."""
+        if self.path.is_file():
+            return {str(row["episode_id"]) for row in self.rows()}
+        if self.exists():
+            return set(self.load()["episode_id"])
+        return set()
+
+    def load(self) -> pd.DataFrame:
+        """All episodes as a typed DataFrame, one row per episode id (the last one written)."""
+        if self.path.is_file():
+            frame = pd.DataFrame(list(self.rows()))
+        elif (self.run_dir / PARQUET_NAME).is_file():
+            frame = pd.read_parquet(self.run_dir / PARQUET_NAME)
+        elif (self.run_dir / CSV_NAME).is_file():
+            frame = read_episodes_csv(self.run_dir / CSV_NAME, typed=False)
+        else:
+            frame = pd.DataFrame(columns=list(SCHEMA))
+        if "episode_id" in frame.columns and len(frame):
+            frame = frame.drop_duplicates("episode_id", keep="last")
+        try:
+            return typed_frame(frame)
+        except ValueError as exc:
+            raise HarnessError(f"{self.run_dir}: bad episode rows: {exc}") from None
+
+    def export(self) -> tuple[Path, Path]:
+        """Write ``episodes.csv`` and ``episodes.parquet`` from the store; return their paths."""
+        frame = self.load()
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        csv_path = self.run_dir / CSV_NAME
+        parquet_path = self.run_dir / PARQUET_NAME
+        _atomic_write(csv_path, lambda tmp: frame.to_csv(tmp, index=False))
+        _atomic_write(parquet_path, lambda tmp: frame.to_parquet(tmp, index=False))
+        return csv_path, parquet_path
+
+
+def read_episodes_csv(path: str | Path, typed: bool = True) -> pd.DataFrame:
+    """Read an ``episodes.csv`` (exported, or hand-made with a subset of the columns).
+
+    Empty cells of string columns read back as ``""``; with ``typed`` the frame gets the schema
+    types. A file that is not an episode table raises ``HarnessError`` naming it.
+    """
+    path = Path(path)
+    string_columns = {name: "str" for name, c in SCHEMA.items() if c.dtype == "str"}
+    try:
+        frame = pd.read_csv(path, dtype=string_columns, keep_default_na=False, na_values=[""])
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise HarnessError(f"{path}: cannot read the episode table: {exc}") from None
+    if "episode_id" not in frame.columns:
+        raise HarnessError(f"{path}: not an episode table (no 'episode_id' column)")
+    for name in string_columns:
+        if name in frame.columns:
+            frame[name] = frame[name].fillna("")
+    if not typed:
+        return frame
+    try:
+        return typed_frame(frame)
+    except ValueError as exc:
+        raise HarnessError(f"{path}: {exc}") from None
+
+
+def _atomic_write(path: Path, write: Any) -> None:
+    """Write via a temporary file and rename, so readers never see half a file."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    write(tmp)
+    os.replace(tmp, path)

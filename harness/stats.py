@@ -1,0 +1,101 @@
+"""Binomial statistics for success rates: Wilson intervals and two-proportion tests.
+
+Success rates in a sweep come from small samples (tens of episodes per point), where the normal
+approximation interval is poor; the Wilson score interval stays inside [0, 1] and keeps close to
+its nominal coverage. Two rates are compared with the pooled two-proportion z-test, or with
+Fisher's exact test when an expected cell count is below 5 and the z-test's approximation fails.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from scipy import stats as scipy_stats
+
+# Below this expected count in any cell of the 2x2 table, the z-test is replaced by Fisher's.
+MIN_EXPECTED_COUNT = 5.0
+
+
+def _z_for(confidence: float) -> float:
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    return float(scipy_stats.norm.ppf(0.5 + confidence / 2.0))
+
+
+def _check_counts(successes: int, n: int) -> None:
+    if n < 0 or successes < 0 or successes > n:
+        raise ValueError(f"need 0 <= successes <= n, got {successes}/{n}")
+
+
+def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of ``successes / n``; ``(0, 1)`` when there are no trials."""
+    _check_counts(successes, n)
+    if n == 0:
+        return 0.0, 1.0
+    z = _z_for(confidence)
+    p = successes / n
+    denominator = 1.0 + z * z / n
+    centre = (p + z * z / (2.0 * n)) / denominator
+    half = z * math.sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n)) / denominator
+    # Exact 0 and 1 at the extremes (rounding would leave 1e-17 instead).
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    high = 1.0 if successes == n else min(1.0, centre + half)
+    return low, high
+
+
+def two_proportion_z_test(k1: int, n1: int, k2: int, n2: int) -> tuple[float, float]:
+    """Pooled two-proportion z-test of ``k1/n1`` vs ``k2/n2``: ``(z, two-sided p)``.
+
+    ``z`` is positive when the second rate is higher. Identical all-or-nothing samples (pooled
+    rate 0 or 1) give ``(0, 1)``; an empty sample gives ``(nan, nan)``.
+    """
+    _check_counts(k1, n1)
+    _check_counts(k2, n2)
+    if n1 == 0 or n2 == 0:
+        return math.nan, math.nan
+    pooled = (k1 + k2) / (n1 + n2)
+    variance = pooled * (1.0 - pooled) * (1.0 / n1 + 1.0 / n2)
+    if variance == 0.0:
+        return 0.0, 1.0
+    z = (k2 / n2 - k1 / n1) / math.sqrt(variance)
+    return z, float(2.0 * scipy_stats.norm.sf(abs(z)))
+
+
+def fisher_exact_p(k1: int, n1: int, k2: int, n2: int) -> float:
+    """Two-sided Fisher exact test p-value of the 2x2 table successes/failures x samples."""
+    _check_counts(k1, n1)
+    _check_counts(k2, n2)
+    if n1 == 0 or n2 == 0:
+        return math.nan
+    table = [[k1, n1 - k1], [k2, n2 - k2]]
+    return float(scipy_stats.fisher_exact(table, alternative="two-sided").pvalue)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Rate difference ``rate2 - rate1`` with the p-value of the test that suits the counts."""
+
+    rate1: float
+    rate2: float
+    difference: float
+    z: float
+    p_value: float
+    test: Literal["z", "fisher", ""]
+
+
+def compare_proportions(k1: int, n1: int, k2: int, n2: int) -> Comparison:
+    """Compare two success rates: the z-test, or Fisher's exact test for small expected counts."""
+    z, p_z = two_proportion_z_test(k1, n1, k2, n2)
+    if n1 == 0 or n2 == 0:
+        rate1 = k1 / n1 if n1 else math.nan
+        rate2 = k2 / n2 if n2 else math.nan
+        return Comparison(rate1, rate2, rate2 - rate1, math.nan, math.nan, "")
+    rate1, rate2 = k1 / n1, k2 / n2
+    total = n1 + n2
+    successes, failures = k1 + k2, total - k1 - k2
+    expected = [n * c / total for n in (n1, n2) for c in (successes, failures)]
+    if min(expected) < MIN_EXPECTED_COUNT:
+        return Comparison(rate1, rate2, rate2 - rate1, z, fisher_exact_p(k1, n1, k2, n2), "fisher")
+    return Comparison(rate1, rate2, rate2 - rate1, z, p_z, "z")
