@@ -401,7 +401,10 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         )
 
     # 3. Feasibility, candidate by candidate.
-    planner.sync(obj_name)
+    # The planning world holds the table where the robot physically collides with it, and
+    # always under strict semantics (reference quirk 21: planning ignores the table).
+    strict = pick.semantics == "strict"
+    planner.sync(obj_name, check_table=task.physics.table_contact or strict)
     q_now = scene.active_q(arm)
     approach = scene.robot.convention.approach_index
     order = selection.order
@@ -423,7 +426,6 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         world = [T_world_base @ T_pre, T_world_base @ T_grasp]
         return world[0], world[1], (T_world_base @ T_lift if T_lift is not None else None)
 
-    strict = pick.semantics == "strict"
     cache: dict[int, CandidateVerdict] = {}
     verdicts: list[CandidateVerdict] = []
     chosen: CandidateVerdict | None = None

@@ -209,12 +209,15 @@ class PickOutcome:
     sim_time_s: float = 0.0
     sim_steps: int = 0
     control_steps: int = 0
-    finger_force_left_n: float = 0.0
-    finger_force_right_n: float = 0.0
+    finger_force_left_n: float = float("nan")  # after closing
+    finger_force_right_n: float = float("nan")
     lift_height_m: float = float("nan")
     slip_m: float = float("nan")
-    max_joint_vel: float = 0.0
-    max_object_vel: float = 0.0
+    max_joint_vel: float = 0.0  # peak over the execution
+    max_object_vel: float = 0.0  # peak object speed over the execution
+    verdict_joint_speed: float = float("nan")  # at the verdict (the reference's check)
+    verdict_object_speed: float = float("nan")
+    verdict_forces: tuple[float, float] = (float("nan"), float("nan"))
     tcp_grasp_error_m: float = float("nan")
     object_z_before: float = float("nan")
     object_z_after: float = float("nan")
@@ -407,13 +410,17 @@ class PickExecutor:
             self.scene.step(size)
         self.out.sim_steps += self.substeps
         self.step += 1
+        out = self.out
+        out.max_joint_vel = max(out.max_joint_vel, self.scene.robot_joint_speed())
+        speed = float(np.linalg.norm(d.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]))
+        out.max_object_vel = max(out.max_object_vel, speed)
         if arm_plan is not None:
             self.arm_row += 1
             if self.arm_row >= len(arm_plan):
                 self.arm_plan = None
                 if self.arm_segment == "approach":
-                    self.out.tcp_grasp_error_m = self._tcp_error()
-                    self._event(f"at grasp, TCP error {self.out.tcp_grasp_error_m * 1e3:.2f} mm")
+                    error = self._tcp_error()
+                    self._event(f"approach done, TCP {error * 1e3:.2f} mm from the planned grasp")
         else:
             self.idle += 1
         if gripper_plan is not None:
@@ -457,6 +464,8 @@ class PickExecutor:
             self.previous_target = command.target
         last_close = command.number == 6 and self.commands[self.head + 1].number != 6
         if last_close:
+            # The grasp as executed: the arm has had the whole closing window to settle.
+            self.out.tcp_grasp_error_m = self._tcp_error()
             self.out.contact_during_close = max(forces) > 0.0
             self.out.finger_force_left_n, self.out.finger_force_right_n = forces
             self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
@@ -533,18 +542,21 @@ class PickExecutor:
     # -- verdicts -------------------------------------------------------------------------------
 
     def _measure(self) -> tuple[float, float]:
+        """Forces, speeds and lift at this instant (the verdict's inputs)."""
         out, d = self.out, self.data
         forces = self.scene.finger_forces(self.arm, self.object_name)
-        out.finger_force_left_n, out.finger_force_right_n = forces
-        out.max_joint_vel = self.scene.robot_joint_speed()
+        out.verdict_forces = forces
+        out.verdict_joint_speed = self.scene.robot_joint_speed()
         velocity = d.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]
-        out.max_object_vel = float(np.max(np.abs(velocity)))
+        out.verdict_object_speed = float(np.max(np.abs(velocity)))
         out.lift_height_m = float(d.xpos[self.obj.body_id][2] - self.object_init_position[2])
         return forces
 
     def _velocity_valid(self) -> bool:
+        """``process_valid``: max |joint velocity| and max |object velocity component| < 5."""
         return not self.pick.process_valid or (
-            self.out.max_joint_vel < MAX_VELOCITY and self.out.max_object_vel < MAX_VELOCITY
+            self.out.verdict_joint_speed < MAX_VELOCITY
+            and self.out.verdict_object_speed < MAX_VELOCITY
         )
 
     def _reference_verdict(self) -> None:
@@ -557,8 +569,8 @@ class PickExecutor:
         elif not self._velocity_valid():
             self._fail(
                 "velocity_invalid",
-                f"max joint speed {out.max_joint_vel:.2f}, max object speed "
-                f"{out.max_object_vel:.2f} (bound {MAX_VELOCITY})",
+                f"max joint speed {out.verdict_joint_speed:.2f}, max object velocity "
+                f"{out.verdict_object_speed:.2f} (bound {MAX_VELOCITY})",
             )
         elif pick.lift_th > 0 and not out.lift_height_m > pick.lift_th:
             self._fail(

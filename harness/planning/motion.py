@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
-from harness.scene import Scene
+from harness.scene import TABLE_BIT, Scene
 
 Phase = Literal["transport", "approach", "carry"]
 Collides = Callable[[np.ndarray], bool]
@@ -84,23 +84,29 @@ class CollisionChecker:
         self.geom_arm = scene._geom_arm
         self.self_pairs = _self_collision_pairs(scene)
         self.target_index = -1
+        self.check_table = True
         self.allowed: set[tuple[int, int]] = set()
         self.checks = 0
 
-    def sync(self, target_object: str) -> None:
+    def sync(self, target_object: str, check_table: bool = True) -> None:
         """Copy the scene's current state (robot root, all joints, objects) into the checker.
 
-        Contacts present in that state between the robot and the table (e.g. a first link
-        standing in the table top) are structural, not planning failures: they are allowed for
-        the queries that follow.
+        ``check_table`` False leaves the table out of the planning world (the reference's
+        planning ignore list always holds it). Contacts present in the current state between
+        the robot and the table (e.g. a first link standing in the table top) are structural,
+        not planning failures: they are allowed for the queries that follow.
         """
+        table = self.scene.table_geom
+        bits = TABLE_BIT if check_table else 0
+        self.model.geom_contype[table] = bits
+        self.model.geom_conaffinity[table] = bits
+        self.check_table = check_table
         src, dst = self.scene.data, self.data
         dst.qpos[:] = src.qpos
         dst.mocap_pos[:] = src.mocap_pos
         dst.mocap_quat[:] = src.mocap_quat
         self.target_index = self.scene.object_names.index(target_object)
         self.allowed = set()
-        table = self.scene.table_geom
         q_now = src.qpos[self.handles.active_qpos].copy()
         self.allowed = {pair for pair in self.contacts(q_now, "transport") if table in pair}
 
@@ -366,10 +372,10 @@ class PickPlanner:
 
     # -- helpers --------------------------------------------------------------------------------
 
-    def sync(self, target_object: str) -> None:
+    def sync(self, target_object: str, check_table: bool = True) -> None:
         """Take the scene's current state as the planning world and IK posture."""
         scene = self.scene
-        self.checker.sync(target_object)
+        self.checker.sync(target_object, check_table)
         self.ik.set_base_pose(scene.T_world_root())
         posture = {
             name: float(scene.data.qpos[adr])
