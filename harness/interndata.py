@@ -784,13 +784,14 @@ class _TaskMapper:
         """(mesh path, substitute scale or None, asset exists)."""
         if obj.name in self.substitutes:
             mesh, scale = split_substitute(self.substitutes[obj.name])
-            return mesh, scale, Path(mesh).expanduser().is_file()
+            substitute = Path(mesh).expanduser().absolute()  # relative to the current directory
+            return str(substitute), scale, substitute.is_file()
         raw = obj.config.get("path")
         if not isinstance(raw, str) or not raw:
             raise self.error((*obj.path, "path"), "an object needs a path (its USD file)")
         if not self.check_assets and self.asset_root is None:
             return raw, None, True
-        full = Path(raw) if Path(raw).is_absolute() else self.asset_base() / raw
+        full = (Path(raw) if Path(raw).is_absolute() else self.asset_base() / raw).absolute()
         return str(full), None, full.is_file()
 
     def numbers(self, value: Any, path: KeyPath, count: int) -> list[float]:

@@ -108,3 +108,42 @@ def test_help_and_version() -> None:
     assert result.stdout.startswith("pick-harness ")
     result = harness("validate", "--help")
     assert result.returncode == 0 and "FILE" in result.stdout
+
+
+# --------------------------------------------------------------------------------------------
+# InternDataEngine task files
+
+
+def test_interndata_files(examples_dir: Path) -> None:
+    tasks = examples_dir / "tasks"
+    result = harness(
+        "validate",
+        tasks / "franka_single_pick_banana.yaml",
+        tasks / "split_aloha_sort_the_rubbish.yaml",
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == [
+        f"ok {tasks / 'franka_single_pick_banana.yaml'}: InternDataEngine task file, "
+        "1 pick task(s)",
+        f"ok {tasks / 'split_aloha_sort_the_rubbish.yaml'}: InternDataEngine task file, "
+        "2 pick task(s)",
+    ]
+    # The skipped place / home skills are reported as warnings.
+    assert "skipping 2 'place' skill(s)" in result.stderr
+    assert "skipping 2 'heuristic__skill' skill(s)" in result.stderr
+
+
+def test_interndata_unsupported_robot(examples_dir: Path, tmp_path: Path) -> None:
+    text = (examples_dir / "tasks" / "lift2_left_single_pick_banana.yaml").read_text()
+    path = tmp_path / "genie.yaml"
+    path.write_text(text.replace("robots/lift2.yaml", "robots/genie1.yaml"))
+    result = harness("validate", path)
+    assert result.returncode != 0
+    line = next(
+        i for i, row in enumerate(path.read_text().splitlines(), 1) if "robot_config_file" in row
+    )
+    assert result.stderr == (
+        f"error: {path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot "
+        "'genie1.yaml' (workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, "
+        "split_aloha\n"
+    )

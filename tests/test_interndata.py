@@ -731,3 +731,33 @@ def test_edited_files_map_or_fail_cleanly(examples_dir: Path, data: st.DataObjec
             assert "\n" not in exc.one_line()
         else:
             assert picks and all(isinstance(p.task, TaskConfig) for p in picks)
+
+
+def test_relative_paths_resolve_against_the_current_directory(
+    examples_dir: Path, bottle: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Like the reference (and a shell user), relative asset roots and substitutes are taken
+    from the current directory; the task then holds absolute paths, so it can move."""
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "bottle.usd").write_bytes(bottle.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    pick = load_interndata_tasks(
+        example(examples_dir, "franka_single_pick_banana.yaml"),
+        Path("assets"),
+        {"pick_object_left": "assets/bottle.usd"},
+    )[0]
+    assert pick.task.objects[0].mesh == str(tmp_path / "assets" / "bottle.usd")
+
+
+def test_compatibility_table_lists_every_key_the_mapper_knows() -> None:
+    from harness import interndata
+
+    text = (PROJECT_ROOT / "docs" / "interndata.md").read_text()
+    keys = [
+        *interndata.TASK_KEYS_MAPPED,
+        *interndata.TASK_KEYS_IGNORED,
+        *interndata.ROBOT_KEYS_IGNORED,
+        *interndata.OBJECT_KEYS_IGNORED,
+    ]
+    missing = [key for key in keys if f"`{key}`" not in text]
+    assert not missing, f"docs/interndata.md does not mention {missing}"
