@@ -8,9 +8,11 @@ for every key through the loaders: they either accept or raise ``ConfigError``, 
 
 from __future__ import annotations
 
+import atexit
 import math
 import os
 import re
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -936,6 +938,7 @@ FUZZ = settings(
     database=None,
 )
 FUZZ_DIR = Path(tempfile.mkdtemp(prefix="harness-config-fuzz-"))
+atexit.register(shutil.rmtree, FUZZ_DIR, True)
 
 
 def dump(data: Any) -> str:
