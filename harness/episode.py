@@ -88,6 +88,7 @@ class EpisodeSpec:
     run: str = ""
     record: bool = False
     episode_id: str | None = None
+    log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
 
 
 @dataclass
@@ -129,6 +130,10 @@ class EpisodeResult:
     row: dict[str, Any]
     trace: EpisodeTrace | None = None
     scene: Scene | None = None
+    # Wall time per stage (setup: scene + reset, plan: selection to timed plan, sim: execution)
+    # and the physics steps of the reset's settling.
+    timings: dict[str, float] = field(default_factory=dict)
+    ctrl_log: list[tuple[int, np.ndarray]] | None = None
 
     @property
     def success(self) -> bool:
@@ -342,6 +347,7 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     task = spec.task
     pick = task.pick
     row = result.row
+    clock = time.perf_counter()
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
@@ -352,6 +358,8 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
 
     # 1. Reset: placement, home + noise, settle.
     reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S)
+    result.timings["settle_steps"] = float(reset.settle_steps)
+    result.timings["setup_s"] = time.perf_counter() - clock
     if (reason := scene.unstable()) is not None:
         raise _EpisodeStopError("sim_unstable", f"while settling: {reason}")
     planner = bundle.planner(arm)
@@ -508,11 +516,15 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     planned = _planned_tcp(ik, scene, arm, segments, task.control_dt)
 
     # 5. Execute and judge.
+    result.timings["plan_s"] = timers.plan
+    clock = time.perf_counter()
     executor = PickExecutor(
         scene, task, targets, reset.object_init_position, lift_offset, planner.checker,
-        record=True,
+        record=True, log_ctrl=spec.log_ctrl,
     )  # fmt: skip
     outcome = executor.run()
+    result.timings["sim_s"] = time.perf_counter() - clock
+    result.ctrl_log = executor.ctrl_log
     finish_trace(outcome, verdicts, chosen, targets, planned)
     row.update(
         {

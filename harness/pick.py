@@ -252,9 +252,12 @@ class PickExecutor:
         lift_offset: float,
         checker: CollisionChecker | None = None,
         record: bool = True,
+        log_ctrl: bool = False,
     ) -> None:
         self.scene = scene
         self.data = scene.data
+        # (steps, ctrl) per physics chunk, for replaying the same physics without the harness.
+        self.ctrl_log: list[tuple[int, np.ndarray]] | None = [] if log_ctrl else None
         self.task = task
         self.pick = task.pick
         self.arm = task.arm
@@ -407,6 +410,8 @@ class PickExecutor:
                 d.ctrl[h.active_actuators] = arm_plan[self.arm_row, chunk]
             if gripper_plan is not None:
                 d.ctrl[h.gripper_actuator] = gripper_plan[self.gripper_row, chunk]
+            if self.ctrl_log is not None:
+                self.ctrl_log.append((size, d.ctrl.copy()))
             self.scene.step(size)
         self.out.sim_steps += self.substeps
         self.step += 1
@@ -428,11 +433,6 @@ class PickExecutor:
             if self.gripper_row >= len(gripper_plan):
                 self.gripper_plan = None
 
-    def _unstable(self) -> str | None:
-        reason = self.scene.unstable()
-        if reason is None and float(np.max(np.abs(self.data.qvel))) > 1e3:
-            reason = "a velocity above 1000 (rad or m)/s"
-        return reason
 
     def _check_collisions(self) -> None:
         """Strict: robot-environment collisions at the executed configuration (check model,
@@ -500,7 +500,7 @@ class PickExecutor:
         done = False
         while not done and not out.failure_reason:
             self._control_step()
-            reason = self._unstable()
+            reason = self.scene.unstable()
             if reason is not None:
                 self._fail("sim_unstable", reason)
                 break

@@ -45,6 +45,7 @@ TABLE_NAME = "table"
 TABLE_HALF_SIZE = (0.8, 0.6, 0.025)  # m; top at z = 0
 TABLE_BIT = 2  # contype / conaffinity bit of the table
 ROBOT_BIT = 1
+MAX_SANE_SPEED = 1e3  # rad/s or m/s; anything faster is a diverged integration
 DROP_CLEARANCE = 0.001  # objects start this far above the table (the reference's 1 mm)
 OBJECT_CONDIM = 4  # sliding + torsional friction
 OBJECT_FRICTION_SPIN_ROLL = (0.005, 0.0001)
@@ -144,6 +145,7 @@ class ResetState:
     object_init_position: np.ndarray  # target object, before settling (reference obj_init_trans)
     home: dict[str, float]
     orientation_choice: int | None = None
+    settle_steps: int = 0
 
 
 # --------------------------------------------------------------------------------------------
@@ -310,6 +312,7 @@ class Scene:
         for g in np.flatnonzero(robot_geom):
             if check_model.geom_conaffinity[g] or check_model.geom_contype[g]:
                 check_model.geom_conaffinity[g] |= TABLE_BIT
+        refresh_body_masks(check_model)
         table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, TABLE_NAME)
         return cls(
             robot=robot,
@@ -377,11 +380,13 @@ class Scene:
         mujoco.mj_forward(m, d)
         target = self.objects[task.target_object.name]
         init_position = d.qpos[target.qpos_adr : target.qpos_adr + 3].copy()
+        settle_steps = 0
         if settle_time > 0:
-            self.step(max(1, round(settle_time / m.opt.timestep)))
+            settle_steps = max(1, round(settle_time / m.opt.timestep))
+            self.step(settle_steps)
             for obj in self.objects.values():
                 T_world_objects[obj.name] = self.T_world_body(obj.body_id)
-        return ResetState(T_world_root, T_world_objects, init_position, home, choice)
+        return ResetState(T_world_root, T_world_objects, init_position, home, choice, settle_steps)
 
     def home_configuration(self, task: TaskConfig, rng: np.random.Generator) -> dict[str, float]:
         """Every robot joint's start value: homes (task overrides for the picking arm), Gaussian
@@ -424,7 +429,8 @@ class Scene:
         mujoco.mj_step(self.model, self.data, nstep)
 
     def unstable(self) -> str | None:
-        """A reason string when the simulation has diverged (NaN, MuJoCo warnings), else None."""
+        """A reason string when the simulation has diverged (MuJoCo's bad-acceleration reset or a
+        full contact / constraint buffer, NaN, or a joint speed beyond 1000), else None."""
         d = self.data
         bad = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
         if bad:
@@ -434,6 +440,9 @@ class Scene:
                 return f"MuJoCo warning {kind.name}"
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
             return "NaN in the simulation state"
+        speed = float(np.max(np.abs(d.qvel))) if len(d.qvel) else 0.0
+        if speed > MAX_SANE_SPEED:
+            return f"a velocity of {speed:.3g} (rad or m)/s: the integration diverged"
         return None
 
     # -- state queries --------------------------------------------------------------------------
@@ -560,6 +569,17 @@ class Scene:
 
 # --------------------------------------------------------------------------------------------
 # Composition helpers
+
+
+def refresh_body_masks(model: mujoco.MjModel) -> None:
+    """Recompute the per-body contype / conaffinity (the OR over each body's geoms) after
+    changing geom masks at run time: MuJoCo's broad phase filters body pairs with them."""
+    contype = np.zeros(model.nbody, dtype=np.int64)
+    conaffinity = np.zeros(model.nbody, dtype=np.int64)
+    np.bitwise_or.at(contype, model.geom_bodyid, model.geom_contype)
+    np.bitwise_or.at(conaffinity, model.geom_bodyid, model.geom_conaffinity)
+    model.body_contype[:] = contype
+    model.body_conaffinity[:] = conaffinity
 
 
 def sample_placement(placement: Placement, rng: np.random.Generator) -> tuple[np.ndarray, float]:

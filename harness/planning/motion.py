@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
-from harness.scene import TABLE_BIT, Scene
+from harness.scene import TABLE_BIT, Scene, refresh_body_masks
 
 Phase = Literal["transport", "approach", "carry"]
 Collides = Callable[[np.ndarray], bool]
@@ -100,6 +100,7 @@ class CollisionChecker:
         bits = TABLE_BIT if check_table else 0
         self.model.geom_contype[table] = bits
         self.model.geom_conaffinity[table] = bits
+        refresh_body_masks(self.model)
         self.check_table = check_table
         src, dst = self.scene.data, self.data
         dst.qpos[:] = src.qpos

@@ -1,0 +1,294 @@
+"""Scene: composition, placement from the task's ranges, home noise, settling, state queries.
+
+The helpers at the top (a box mesh with antipodal grasps written to a folder) are shared with the
+other pick tests, so the scene tests do not depend on the default object set.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+from harness.config import PhysicsConfig, TaskConfig
+from harness.scene import TABLE_NAME, Scene, invert
+
+CANONICAL = {
+    "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
+    "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
+    "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
+}
+CANONICAL_PICK = {
+    "pre_grasp_offset": 0.05,
+    "post_grasp_offset_min": 0.05,
+    "post_grasp_offset_max": 0.20,
+    "lift_th": 0.02,
+    "gripper_change_steps": 10,
+    "t_eps": 0.01,
+    "o_eps": 1,
+    "process_valid": True,
+}
+
+
+# --------------------------------------------------------------------------------------------
+# Shared helpers: synthetic objects with grasps
+
+
+def box_grasps(half_width: float, half_height: float, score_tilt: float = 0.2) -> np.ndarray:
+    """Antipodal grasps of a box centred at the origin: closing across x or y faces, approach
+    tilted -90..90 deg (15 deg steps) from straight down about the closing axis, TCP at the
+    centre (depth 0.01 and 0.02). GraspNet layout (N x 17), float32."""
+    rows = []
+    for closing in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        perpendicular = np.cross(closing, [0.0, 0.0, 1.0])
+        for tilt in np.deg2rad(np.arange(-90, 91, 15)):
+            g_x = np.cos(tilt) * np.array([0.0, 0.0, -1.0]) + np.sin(tilt) * perpendicular
+            g_z = np.cross(g_x, closing)
+            R = np.stack([g_x, closing, g_z], axis=1)
+            for depth in (0.01, 0.02):
+                row = np.zeros(17)
+                row[0] = 0.1 if abs(tilt) < 0.8 else score_tilt
+                row[1] = 2 * half_width
+                row[2] = 0.02
+                row[3] = depth
+                row[4:13] = R.reshape(-1)
+                row[13:16] = -g_x * depth
+                row[16] = -1
+                rows.append(row)
+    del half_height
+    return np.asarray(rows, dtype=np.float32)
+
+
+def write_box(folder: Path, extents: tuple[float, float, float], name: str = "box") -> Path:
+    """A box mesh (OBJ) with its grasp file (``grasps.npy``) in ``folder``; returns the mesh."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh_path = folder / f"{name}.obj"
+    trimesh.creation.box(extents=extents).export(mesh_path)
+    np.save(folder / "grasps.npy", box_grasps(extents[0] / 2, extents[2] / 2))
+    return mesh_path
+
+
+def write_ball(folder: Path, radius: float, name: str = "ball") -> Path:
+    """A ball mesh with top-down grasps through its centre."""
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh_path = folder / f"{name}.obj"
+    trimesh.creation.icosphere(subdivisions=3, radius=radius).export(mesh_path)
+    rows = []
+    for yaw in np.deg2rad(np.arange(0, 180, 15)):
+        g_x = np.array([0.0, 0.0, -1.0])
+        g_y = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        R = np.stack([g_x, g_y, np.cross(g_x, g_y)], axis=1)
+        row = np.zeros(17)
+        row[0], row[1], row[2], row[3] = 0.1, 2 * radius, 0.02, 0.02
+        row[4:13] = R.reshape(-1)
+        row[13:16] = [0.0, 0.0, 0.02]
+        row[16] = -1
+        rows.append(row)
+    np.save(folder / "grasps.npy", np.asarray(rows, dtype=np.float32))
+    return mesh_path
+
+
+def make_task(
+    robot: str,
+    arm: str,
+    mesh: Path,
+    pick: dict[str, Any] | None = None,
+    **task: Any,
+) -> TaskConfig:
+    """A canonical pick task (pick-skill.md section 9) of ``robot``/``arm`` on ``mesh``."""
+    obj = {"name": "target", "mesh": str(mesh), **task.pop("object", {})}
+    data = {
+        "name": f"{robot}_{arm}_test",
+        "robot": robot,
+        "arm": arm,
+        "objects": [obj, *task.pop("extra_objects", [])],
+        "physics": {"table_contact": False, **task.pop("physics", {})},
+        "pick": {
+            **CANONICAL[robot],
+            **CANONICAL_PICK,
+            "test_mode": "ik" if robot == "fr3" else "forward",
+            **(pick or {}),
+        },
+        **task,
+    }
+    return TaskConfig.model_validate(data)
+
+
+@pytest.fixture(scope="session")
+def cube_mesh(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 4 cm cube with antipodal grasps."""
+    return write_box(tmp_path_factory.mktemp("cube"), (0.04, 0.04, 0.04), "cube")
+
+
+# --------------------------------------------------------------------------------------------
+# Tests
+
+
+@pytest.fixture(scope="module")
+def fr3_scene(cube_mesh: Path) -> tuple[Scene, TaskConfig]:
+    task = make_task("fr3", "left", cube_mesh)
+    return Scene.build(task.robot, task.objects, task.physics, task.base_dir()), task
+
+
+def test_build_composes_robot_table_object(fr3_scene: tuple[Scene, TaskConfig]) -> None:
+    scene, task = fr3_scene
+    m = scene.model
+    assert m.opt.timestep == pytest.approx(0.002)
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    assert m.opt.impratio == pytest.approx(10.0)
+    assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, TABLE_NAME) >= 0
+    obj = scene.objects["target"]
+    assert m.body_mass[obj.body_id] == pytest.approx(task.objects[0].mass)
+    assert m.body_mocapid[scene.root_body] == 0  # the robot root is the (only) mocap body
+    assert set(scene.arms) == {"left"}
+    assert len(scene.arms["left"].active_names) == 7
+
+
+def test_reset_is_deterministic_and_within_the_ranges(fr3_scene: tuple[Scene, TaskConfig]) -> None:
+    scene, task = fr3_scene
+    first = scene.reset(task, np.random.default_rng(5))
+    q_first = scene.data.qpos.copy()
+    second = scene.reset(task, np.random.default_rng(5))
+    assert np.array_equal(q_first, scene.data.qpos)
+    assert np.allclose(first.T_world_root, second.T_world_root)
+    lo, hi = (np.asarray(v) for v in scene.robot.placement.pos_range)
+    region = scene.robot.arm("left").object_region
+    olo, ohi = (np.asarray(v) for v in region.pos_range)
+    for seed in range(20):
+        state = scene.reset(task, np.random.default_rng(seed))
+        root = state.T_world_root[:3, 3]
+        assert np.all(root >= lo - 1e-12) and np.all(root <= hi + 1e-12)
+        # Robot yaw 90 deg: it faces +y.
+        assert np.allclose(state.T_world_root[:3, 0], [0.0, 1.0, 0.0], atol=1e-9)
+        obj = scene.T_world_object("target")[:3, 3]
+        assert np.all(obj[:2] >= olo[:2] - 2e-3) and np.all(obj[:2] <= ohi[:2] + 2e-3)
+        # Settled on the table: the cube's centre 2 cm up, resting.
+        assert obj[2] == pytest.approx(0.02, abs=1e-3)
+        assert np.linalg.norm(scene.object_velocity("target")[:3]) < 0.05
+        assert state.object_init_position[2] == pytest.approx(0.021, abs=1e-6)
+
+
+def test_home_noise_matches_the_configured_std(fr3_scene: tuple[Scene, TaskConfig]) -> None:
+    scene, task = fr3_scene
+    arm = scene.robot.arm("left")
+    draws = np.array(
+        [
+            [scene.home_configuration(task, np.random.default_rng(s))[j] for j in arm.joints]
+            for s in range(400)
+        ]
+    )
+    assert np.allclose(draws.mean(axis=0), arm.home, atol=0.01)
+    assert np.allclose(draws.std(axis=0), arm.home_noise_std, rtol=0.2)
+    home = [value + 0.05 for value in arm.home]
+    quiet = task.model_copy(update={"home_noise_std": [0.0] * 7, "home": home})
+    q = scene.home_configuration(quiet, np.random.default_rng(0))
+    assert [q[j] for j in arm.joints] == pytest.approx(home)
+
+
+def test_task_placement_and_orientation_override(cube_mesh: Path) -> None:
+    """Task ranges override robot.yaml's; orientation choices are drawn per episode."""
+    task = make_task(
+        "fr3",
+        "left",
+        cube_mesh,
+        object={
+            "placement": {"pos_range": [[0.1, 0.05, 0.0], [0.1, 0.05, 0.0]], "yaw_range": [30, 30]},
+            "orientations": [[90.0, 0.0, 0.0]],
+        },
+        robot_placement={"pos_range": [[0.0, -0.5, 0.0], [0.0, -0.5, 0.0]], "yaw_range": [90, 90]},
+    )
+    scene = Scene.build(task.robot, task.objects, task.physics)
+    state = scene.reset(task, np.random.default_rng(0))
+    assert state.T_world_root[:3, 3] == pytest.approx([0.0, -0.5, 0.0])
+    T = scene.T_world_object("target")
+    assert T[:2, 3] == pytest.approx([0.1, 0.05], abs=2e-3)
+    # x 90 deg then yaw 30 deg: the object's z axis lies in the table plane.
+    assert abs(T[2, 2]) < 0.02
+    assert state.orientation_choice == 0
+
+
+def test_arm_base_frame_faces_the_table(fr3_scene: tuple[Scene, TaskConfig]) -> None:
+    """Arm base x points to +y (the table), z up; the object is in front (base x > 0)."""
+    scene, task = fr3_scene
+    scene.reset(task, np.random.default_rng(0))
+    T_wb = scene.T_world_base("left")
+    assert np.allclose(T_wb[:3, 0], [0, 1, 0], atol=1e-9)
+    assert np.allclose(T_wb[:3, 2], [0, 0, 1], atol=1e-9)
+    T_bo = invert(T_wb) @ scene.T_world_object("target")
+    assert T_bo[0, 3] > 0.2
+    assert np.allclose(scene.T_base_frame("left", "left_hand"), scene.T_base_ee("left"))
+
+
+def test_robot_table_contact_switch(cube_mesh: Path) -> None:
+    """With table contact off, an arm driven into the table passes through; on, it is stopped
+    and the contact is reported as a robot-environment contact."""
+    results = {}
+    for contact in (False, True):
+        task = make_task("fr3", "left", cube_mesh, physics={"table_contact": contact})
+        scene = Scene.build(task.robot, task.objects, task.physics)
+        scene.reset(task, np.random.default_rng(0))
+        handles = scene.arms["left"]
+        # Push the elbow down: joint 2 forward, the hand into the table.
+        target = scene.data.qpos[handles.active_qpos].copy()
+        target[1] += 1.2
+        scene.data.ctrl[handles.active_actuators] = target
+        seen: set[tuple[str, str]] = set()
+        for _ in range(100):
+            scene.step(10)
+            seen.update(scene.robot_contacts("left"))
+        tcp_z = scene.T_world_body(handles.tcp_body)[2, 3]
+        results[contact] = (tcp_z, seen)
+    assert results[False][0] < -0.02  # went through the table top
+    assert not any(TABLE_NAME in pair[1] or pair[1] == "world" for pair in results[False][1])
+    assert results[True][0] > -0.01  # stopped on the table
+    assert any(pair[1] == "world" for pair in results[True][1])  # the table is a world geom
+
+
+def test_finger_forces_per_finger_when_gripping(cube_mesh: Path) -> None:
+    """Close the fingers on the cube placed between the pads: both fingers feel ~kp * w / 2."""
+    task = make_task("fr3", "left", cube_mesh, physics={"gravity": [0.0, 0.0, 0.0]})
+    scene = Scene.build(task.robot, task.objects, task.physics)
+    scene.reset(task, np.random.default_rng(0), settle_time=0.0)
+    handles = scene.arms["left"]
+    mujoco.mj_forward(scene.model, scene.data)
+    T_tcp = scene.T_world_body(handles.tcp_body)
+    obj = scene.objects["target"]
+    scene.data.qpos[obj.qpos_adr : obj.qpos_adr + 3] = T_tcp[:3, 3]
+    scene.data.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = [1, 0, 0, 0]
+    scene.data.qvel[:] = 0
+    assert scene.finger_forces("left", "target") == (0.0, 0.0)
+    scene.data.ctrl[handles.gripper_actuator] = 0.0
+    scene.step(500)
+    left, right = scene.finger_forces("left", "target")
+    # One servo (kp 300 N/m) 2 cm short of its target squeezes with both coupled fingers.
+    assert left > 2.0 and right > 2.0
+    assert left == pytest.approx(right, rel=0.1)
+    assert scene.gripper_opening("left") == pytest.approx(0.02, abs=2e-3)
+
+
+def test_unstable_physics_is_detected(cube_mesh: Path) -> None:
+    """A 50 ms explicit-Euler step with one solver iteration diverges; unstable() says so."""
+    physics = {"timestep": 0.05, "integrator": "euler", "solver_iterations": 1}
+    task = make_task("fr3", "left", cube_mesh, physics=physics, control_dt=0.05)
+    scene = Scene.build(task.robot, task.objects, task.physics)
+    scene.reset(task, np.random.default_rng(0), settle_time=0.0)
+    assert scene.unstable() is None
+    reason = None
+    for _ in range(200):
+        scene.step(1)
+        reason = scene.unstable()
+        if reason:
+            break
+    assert reason is not None and "diverged" in reason
+
+
+def test_dual_arm_scene_has_both_arms_and_the_lift() -> None:
+    scene = Scene.build("lift2", [], PhysicsConfig())
+    assert set(scene.arms) == {"left", "right"}
+    for handles in scene.arms.values():
+        assert handles.active_names[0] == "lift_joint"
+        assert len(handles.active_names) == 7
