@@ -1,0 +1,128 @@
+"""``harness report RUN_DIR`` and ``harness compare RUN_A RUN_B [--csv FILE]``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import pandas as pd
+from rich.console import Console
+from rich.table import Table
+
+from harness.report import (
+    FAIL_PREFIX,
+    build_report,
+    compare_runs,
+    format_value,
+    point_label,
+    varying_params,
+)
+
+SIGNIFICANCE = 0.05
+
+
+def main(args: argparse.Namespace) -> int:
+    """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
+    run_dir = Path(args.run_dir)
+    paths = build_report(run_dir, export=True)
+    console = Console()
+    console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
+    best = pd.read_csv(paths.best_csv)
+    params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
+    for _, row in best.iterrows():
+        console.print(
+            f"best for [bold]{row['robot']}[/]: {point_label(row, params)} — "
+            f"{row['successes']}/{row['n']} ({row['rate']:.0%}, 95% CI "
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f})",
+            soft_wrap=True,
+        )
+    for label, path in (
+        ("summary", paths.summary_csv),
+        ("best", paths.best_csv),
+        ("report", paths.report_md),
+        ("html", paths.report_html),
+        ("plots", paths.run_dir / "plots"),
+    ):
+        console.print(f"  {label:8s} {path}", soft_wrap=True, highlight=False)
+    return 0
+
+
+def _short(column: str) -> str:
+    """``param.pick.approach_filter`` -> ``approach_filter`` (the last part of the key)."""
+    return column.split(".")[-1]
+
+
+def summary_table(summary: pd.DataFrame, title: str) -> Table:
+    """The per-point summary as a rich table (robot, arm, object, swept values, rate, CI)."""
+    params = [c for c in summary.columns if c.startswith("param.")]
+    shown = varying_params(summary) or params
+    table = Table(title=title)
+    for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
+        table.add_column(column)
+    for column in ("k/n", "rate", "95% CI", "top failure"):
+        table.add_column(column, justify="right")
+    fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
+    for _, row in summary.iterrows():
+        fails = {c.removeprefix(FAIL_PREFIX): int(row[c]) for c in fail_columns if row[c] > 0}
+        top = max(sorted(fails), key=fails.__getitem__) if fails else ""
+        table.add_row(
+            str(row["robot"]),
+            str(row["arm"]),
+            str(row["object"]),
+            *[format_value(row[p]) for p in shown],
+            f"{int(row['successes'])}/{int(row['n'])}",
+            f"{row['rate']:.0%}",
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+            f"{top} ({fails[top]})" if top else "",
+        )
+    return table
+
+
+def compare(args: argparse.Namespace) -> int:
+    """Per-point success-rate differences between two runs, with a two-proportion test."""
+    comparison = compare_runs(Path(args.run_a), Path(args.run_b))
+    console = Console()
+    params = varying_params(comparison) or [c for c in comparison.columns if c.startswith("param.")]
+    table = Table(title=f"B - A per point   A = {args.run_a}   B = {args.run_b}")
+    for column in ("robot", "arm", "object", *[_short(p) for p in params]):
+        table.add_column(column)
+    for column in ("A", "B", "B - A", "p", "test"):
+        table.add_column(column, justify="right")
+    for _, row in comparison.iterrows():
+        a = f"{row['successes_a']}/{row['n_a']}" if row["n_a"] else "—"
+        b = f"{row['successes_b']}/{row['n_b']}" if row["n_b"] else "—"
+        if row["present"] == "both":
+            difference = f"{row['difference']:+.0%}"
+            p_value = row["p_value"]
+            p_text = f"{p_value:.3g}" if not math.isnan(p_value) else ""
+            if not math.isnan(p_value) and p_value < SIGNIFICANCE:
+                difference = f"[bold]{difference}[/]"
+                p_text = f"[bold]{p_text}[/]"
+        else:
+            difference, p_text = row["present"], ""
+        table.add_row(
+            str(row["robot"]),
+            str(row["arm"]),
+            str(row["object"]),
+            *[format_value(row[p]) for p in params],
+            a,
+            b,
+            difference,
+            p_text,
+            str(row["test"]),
+        )
+    console.print(table)
+    both = comparison[comparison["present"] == "both"]
+    significant = int((both["p_value"] < SIGNIFICANCE).sum())
+    console.print(
+        f"{len(both)} matched point(s), {significant} with p < {SIGNIFICANCE} "
+        f"(not corrected for multiple comparisons)",
+        soft_wrap=True,
+    )
+    if args.csv:
+        path = Path(args.csv)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        comparison.to_csv(path, index=False)
+        console.print(f"  csv      {path}", soft_wrap=True, highlight=False)
+    return 0

@@ -1,0 +1,360 @@
+"""The report's plots (matplotlib, Agg backend): success over the swept axes, outcomes per
+point, and the candidate funnel. Each function writes one PNG and returns its path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.colors import LinearSegmentedColormap
+
+from harness.report import (
+    FAIL_PREFIX,
+    format_value,
+    point_label,
+    pooled,
+    varying_params,
+)
+
+DPI = 110
+MAX_BARS = 60
+SUCCESS_COLOUR = "#2da44e"
+# One fixed colour per failure reason, so plots of different runs read the same way.
+REASON_COLOURS: dict[str, str] = {
+    "filter_empty": "#8c959f",
+    "no_feasible_candidate": "#bf8700",
+    "plan_failed": "#e16f24",
+    "collision": "#cf222e",
+    "no_contact": "#8250df",
+    "dropped": "#bc4c00",
+    "lift_below_threshold": "#d4a72c",
+    "velocity_invalid": "#a40e26",
+    "sim_unstable": "#1b7c83",
+    "timeout": "#0969da",
+    "error": "#24292f",
+    "unknown": "#d0d7de",
+}
+RATE_CMAP = LinearSegmentedColormap.from_list("rate", ["#cf222e", "#f2cc60", "#2da44e"])
+
+
+def _axis_order(summary: pd.DataFrame, column: str) -> list:
+    """Values of a parameter axis: numeric ascending, otherwise in sweep (point) order."""
+    values = summary[[column, "point_id"]].dropna(subset=[column])
+    if pd.api.types.is_numeric_dtype(summary[column]):
+        return sorted(values[column].unique().tolist())
+    first_seen = values.groupby(column, sort=False)["point_id"].min().sort_values(kind="stable")
+    return first_seen.index.tolist()
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _grid(count: int, width: float, height: float) -> tuple[plt.Figure, list[plt.Axes]]:
+    cols = min(3, count)
+    rows = -(-count // cols)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(width * cols, height * rows), squeeze=False, layout="constrained"
+    )
+    flat = list(axes.ravel())
+    for extra in flat[count:]:
+        extra.set_visible(False)
+    return fig, flat[:count]
+
+
+# --------------------------------------------------------------------------------------------
+# Success
+
+
+def plot_success(summary: pd.DataFrame, path: Path) -> Path:
+    """Heatmap over the first two varying axes per robot; one axis: bars with Wilson whiskers;
+    no axis: bars per robot, arm and object."""
+    axes = varying_params(summary)
+    if len(axes) >= 2:
+        return _success_heatmap(summary, axes[0], axes[1], axes[2:], path)
+    if len(axes) == 1:
+        return _success_bars(summary, axes[0], path)
+    return _success_per_task(summary, path)
+
+
+def _success_heatmap(
+    summary: pd.DataFrame, x_axis: str, y_axis: str, others: list[str], path: Path
+) -> Path:
+    robots = sorted(summary["robot"].unique())
+    x_values = _axis_order(summary, x_axis)
+    y_values = _axis_order(summary, y_axis)
+    cell_width = max(0.9, max(len(format_value(v)) for v in x_values) * 0.09)
+    width = 1.8 + cell_width * len(x_values)
+    height = 1.4 + 0.55 * len(y_values)
+    fig, axes = _grid(len(robots), max(width, 3.6), max(height, 2.6))
+    for ax, robot in zip(axes, robots, strict=True):
+        cells = pooled(summary[summary["robot"] == robot], [x_axis, y_axis])
+        rate = np.full((len(y_values), len(x_values)), np.nan)
+        labels: dict[tuple[int, int], str] = {}
+        for _, values in cells.iterrows():
+            i = y_values.index(values[y_axis])
+            j = x_values.index(values[x_axis])
+            rate[i, j] = values["rate"]
+            labels[(i, j)] = f"{int(values['successes'])}/{int(values['n'])}"
+        ax.imshow(
+            np.ma.masked_invalid(rate),
+            cmap=RATE_CMAP,
+            vmin=0.0,
+            vmax=1.0,
+            aspect="auto",
+            origin="lower",  # the first (smallest) y value at the bottom
+        )
+        ax.set_facecolor("#eaeef2")
+        for i, j in zip(*np.nonzero(np.isnan(rate)), strict=True):
+            ax.text(j, i, "not run", ha="center", va="center", fontsize=8, color="#8c959f")
+        for (i, j), text in labels.items():
+            value = rate[i, j]
+            ax.text(
+                j,
+                i,
+                f"{text}\n{value:.0%}",
+                ha="center",
+                va="center",
+                fontsize=8.5,
+                color="white" if value < 0.25 or value > 0.8 else "#1f2328",
+            )
+        ax.set_xticks(range(len(x_values)), [format_value(v) for v in x_values], fontsize=8)
+        ax.set_yticks(range(len(y_values)), [format_value(v) for v in y_values], fontsize=8)
+        ax.set_xlabel(x_axis.removeprefix("param."), fontsize=9)
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel(y_axis.removeprefix("param."), fontsize=9)
+        ax.set_title(robot, fontsize=11, fontweight="bold")
+        plt.setp(ax.get_xticklabels(), rotation=30 if cell_width > 1.0 else 0, ha="right")
+    note = f" (pooled over {', '.join(o.removeprefix('param.') for o in others)})" if others else ""
+    fig.suptitle(f"Success rate per robot{note}", fontsize=12)
+    mappable = plt.cm.ScalarMappable(cmap=RATE_CMAP, norm=plt.Normalize(0, 1))
+    fig.colorbar(mappable, ax=axes, shrink=0.8, label="success rate", format="{x:.0%}")
+    return _save(fig, path)
+
+
+def _bars_with_ci(
+    ax: plt.Axes, positions: np.ndarray, table: pd.DataFrame, width: float, colour: str, label: str
+) -> None:
+    rates = table["rate"].to_numpy(dtype=float)
+    lower = np.clip(rates - table["wilson_lo"].to_numpy(dtype=float), 0, None)
+    upper = np.clip(table["wilson_hi"].to_numpy(dtype=float) - rates, 0, None)
+    ax.bar(positions, rates, width, color=colour, label=label, edgecolor="white")
+    ax.errorbar(
+        positions, rates, yerr=[lower, upper], fmt="none", ecolor="#24292f", capsize=3, linewidth=1
+    )
+    for x, hi, k, n in zip(
+        positions, table["wilson_hi"], table["successes"], table["n"], strict=True
+    ):
+        ax.text(x, hi + 0.02, f"{int(k)}/{int(n)}", ha="center", va="bottom", fontsize=7.5)
+
+
+def _robot_colours(robots: list[str]) -> dict[str, str]:
+    palette = ["#0969da", "#8250df", "#bf3989", "#1b7c83", "#bc4c00", "#57606a"]
+    return {robot: palette[i % len(palette)] for i, robot in enumerate(robots)}
+
+
+def _success_bars(summary: pd.DataFrame, axis: str, path: Path) -> Path:
+    robots = sorted(summary["robot"].unique())
+    values = _axis_order(summary, axis)
+    colours = _robot_colours(robots)
+    width = 0.8 / len(robots)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + len(values) * len(robots) * 0.6), 4.2))
+    for index, robot in enumerate(robots):
+        table = pooled(summary[summary["robot"] == robot], [axis]).set_index(axis)
+        table = table.reindex([v for v in values if v in table.index])
+        positions = np.array([values.index(v) for v in table.index], dtype=float)
+        positions += (index - (len(robots) - 1) / 2) * width
+        _bars_with_ci(ax, positions, table, width * 0.92, colours[robot], robot)
+    ax.set_xticks(range(len(values)), [format_value(v) for v in values])
+    ax.set_xlabel(axis.removeprefix("param."))
+    _rate_axis(ax)
+    ax.legend(
+        frameon=False,
+        fontsize=8,
+        ncols=min(len(robots), 4),
+        loc="upper left",
+        bbox_to_anchor=(0, 1.12),
+    )
+    ax.set_title("Success rate with 95% Wilson interval", pad=24)
+    return _save(fig, path)
+
+
+def _success_per_task(summary: pd.DataFrame, path: Path) -> Path:
+    table = pooled(summary, ["robot", "arm", "object"])
+    table = table.sort_values(["robot", "arm", "object"]).reset_index(drop=True)
+    colours = _robot_colours(sorted(table["robot"].unique()))
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.0 + 0.9 * len(table)), 4.2))
+    positions = np.arange(len(table), dtype=float)
+    for robot, rows in table.groupby("robot", sort=True):
+        _bars_with_ci(ax, positions[rows.index], rows, 0.7, colours[robot], robot)
+    ax.set_xticks(
+        positions, [f"{r.robot}\n{r.arm} · {r.object}" for r in table.itertuples()], fontsize=8
+    )
+    _rate_axis(ax)
+    ax.set_title("Success rate with 95% Wilson interval")
+    return _save(fig, path)
+
+
+def _rate_axis(ax: plt.Axes) -> None:
+    ax.set_ylim(0, 1.12)
+    ax.set_yticks(np.linspace(0, 1, 6))
+    ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:.0%}"))
+    ax.set_ylabel("success rate")
+    ax.grid(axis="y", color="#eaeef2")
+    ax.set_axisbelow(True)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+
+
+# --------------------------------------------------------------------------------------------
+# Outcomes per point
+
+
+def _outcome_rows(summary: pd.DataFrame) -> tuple[pd.DataFrame, list[str], str]:
+    """Summary rows to draw (pooled coarser when there are too many) and their labels."""
+    params = varying_params(summary)
+    levels = (
+        (["robot", "arm", "object", "task", "point"], "per task and point"),
+        (["robot", "point"], "per robot and point, pooled over arms and objects"),
+        (["point"], "per point, pooled over robots"),
+    )
+    table, note_text = summary, levels[0][1]
+    for keys, level_note in levels:
+        table = summary if len(keys) == 5 else pooled(summary, keys)
+        note_text = level_note
+        if len(table) <= MAX_BARS:
+            break
+    if len(table) > MAX_BARS:
+        table = table.sort_values("point_id").head(MAX_BARS)
+        note_text += f"; first {MAX_BARS} points"
+    labels = []
+    for _, row in table.iterrows():
+        head = [str(row[k]) for k in ("robot", "arm", "object") if k in table.columns]
+        labels.append(" · ".join(head) + (" | " if head else "") + point_label(row, params))
+    return table.reset_index(drop=True), labels, note_text
+
+
+def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
+    """Horizontal stacked bars: successes and each failure reason, per point."""
+    table, labels, note = _outcome_rows(summary)
+    reasons = [
+        c.removeprefix(FAIL_PREFIX)
+        for c in table.columns
+        if c.startswith(FAIL_PREFIX) and table[c].sum() > 0
+    ]
+    height = 1.6 + 0.32 * len(table)
+    longest = max(len(label) for label in labels)
+    fig, ax = plt.subplots(figsize=(6.5 + 0.055 * longest, height))
+    y = np.arange(len(table))[::-1]
+    left = np.zeros(len(table))
+    segments = [("success", table["successes"].to_numpy(dtype=float), SUCCESS_COLOUR)]
+    segments += [
+        (reason, table[FAIL_PREFIX + reason].to_numpy(dtype=float), REASON_COLOURS.get(reason))
+        for reason in reasons
+    ]
+    for name, counts, colour in segments:
+        ax.barh(
+            y,
+            counts,
+            left=left,
+            color=colour or "#6e7781",
+            label=name,
+            edgecolor="white",
+            height=0.75,
+        )
+        for yi, start, count in zip(y, left, counts, strict=True):
+            if count > 0 and count / max(table["n"].max(), 1) > 0.06:
+                ax.text(
+                    start + count / 2,
+                    yi,
+                    str(int(count)),
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="white",
+                )
+        left += counts
+    ax.set_yticks(y, labels, fontsize=8)
+    ax.set_xlabel("episodes")
+    ax.set_xlim(0, left.max() * 1.02 if left.max() else 1)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    ax.legend(
+        frameon=False,
+        fontsize=8,
+        ncols=min(len(segments), 4),
+        loc="lower left",
+        bbox_to_anchor=(0, 1.0),
+    )
+    ax.set_title(f"Outcomes {note}", fontsize=10, pad=28 + 12 * ((len(segments) - 1) // 4))
+    return _save(fig, path)
+
+
+# --------------------------------------------------------------------------------------------
+# Funnel
+
+
+def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
+    """Left: candidate sums per stage (log scale); right: share of episodes reaching a stage."""
+    robots = stages["robot"].tolist()
+    colours = _robot_colours(robots)
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    names = ["candidates", "passed filter", "feasible", "succeeded"]
+    columns = [
+        "candidates_total",
+        "candidates_passed_filter",
+        "candidates_feasible",
+        "candidates_succeeded",
+    ]
+    width = 0.8 / max(len(robots), 1)
+    for index, row in stages.reset_index(drop=True).iterrows():
+        values = row[columns].to_numpy(dtype=float)
+        positions = np.arange(len(names)) + (index - (len(robots) - 1) / 2) * width
+        bars = left.bar(
+            positions,
+            np.maximum(values, 0.8),
+            width * 0.92,
+            color=colours[row["robot"]],
+            label=row["robot"],
+        )
+        for bar, value in zip(bars, values, strict=True):
+            left.text(
+                bar.get_x() + bar.get_width() / 2,
+                max(value, 0.8) * 1.15,
+                f"{int(value):,}",
+                ha="center",
+                va="bottom",
+                fontsize=7,
+                rotation=90,
+            )
+    left.set_yscale("log")
+    left.set_ylim(0.7, max(stages[columns].to_numpy().max(), 1) * 30)
+    left.set_xticks(range(len(names)), names)
+    left.set_ylabel("candidates (sum over episodes)")
+    left.set_title("Candidate funnel")
+    left.legend(frameon=False, fontsize=8)
+
+    shares = ["episodes_filter_ok", "episodes_feasible", "episodes_success"]
+    share_names = ["filter kept\ncandidates", "feasible\ncandidate", "success"]
+    for index, row in stages.reset_index(drop=True).iterrows():
+        values = row[shares].to_numpy(dtype=float)
+        positions = np.arange(len(shares)) + (index - (len(robots) - 1) / 2) * width
+        right.bar(positions, values, width * 0.92, color=colours[row["robot"]])
+        for x, value in zip(positions, values, strict=True):
+            right.text(x, value + 0.02, f"{value:.0%}", ha="center", va="bottom", fontsize=7)
+    right.set_xticks(range(len(shares)), share_names)
+    _rate_axis(right)
+    right.set_ylabel("share of episodes")
+    right.set_title("Episodes reaching each stage")
+    for side in ("top", "right"):
+        left.spines[side].set_visible(False)
+    return _save(fig, path)
