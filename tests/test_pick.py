@@ -1,0 +1,159 @@
+"""Pick skill: the reference command list, progress (t_eps / o_eps, idle pop), and the verdicts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_scene import make_task, write_box
+
+from harness.config import PickConfig
+from harness.episode import EpisodeSpec, run_episode
+from harness.pick import IDLE_POP_STEPS, build_commands
+
+CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
+
+
+@pytest.fixture(scope="module")
+def cube(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_box(tmp_path_factory.mktemp("pick_cube"), (0.04, 0.04, 0.04), "cube")
+
+
+@pytest.fixture(scope="module")
+def cache() -> dict:
+    return {}
+
+
+def run(task, seed: int = 0, cache: dict | None = None):
+    return run_episode(EpisodeSpec(task=task, seed=seed), cache)
+
+
+# --------------------------------------------------------------------------------------------
+# Command list
+
+
+def test_reference_command_list_in_order() -> None:
+    pick = PickConfig(gripper_change_steps=10)
+    commands = build_commands(pick, lift_offset=0.1)
+    numbers = [c.number for c in commands]
+    assert numbers == [1, 2, 3, 5, *[6] * 10, 7, 8, 9]
+    assert [c.target for c in commands[:4]] == ["current", "current", "pregrasp", "grasp"]
+    assert {c.function for c in commands if c.number == 6} == {"close_gripper"}
+    assert commands[-1].target == "lift" and commands[-1].gripper == "close"
+    attach = [c for c in commands if c.number == 8]
+    assert attach[0].event == "attach" and attach[0].function == "attach_obj"
+
+
+def test_optional_commands() -> None:
+    pick = PickConfig(
+        gripper_change_steps=3,
+        pre_grasp_hold_vec_weight=(1, 1, 1, 0, 0, 0),
+        return_to_pregrasp=True,
+        final_gripper_state=1,
+    )
+    commands = build_commands(pick, lift_offset=0.0)
+    numbers = [c.number for c in commands]
+    assert numbers == [1, 2, 3, 4, 5, 6, 6, 6, 7, 8, 10]  # no lift: the sampled offset is 0
+    assert {c.function for c in commands if c.number == 6} == {"open_gripper"}
+    assert commands[-1].target == "pregrasp" and commands[-1].gripper == "open"
+
+
+# --------------------------------------------------------------------------------------------
+# Execution
+
+
+def test_reference_pick_sequence_and_closing_quirk(cube: Path, cache: dict) -> None:
+    """A successful FR3 pick: the segments run in order; closing starts as soon as the EE is
+    within t_eps (1 cm) of the grasp, before the approach has ended (reference quirk 8); the
+    close commands take at least gripper_change_steps control steps; the verdict comes the step
+    the list empties, with the EE within t_eps of the lift target."""
+    task = make_task("fr3", "left", cube, object=CENTRE)
+    result = run(task, 0, cache)
+    assert result.success, result.row["error_message"]
+    trace = result.trace
+    times = {text.split(" (")[0].split(",")[0]: t for t, text in trace.events}
+    assert times["segment transport"] < times["segment approach"] < times["segment lift"]
+    assert times["gripper close"] < times["approach done"]
+    closed = next(t for t, text in trace.events if text.startswith("closed"))
+    control_dt = result.row["sim_time_s"] / len(trace.time)
+    assert closed - times["gripper close"] >= (task.pick.gripper_change_steps - 1) * control_dt
+    end = trace.ee_pose[-1, :3]
+    assert np.linalg.norm(end - trace.T_world_lift[:3, 3]) < task.pick.t_eps
+    # The object was really lifted, and it is held by friction (never welded).
+    assert trace.object_pose[-1, 2] - trace.object_pose[0, 2] > task.pick.lift_th
+    assert result.row["finger_force_left_n"] > 1.0 and result.row["finger_force_right_n"] > 1.0
+    assert result.scene.model.neq == 1  # only the finger coupling: no weld was added
+
+
+def test_idle_pop_completes_the_list_when_poses_are_never_reached(cube: Path, cache: dict) -> None:
+    """t_eps 0.1 mm / o_eps 1e-4 rad are never met: every pose command pops after more than
+    10 idle control steps (reference quirk 9) and the pick still ends with a verdict."""
+    task = make_task("fr3", "left", cube, object=CENTRE, pick={"t_eps": 1e-4, "o_eps": 1e-4})
+    result = run(task, 0, cache)
+    assert result.failure_reason != "timeout"
+    trace = result.trace
+    steps = {phase: int(np.sum(trace.phase == phase)) for phase in set(trace.phase)}
+    assert steps["open_gripper:pregrasp"] > IDLE_POP_STEPS
+    assert result.success, result.row["error_message"]
+
+
+def test_strict_success_measures_the_hold(cube: Path, cache: dict) -> None:
+    task = make_task("fr3", "left", cube, object=CENTRE, pick={"semantics": "strict"})
+    result = run(task, 0, cache)
+    assert result.success, result.row["error_message"]
+    row = result.row
+    assert 0.0 <= row["slip_m"] < task.pick.max_slip
+    events = [text for _, text in result.trace.events]
+    assert any(text.startswith("object at rest: hold") for text in events)
+    hold_start = next(t for t, text in result.trace.events if text.startswith("object at rest"))
+    assert result.trace.time[-1] - hold_start >= task.pick.hold_time - 1e-6
+
+
+def test_strict_finger_force_threshold(cube: Path, cache: dict) -> None:
+    """Strict: 100 N per finger is more than the gripper squeezes -> no_contact after closing."""
+    task = make_task(
+        "fr3", "left", cube, object=CENTRE, pick={"semantics": "strict", "min_finger_force": 100.0}
+    )
+    result = run(task, 0, cache)
+    assert result.failure_reason == "no_contact"
+    assert "after closing" in result.row["error_message"]
+
+
+def test_open_final_gripper_state_does_not_lift(cube: Path, cache: dict) -> None:
+    """final_gripper_state 1 keeps the gripper open: no contact check, the object stays."""
+    task = make_task("fr3", "left", cube, object=CENTRE, pick={"final_gripper_state": 1})
+    result = run(task, 0, cache)
+    assert result.failure_reason == "lift_below_threshold"
+    assert abs(result.row["lift_height_m"]) < 0.005
+
+
+def test_episode_length_limit_is_a_timeout(cube: Path, cache: dict) -> None:
+    task = make_task("fr3", "left", cube, object=CENTRE, max_episode_length=15)
+    result = run(task, 0, cache)
+    assert result.failure_reason == "timeout"
+    assert len(result.trace.time) == 15
+
+
+def test_return_to_pregrasp_runs_the_retreat(cube: Path, cache: dict) -> None:
+    task = make_task("fr3", "left", cube, object=CENTRE, pick={"return_to_pregrasp": True})
+    result = run(task, 0, cache)
+    assert result.success, result.row["error_message"]
+    events = [text for _, text in result.trace.events]
+    assert any(text.startswith("segment retreat") for text in events)
+    end = result.trace.ee_pose[-1, :3]
+    assert np.linalg.norm(end - result.trace.T_world_pregrasp[:3, 3]) < task.pick.t_eps
+
+
+def test_fixed_orientation_replaces_the_grasp_orientation(cube: Path, cache: dict) -> None:
+    """fixed_orientation (wxyz, arm-base frame) overrides the chosen orientation after the
+    feasibility test (reference quirk 13): the executed grasp is top-down with the hand's x
+    along base x, at the chosen grasp's EE position (so it may or may not hold the cube)."""
+    task = make_task(
+        "fr3", "left", cube, object=CENTRE, pick={"fixed_orientation": (0.0, 1.0, 0.0, 0.0)}
+    )
+    result = run(task, 0, cache)
+    assert result.failure_reason not in ("error", "plan_failed"), result.row["error_message"]
+    scene = result.scene
+    T_base_grasp = np.linalg.inv(scene.T_world_base("left")) @ result.trace.T_world_grasp
+    assert np.allclose(T_base_grasp[:3, :3], np.diag([1.0, -1.0, -1.0]), atol=1e-9)
