@@ -34,6 +34,8 @@ from harness.stats import compare_proportions, wilson_interval
 POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")
 FAIL_PREFIX = "fail."
 SUMMARY_NAME = "summary.csv"
+MAX_MESSAGES = 10
+MESSAGE_CHARS = 200
 BEST_NAME = "best.csv"
 
 
@@ -212,6 +214,21 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
+
+
+def error_messages(frame: pd.DataFrame) -> pd.DataFrame:
+    """The most frequent (reason, message) pairs of failed episodes, with an example id."""
+    failed = frame.loc[~frame["success"] & (frame["error_message"] != "")]
+    if failed.empty:
+        return pd.DataFrame(columns=["failure_reason", "message", "episodes", "example"])
+    messages = failed.assign(message=failed["error_message"].str.slice(0, MESSAGE_CHARS))
+    table = (
+        messages.groupby(["failure_reason", "message"], sort=False)
+        .agg(episodes=("episode_id", "size"), example=("episode_id", "first"))
+        .reset_index()
+        .sort_values(["episodes", "failure_reason"], ascending=[False, True], kind="stable")
+    )
+    return table.head(MAX_MESSAGES).reset_index(drop=True)
 
 
 # --------------------------------------------------------------------------------------------
@@ -435,6 +452,20 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
                 ],
             )
         )
+    messages = error_messages(frame)
+    if len(messages):
+        tables.append(
+            Table(
+                "Failure messages",
+                ["reason", "message", "episodes", "example episode"],
+                [
+                    [str(r.failure_reason), str(r.message), str(r.episodes), str(r.example)]
+                    for r in messages.itertuples()
+                ],
+                f"The {MAX_MESSAGES} most frequent messages of failed episodes "
+                f"(cut at {MESSAGE_CHARS} characters).",
+            )
+        )
     stages = funnel(frame)
     tables.append(
         Table(
@@ -454,10 +485,10 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
                 [
                     str(r.robot),
                     str(r.episodes),
-                    str(r.candidates_total),
-                    str(r.candidates_passed_filter),
-                    str(r.candidates_feasible),
-                    str(r.candidates_succeeded),
+                    f"{r.candidates_total:,}",
+                    f"{r.candidates_passed_filter:,}",
+                    f"{r.candidates_feasible:,}",
+                    f"{r.candidates_succeeded:,}",
                     _percent(r.episodes_filter_ok),
                     _percent(r.episodes_feasible),
                     _percent(r.episodes_success),
@@ -600,7 +631,9 @@ def render_html(
 
 
 def _numeric(text: str) -> bool:
-    stripped = text.replace("%", "").replace("/", "").replace("–", "").replace(".", "")
+    stripped = text
+    for mark in ("%", "/", "–", ".", ","):
+        stripped = stripped.replace(mark, "")
     return bool(stripped) and stripped.replace("-", "").isdigit()
 
 

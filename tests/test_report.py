@@ -261,6 +261,23 @@ def test_report_from_the_store_exports_episodes(tmp_path: Path) -> None:
     assert pd.read_csv(paths.summary_csv)["successes"].sum() == 27
 
 
+def test_failure_messages_are_listed_most_frequent_first(fixture_run: Path) -> None:
+    from harness.report import error_messages
+
+    frame = load_episodes(fixture_run)
+    empty = frame.index[frame["failure_reason"] == "filter_empty"]
+    frame.loc[empty[:3], "error_message"] = "no grasp passed the filters"
+    frame.loc[frame.index[frame["failure_reason"] == "dropped"][0], "error_message"] = "x" * 500
+    messages = error_messages(frame)
+    assert messages.loc[0, "failure_reason"] == "filter_empty"
+    assert messages.loc[0, "message"] == "no grasp passed the filters"
+    assert messages.loc[0, "episodes"] == 3
+    assert messages.loc[0, "example"] == frame.loc[empty[0], "episode_id"]
+    assert messages.loc[1, "failure_reason"] == "dropped"
+    assert len(messages.loc[1, "message"]) == 200
+    assert len(messages) == 2
+
+
 def test_missing_run_or_episodes_names_the_path(tmp_path: Path) -> None:
     with pytest.raises(HarnessError, match="nowhere: run directory not found"):
         build_report(tmp_path / "nowhere")
