@@ -66,6 +66,8 @@ def run(quick: bool) -> list[Figure]:
         ("5 waypoints", pick, None, TOPPRA_TARGET_MS),
         ("12 waypoints", planner, None, None),
         ("5 waypoints, 101 grid", pick, 101, TOPPRA_TARGET_MS),
+        ("5 waypoints, 30 grid", pick, 30, TOPPRA_TARGET_MS),
+        ("12 waypoints, 30 grid", planner, 30, None),
     )
     for name, waypoints, grid, target in cases:
         trajectory = time_parameterize_toppra(waypoints, VEL, ACC, gridpoints=grid)
