@@ -213,6 +213,7 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
     from harness.episode import EpisodeSpec, run_episode
 
     start = time.perf_counter()
+    _inject_fault(episode.episode_id)
     try:
         spec = EpisodeSpec(
             task=episode.task,
@@ -221,6 +222,8 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
             point_id=episode.point_id,
             point=episode.point,
             run=episode.run,
+            record=episode.record,
+            episode_id=episode.episode_id,
         )
         result = run_episode(spec, scene_cache=_SCENE_CACHE)
         row = dict(result.row)
@@ -242,6 +245,21 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
         except Exception as exc:  # a recording problem must not lose the episode
             row["recording_error"] = f"{type(exc).__name__}: {exc}"
     return row
+
+
+FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"
+
+
+def _inject_fault(episode_id_: str) -> None:
+    """Fault injection for tests of crash recovery: a real segfault in the worker process.
+
+    Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list).
+    """
+    targets = os.environ.get(FAULT_ENV, "")
+    if targets and episode_id_ in targets.split(","):
+        import ctypes
+
+        ctypes.string_at(0)  # dereference NULL: SIGSEGV, as a crashing C extension would
 
 
 def _peak_rss_mb() -> float:
