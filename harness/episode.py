@@ -410,9 +410,12 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
 
     # 3. Feasibility, candidate by candidate.
     # The planning world holds the table where the robot physically collides with it, and
-    # always under strict semantics (reference quirk 21: planning ignores the table).
+    # always under strict semantics (reference quirk 21: planning ignores the table). It holds
+    # the target object under both semantics (fingers may touch it on the approach): the
+    # reference removes it while planning the pre-grasp and the grasp (section 6 step 2), which
+    # lets a transport sweep through it and knock it over; the harness plans around it.
     strict = pick.semantics == "strict"
-    planner.sync(obj_name, check_table=task.physics.table_contact or strict)
+    planner.sync(obj_name, check_table=task.physics.table_contact or strict, check_target=True)
     q_now = scene.active_q(arm)
     approach = scene.robot.convention.approach_index
     order = selection.order

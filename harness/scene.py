@@ -358,13 +358,17 @@ class Scene:
         arm = self.robot.arm(task.arm)
         T_world_objects: dict[str, np.ndarray] = {}
         choice: int | None = None
+        configs = {config.name: config for config in task.objects}
         for obj in self.objects.values():
-            region = obj.config.placement or arm.object_region
+            # The task's placement and orientations (the scene may have been built for another
+            # task with the same objects), falling back to the scene's own.
+            config = configs.get(obj.name, obj.config)
+            region = config.placement or arm.object_region
             pos, yaw = sample_placement(region, rng)
             R_base = np.eye(3)
-            if obj.config.orientations:
-                index = int(rng.integers(len(obj.config.orientations)))
-                R_base = euler_xyz_deg_to_matrix(obj.config.orientations[index])
+            if config.orientations:
+                index = int(rng.integers(len(config.orientations)))
+                R_base = euler_xyz_deg_to_matrix(config.orientations[index])
                 if obj.name == task.target_object.name:
                     choice = index
             R = quat_to_matrix(yaw_quat(yaw)) @ R_base

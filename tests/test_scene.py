@@ -72,26 +72,6 @@ def write_box(folder: Path, extents: tuple[float, float, float], name: str = "bo
     return mesh_path
 
 
-def write_ball(folder: Path, radius: float, name: str = "ball") -> Path:
-    """A ball mesh with top-down grasps through its centre."""
-    folder.mkdir(parents=True, exist_ok=True)
-    mesh_path = folder / f"{name}.obj"
-    trimesh.creation.icosphere(subdivisions=3, radius=radius).export(mesh_path)
-    rows = []
-    for yaw in np.deg2rad(np.arange(0, 180, 15)):
-        g_x = np.array([0.0, 0.0, -1.0])
-        g_y = np.array([np.cos(yaw), np.sin(yaw), 0.0])
-        R = np.stack([g_x, g_y, np.cross(g_x, g_y)], axis=1)
-        row = np.zeros(17)
-        row[0], row[1], row[2], row[3] = 0.1, 2 * radius, 0.02, 0.02
-        row[4:13] = R.reshape(-1)
-        row[13:16] = [0.0, 0.0, 0.02]
-        row[16] = -1
-        rows.append(row)
-    np.save(folder / "grasps.npy", np.asarray(rows, dtype=np.float32))
-    return mesh_path
-
-
 def make_task(
     robot: str,
     arm: str,

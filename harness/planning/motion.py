@@ -12,6 +12,11 @@ contacts. What counts as a collision depends on the phase of the motion:
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
   is checked against the target object.
 
+What the planning world holds is set per episode (``sync``): the table (the episode puts it in
+only where the robot physically collides with it, or under strict semantics: the reference's
+planning always ignores it, quirk 21) and the target object (the episode always puts it in; the
+reference removes it while planning the pre-grasp and the grasp, pick-skill.md section 6).
+
 Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
 
 - ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
@@ -85,14 +90,17 @@ class CollisionChecker:
         self.self_pairs = _self_collision_pairs(scene)
         self.target_index = -1
         self.check_table = True
+        self.check_target = True
         self.allowed: set[tuple[int, int]] = set()
         self.checks = 0
 
-    def sync(self, target_object: str, check_table: bool = True) -> None:
+    def sync(self, target_object: str, check_table: bool = True, check_target: bool = True) -> None:
         """Copy the scene's current state (robot root, all joints, objects) into the checker.
 
         ``check_table`` False leaves the table out of the planning world (the reference's
-        planning ignore list always holds it). Contacts present in the current state (a first
+        planning ignore list always holds it); ``check_target`` False leaves the target object
+        out (the reference removes it before testing and planning the pre-grasp and the grasp,
+        pick-skill.md section 6 step 2). Contacts present in the current state (a first
         link standing in the table top, two links of a noisy home posture touching) are where
         the robot already is, not planning failures: those pairs are allowed for the queries
         that follow.
@@ -103,6 +111,7 @@ class CollisionChecker:
         self.model.geom_conaffinity[table] = bits
         refresh_body_masks(self.model)
         self.check_table = check_table
+        self.check_target = check_target
         src, dst = self.scene.data, self.data
         dst.qpos[:] = src.qpos
         dst.mocap_pos[:] = src.mocap_pos
@@ -128,12 +137,12 @@ class CollisionChecker:
         robot, moving = self.robot, self.moving
         obj = self.geom_object
         env_hit = (moving[g1] & ~robot[g2]) | (moving[g2] & ~robot[g1])
-        if phase == "approach":
+        if phase == "approach" and self.check_target:
             fingers_on_target = (self.finger[g1] & (obj[g2] == self.target_index)) | (
                 self.finger[g2] & (obj[g1] == self.target_index)
             )
             env_hit &= ~fingers_on_target
-        elif phase == "carry":
+        if phase == "carry" or not self.check_target:
             on_target = (robot[g1] & (obj[g2] == self.target_index)) | (
                 robot[g2] & (obj[g1] == self.target_index)
             )
@@ -374,10 +383,10 @@ class PickPlanner:
 
     # -- helpers --------------------------------------------------------------------------------
 
-    def sync(self, target_object: str, check_table: bool = True) -> None:
+    def sync(self, target_object: str, check_table: bool = True, check_target: bool = True) -> None:
         """Take the scene's current state as the planning world and IK posture."""
         scene = self.scene
-        self.checker.sync(target_object, check_table)
+        self.checker.sync(target_object, check_table, check_target)
         self.ik.set_base_pose(scene.T_world_root())
         posture = {
             name: float(scene.data.qpos[adr])

@@ -1,0 +1,207 @@
+"""Episodes end to end: the canonical tasks on every robot and arm, the failure taxonomy, both
+test modes and both timings, determinism, the row schema and the trace."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_scene import make_task, write_box
+
+from harness.config import apply_overrides, load_task
+from harness.episode import EpisodeSpec, run_episode
+from harness.results import FAILURE_REASONS, SCHEMA
+
+TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
+TASK_FILES = ["fr3", "split_aloha_left", "split_aloha_right", "lift2_left", "lift2_right"]
+ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error"}
+
+
+@pytest.fixture(scope="module")
+def cube(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_box(tmp_path_factory.mktemp("episode_cube"), (0.04, 0.04, 0.04), "cube")
+
+
+@pytest.fixture(scope="module")
+def cache() -> dict:
+    return {}
+
+
+def episode(task, seed: int = 0, cache: dict | None = None, **spec):
+    return run_episode(EpisodeSpec(task=task, seed=seed, **spec), cache)
+
+
+# --------------------------------------------------------------------------------------------
+# The canonical tasks (tasks/pick/*.yaml, default cube)
+
+
+def check_pick(result) -> None:
+    """Success, with the object really lifted and the TCP at grasp within 1 cm of the plan."""
+    row, trace = result.row, result.trace
+    assert result.success, f"{row['failure_reason']}: {row['error_message']}"
+    z_before, z_after = trace.object_pose[0, 2], trace.object_pose[-1, 2]
+    assert z_after - z_before > 0.02, (z_before, z_after)
+    assert row["lift_height_m"] > 0.02
+    assert row["tcp_grasp_error_m"] < 0.01
+
+
+def test_one_fr3_episode_from_the_task_file(cache: dict) -> None:
+    task = load_task(TASKS_DIR / "fr3.yaml")
+    result = episode(task, 1, cache)
+    check_pick(result)
+    assert result.row["test_mode"] == "ik" and result.row["timing"] == "toppra"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", TASK_FILES)
+def test_every_robot_and_arm_picks_the_cube(name: str) -> None:
+    """Canonical parameters, 10 seeds: at least 8 real picks per robot arm."""
+    task = load_task(TASKS_DIR / f"{name}.yaml")
+    cache: dict = {}
+    failures = []
+    for seed in range(10):
+        result = episode(task, seed, cache)
+        try:
+            check_pick(result)
+        except AssertionError as exc:
+            failures.append(f"seed {seed}: {exc}")
+    assert len(failures) <= 2, "\n".join(failures)
+
+
+# --------------------------------------------------------------------------------------------
+# Both test modes, both timings
+
+
+@pytest.mark.parametrize("test_mode", ["ik", "forward"])
+@pytest.mark.parametrize("timing", ["toppra", "ruckig"])
+def test_test_modes_and_timings_run_end_to_end(
+    cube: Path, cache: dict, test_mode: str, timing: str
+) -> None:
+    task = make_task("fr3", "left", cube, pick={"test_mode": test_mode, "timing": timing})
+    result = episode(task, 2, cache)
+    check_pick(result)
+    assert result.row["test_mode"] == test_mode and result.row["timing"] == timing
+    transport = [t for t in result.trace.events if t[1].startswith("segment transport")]
+    assert transport
+
+
+# --------------------------------------------------------------------------------------------
+# Failure taxonomy
+
+
+def test_upward_only_filter_strict_is_filter_empty(cube: Path, cache: dict) -> None:
+    """An approach filter that admits only upward approaches: nothing passes."""
+    task = make_task(
+        "fr3", "left", cube, pick={"semantics": "strict", "filter_z_dir": ["upward", 30]}
+    )
+    result = episode(task, 0, cache)
+    assert result.failure_reason == "filter_empty"
+    assert result.row["n_passed_filter"] == 0 and result.row["filter_outcome"] == "filter_empty"
+
+
+def test_upward_only_filter_reference_falls_back(cube: Path, cache: dict) -> None:
+    """Reference semantics: rows 0..19 of the unfiltered poses are the candidates, and the
+    episode goes on with them (reference section 4.4)."""
+    task = make_task("fr3", "left", cube, pick={"filter_z_dir": ["upward", 30]})
+    result = episode(task, 0, cache)
+    row = result.row
+    assert row["filter_outcome"] == "fallback" and row["n_passed_filter"] == 0
+    assert 0 <= row["chosen_index"] < 20
+    assert row["n_tested"] >= 1
+    assert row["failure_reason"] != "filter_empty"
+
+
+def test_object_out_of_reach_strict_is_no_feasible_candidate(cube: Path, cache: dict) -> None:
+    far = {"placement": {"pos_range": [[0.75, 0.3, 0.0], [0.75, 0.3, 0.0]]}}  # 1.07 m away
+    task = make_task("fr3", "left", cube, object=far, pick={"semantics": "strict"})
+    result = episode(task, 0, cache)
+    assert result.failure_reason == "no_feasible_candidate"
+    assert result.row["n_tested"] >= 1 and result.row["n_feasible"] == 0
+
+
+def test_object_out_of_reach_reference_proceeds_with_the_last(cube: Path, cache: dict) -> None:
+    """Reference: no feasible candidate -> the last one tested is executed, and fails later."""
+    far = {"placement": {"pos_range": [[0.75, 0.3, 0.0], [0.75, 0.3, 0.0]]}}
+    task = make_task("fr3", "left", cube, object=far)
+    result = episode(task, 0, cache)
+    assert result.row["n_tested"] == 20
+    assert result.failure_reason == "plan_failed"
+
+
+def test_object_wider_than_the_gripper_is_not_held(tmp_path: Path) -> None:
+    """A 12 x 12 x 4 cm box against the FR3's 8 cm opening: the fingers land on its top, close
+    on nothing, and lift nothing (dropped: they touched it, then not; or no_contact)."""
+    box = write_box(tmp_path, (0.12, 0.12, 0.04), "wide_box")
+    centre = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
+    reasons = set()
+    for semantics in ("reference", "strict"):
+        for seed in (0, 1):
+            task = make_task("fr3", "left", box, object=centre, pick={"semantics": semantics})
+            result = episode(task, seed, {})
+            assert not result.success
+            assert result.row["lift_height_m"] < 0.005
+            reasons.add(result.failure_reason)
+    assert reasons <= {"no_contact", "dropped"}, reasons
+
+
+def test_unstable_physics_is_sim_unstable_not_a_crash(cube: Path) -> None:
+    physics = {"timestep": 0.05, "integrator": "euler", "solver_iterations": 1}
+    task = make_task("fr3", "left", cube, physics=physics, control_dt=0.05)
+    result = episode(task, 0, {})
+    assert result.failure_reason == "sim_unstable"
+    assert "diverged" in result.row["error_message"] or "MuJoCo" in result.row["error_message"]
+
+
+def test_a_broken_grasp_file_is_an_error_row(tmp_path: Path) -> None:
+    mesh = write_box(tmp_path, (0.04, 0.04, 0.04), "cube")
+    np.save(tmp_path / "grasps.npy", np.zeros((5, 3), dtype=np.float32))
+    task = make_task("fr3", "left", mesh)
+    result = episode(task, 0, {})
+    assert result.failure_reason == "error"
+    assert "grasps.npy" in result.row["error_message"]
+
+
+# --------------------------------------------------------------------------------------------
+# Rows, determinism, traces
+
+
+def test_row_matches_the_schema_and_is_deterministic(cube: Path, cache: dict) -> None:
+    task = make_task("fr3", "left", cube)
+    point = {"pick.pre_grasp_offset": 0.05}
+    task = apply_overrides(task, point)
+    first = episode(task, 4, cache, point=point, point_id=3, run="r").row
+    second = episode(task, 4, cache, point=point, point_id=3, run="r").row
+    fixed = set(SCHEMA) - ADDED_BY_EXECUTORS
+    assert fixed <= set(first)
+    assert {k for k in first if k not in SCHEMA} == {"param.pick.pre_grasp_offset"}
+    timing = {"wall_time_s", "ik_time_s", "plan_time_s"}
+    for key in first:
+        if key in timing:
+            continue
+        a, b = first[key], second[key]
+        assert a == b or (a != a and b != b), key  # NaN == NaN for this purpose
+    assert first["point_id"] == 3 and first["run"] == "r"
+    assert first["failure_reason"] in ("", *FAILURE_REASONS)
+
+
+def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
+    task = make_task("fr3", "left", cube)
+    result = episode(task, 5, cache)
+    trace = result.trace
+    n = len(trace.time)
+    assert n == result.row["sim_steps"] // round(task.control_dt / 0.002)
+    assert trace.qpos.shape == (n, result.scene.model.nq)
+    for name in ("tcp_pose", "ee_pose", "object_pose"):
+        assert getattr(trace, name).shape == (n, 7)
+    assert trace.finger_forces.shape == (n, 2) and trace.gripper_width.shape == (n,)
+    assert len(trace.phase) == n
+    statuses = set(trace.candidate_status.tolist())
+    assert "chosen" in statuses
+    chosen = trace.candidate_index[trace.candidate_status == "chosen"]
+    assert chosen.tolist() == [result.row["chosen_index"]]
+    assert trace.candidate_T_world_ee.shape == (len(trace.candidate_index), 4, 4)
+    # The planned TCP path ends at the lift target's TCP; the executed one comes close.
+    assert len(trace.planned_tcp) > 10
+    assert np.linalg.norm(trace.planned_tcp[-1] - trace.tcp_pose[-1, :3]) < 0.02
+    assert np.all(np.diff(trace.planned_time) >= 0)
