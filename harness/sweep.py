@@ -153,6 +153,51 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
     return points
 
 
+FILTER_KEYS = {"x": "filter_x_dir", "y": "filter_y_dir", "z": "filter_z_dir"}
+
+
+def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
+    """A point's overrides, plus clearing whatever filter it replaces on the same EE axis.
+
+    A sweep axis over ``pick.approach_filter`` must replace the task's own filter on that
+    robot's approach axis (``filter_z_dir`` on fr3, ``filter_x_dir`` on lift2, ...), and an
+    axis over ``pick.filter_z_dir`` replaces a neutral filter that lands on z. Without this, a
+    robot-neutral sweep over reference-form task files would set the same axis twice.
+    """
+    neutral = {"pick.approach_filter": "approach_filter", "pick.facing_filter": "facing_filter"}
+    swept = [
+        key for key in point if key in neutral or key.removeprefix("pick.") in FILTER_KEYS.values()
+    ]
+    if not swept:
+        return point
+    from harness.robot import RobotModel
+
+    convention = RobotModel.load(task.robot).convention
+    axis_of = {"approach_filter": convention.approach_axis, "facing_filter": convention.facing_axis}
+    cleared: dict[str, Any] = {}
+    for key in swept:
+        if key in neutral:
+            cleared[f"pick.{FILTER_KEYS[axis_of[neutral[key]]]}"] = None
+        else:
+            axis = key.removeprefix("pick.")[len("filter_")]
+            for name, neutral_axis in axis_of.items():
+                if neutral_axis == axis:
+                    cleared[f"pick.{name}"] = None
+    cleared = {k: v for k, v in cleared.items() if k not in point}
+    return {**cleared, **point}
+
+
+def check_filters(task: TaskConfig) -> None:
+    """Resolve the task's filters for its robot now, so clashes fail at expansion."""
+    from harness.grasps import resolve_filters
+    from harness.robot import RobotModel
+
+    try:
+        resolve_filters(task.pick, RobotModel.load(task.robot).convention)
+    except ConfigError as exc:
+        raise ConfigError(exc.message, key=f"pick.{exc.key}" if exc.key else "pick") from None
+
+
 def select_samples(episodes: list[SweepEpisode], count: int) -> set[str]:
     """A deterministic sample of ``count`` episode ids (lowest id hashes)."""
     ranked = sorted(episodes, key=lambda e: hashlib.sha1(e.episode_id.encode()).hexdigest())
@@ -167,7 +212,8 @@ def expand(sweep: SweepConfig, sweep_path: Path | None) -> list[SweepEpisode]:
     for task in tasks:
         for point_id, point in enumerate(points):
             try:
-                configured = apply_overrides(task, point)
+                configured = apply_overrides(task, filter_overrides(task, point))
+                check_filters(configured)
             except ConfigError as exc:
                 raise ConfigError(
                     f"point {point_id} {point} does not apply to task {task.name!r}: {exc.message}",

@@ -92,3 +92,39 @@ def test_sample_selection_is_deterministic_and_sized():
     assert len(chosen) == 4 and chosen == select_samples(episodes, 4)
     tagged = expand(make_sweep(episodes_per_point=10, record="sample:4"), None)
     assert {e.episode_id for e in tagged if e.record} == chosen
+
+
+def test_neutral_axis_replaces_each_robots_own_filter_on_that_axis():
+    lift2 = {
+        **TASK,
+        "name": "l",
+        "robot": "lift2",
+        "pick": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
+    }
+    fr3 = {**TASK, "pick": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]}}
+    sweep = make_sweep(
+        tasks=[fr3, lift2], episodes_per_point=1, axes={"pick.approach_filter": [["downward", 160]]}
+    )
+    by_robot = {e.task.robot: e.task.pick for e in expand(sweep, None)}
+    # fr3 approaches along EE z, lift2 along EE x: each loses exactly that explicit filter.
+    assert by_robot["fr3"].filter_z_dir is None
+    assert by_robot["fr3"].filter_x_dir.as_list() == ["forward", 90.0]
+    assert by_robot["lift2"].filter_x_dir is None
+    assert by_robot["lift2"].filter_z_dir.as_list() == ["forward", 90.0]
+    assert by_robot["lift2"].approach_filter.as_list() == ["downward", 160.0]
+
+
+def test_explicit_axis_replaces_a_neutral_filter_on_the_same_axis():
+    neutral = {**TASK, "pick": {"approach_filter": ["downward", 140]}}
+    sweep = make_sweep(tasks=[neutral], axes={"pick.filter_z_dir": [["downward", 120]]})
+    pick = expand(sweep, None)[0].task.pick
+    assert pick.approach_filter is None and pick.filter_z_dir.as_list() == ["downward", 120.0]
+
+
+def test_a_task_filtering_one_axis_twice_fails_at_expansion(tmp_path: Path):
+    clash = {
+        **TASK,
+        "pick": {"approach_filter": ["downward", 140], "filter_z_dir": ["downward", 120]},
+    }
+    with pytest.raises(ConfigError, match="set only one of them"):
+        expand(make_sweep(tasks=[clash]), tmp_path / "s.yaml")
