@@ -20,8 +20,9 @@ with coal, the FCL successor placo already installs):
 2. score = the smallest friction coefficient mu in {0.1, ..., 1.0} for which the pair is
    force-closure: the segment c1-c2 lies within both friction cones (lower is better);
 3. for each pair, approach directions g_x around the closing axis g_y = u; the translation is the
-   exit point of a ray from the midpoint along -g_x; depth is drawn from the depths that put the
-   fingertips at least ``tip_margin`` beyond the contacts;
+   exit point of a ray from the midpoint along -g_x; depth is the shallowest of {0.005, 0.01,
+   0.02, 0.03, 0.04} that puts the fingertips at least ``tip_margin`` beyond the contacts (the
+   contacts sit near the fingertips, the palm as far from the object as the fingers allow);
 4. candidates in (score, random) order are kept when a parallel-jaw gripper (two finger boxes
    reaching from just outside the contacts to ``width / 2 + finger_thickness``, a palm box with an
    approach clearance behind it) neither touches the mesh nor sits inside it. The finger boxes
@@ -355,12 +356,9 @@ def _approach_candidates(
     entry, _ = rays.first_hit(midpoint, -approach)
     depths = np.asarray(p.depths)
     allowed = (entry[:, None] >= 0) & (depths[None, :] >= entry[:, None] + p.tip_margin)
-    n_allowed = allowed.sum(axis=1)
-    pick = np.floor(rng.random(len(entry)) * np.maximum(n_allowed, 1)).astype(int)
-    # index of the pick-th allowed depth in each row
-    rank = np.cumsum(allowed, axis=1) - 1
-    chosen = np.argmax(allowed & (rank == pick[:, None]), axis=1)
-    keep = n_allowed > 0
+    # the shallowest allowed depth: contacts just behind the fingertips, palm far from the object
+    chosen = np.argmax(allowed, axis=1)
+    keep = allowed.any(axis=1)
     return {
         "pair": pair_index[keep],
         "approach": approach[keep],
