@@ -1,0 +1,179 @@
+"""Sweeps end to end on real episodes: files and row counts, resume, crash recovery, Ray, Rerun."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+
+from harness.config import load_sweep
+from harness.sweep import FAULT_ENV, expand, run_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Columns that must be identical between two runs of the same episodes (everything except
+# timings, memory and paths).
+DETERMINISTIC = [
+    "episode_id",
+    "task",
+    "robot",
+    "arm",
+    "object",
+    "seed",
+    "point_id",
+    "success",
+    "failure_reason",
+    "n_total",
+    "n_passed_filter",
+    "n_feasible",
+    "chosen_index",
+    "chosen_score",
+    "post_grasp_offset",
+    "lift_height_m",
+    "sim_steps",
+]
+
+
+def write_sweep(tmp_path: Path, episodes: int = 2, record: str = "failures") -> Path:
+    sweep = {
+        "name": "e2e",
+        "tasks": [str(ROOT / "tasks" / "pick" / "fr3.yaml")],
+        "axes": {
+            # 140: canonical; a reversed band never passes -> the reference fallback list.
+            "pick.approach_filter": [["downward", 140], ["downward", 160, 120]],
+        },
+        "episodes_per_point": episodes,
+        "seed": 5,
+        "record": record,
+    }
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(sweep), encoding="utf-8")
+    return path
+
+
+def rows(run_dir: Path) -> pd.DataFrame:
+    frame = pd.read_csv(run_dir / "episodes.csv")
+    return frame.sort_values("episode_id").reset_index(drop=True)
+
+
+@pytest.mark.slow
+def test_process_pool_sweep_writes_every_file(tmp_path: Path):
+    sweep_path = write_sweep(tmp_path, episodes=3)
+    outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+    run_dir = outcome.run_dir
+    assert outcome.stats.finished == 6 and outcome.stats.crashed == 0
+    for name in (
+        "sweep.yaml",
+        "episodes.csv",
+        "episodes.parquet",
+        "summary.csv",
+        "report.md",
+        "report.html",
+        "recording.rrd",
+    ):
+        assert (run_dir / name).is_file(), name
+    episodes = rows(run_dir)
+    assert len(episodes) == 6 and episodes["episode_id"].is_unique
+    assert len(pd.read_parquet(run_dir / "episodes.parquet")) == 6
+    summary = pd.read_csv(run_dir / "summary.csv")
+    assert len(summary) == 2 and summary["n"].tolist() == [3, 3]
+    assert summary["successes"].sum() == episodes["success"].sum()
+    # The canonical point succeeds on the cube; the reversed band has nothing passing.
+    canonical = episodes[~episodes["point"].str.contains("160")]
+    upward = episodes[episodes["point"].str.contains("160")]
+    assert canonical["success"].sum() >= 2
+    assert (upward["n_passed_filter"] == 0).all()
+    assert (upward["filter_outcome"] == "fallback").all()
+    # The stored sweep is self-contained: it reloads and expands to the same episodes.
+    stored = load_sweep(run_dir / "sweep.yaml")
+    assert {e.episode_id for e in expand(stored, run_dir / "sweep.yaml")} == set(
+        episodes["episode_id"]
+    )
+
+
+@pytest.mark.slow
+def test_interrupted_then_resumed_equals_uninterrupted(tmp_path: Path):
+    sweep_path = write_sweep(tmp_path, episodes=2)
+    full = run_sweep(sweep_path, out=tmp_path / "full", backend="serial", progress=False)
+    part = run_sweep(sweep_path, out=tmp_path / "part", backend="serial", progress=False, limit=1)
+    assert part.stats.finished == 1
+    resumed = run_sweep(resume_dir=tmp_path / "part", workers=2, progress=False)
+    assert resumed.skipped_existing == 1 and resumed.stats.finished == 3
+    a, b = rows(full.run_dir), rows(resumed.run_dir)
+    assert len(b) == 4 and b["episode_id"].is_unique  # nothing lost, nothing twice
+    pd.testing.assert_frame_equal(a[DETERMINISTIC], b[DETERMINISTIC])
+    # Resuming a complete run runs nothing.
+    again = run_sweep(resume_dir=tmp_path / "part", progress=False)
+    assert again.stats.finished == 0 and len(rows(again.run_dir)) == 4
+
+
+@pytest.mark.slow
+def test_segfaulting_worker_becomes_an_error_row(tmp_path: Path, monkeypatch):
+    sweep_path = write_sweep(tmp_path, episodes=2)
+    episodes = expand(load_sweep(sweep_path), sweep_path)
+    victim = episodes[1].episode_id
+    monkeypatch.setenv(FAULT_ENV, victim)
+    outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+    assert outcome.stats.crashed == 1 and outcome.stats.finished == 4
+    frame = rows(outcome.run_dir).set_index("episode_id")
+    assert frame.loc[victim, "failure_reason"] == "error"
+    assert "signal 11" in frame.loc[victim, "error_message"]
+    others = frame.drop(index=victim)
+    assert (others["failure_reason"].fillna("") != "error").all()
+
+
+@pytest.mark.slow
+def test_ray_backend_gives_the_same_rows_as_the_process_pool(tmp_path: Path):
+    pytest.importorskip("ray")
+    sweep_path = write_sweep(tmp_path, episodes=2)
+    pool = run_sweep(sweep_path, out=tmp_path / "pool", workers=2, progress=False)
+    ray_run = run_sweep(sweep_path, out=tmp_path / "ray", backend="ray", workers=2, progress=False)
+    pd.testing.assert_frame_equal(
+        rows(pool.run_dir)[DETERMINISTIC], rows(ray_run.run_dir)[DETERMINISTIC]
+    )
+
+
+@pytest.mark.slow
+def test_recordings_read_back_with_rerun(tmp_path: Path):
+    from rerun.chunk import RrdReader
+
+    sweep_path = write_sweep(tmp_path, episodes=1, record="all")
+    outcome = run_sweep(sweep_path, out=tmp_path / "run", backend="serial", progress=False)
+    episodes = rows(outcome.run_dir)
+    assert episodes["recording"].notna().all()
+    recorded = outcome.run_dir / episodes.loc[0, "recording"]
+    chunks = RrdReader(str(recorded)).stream().to_chunks()
+    paths = {chunk.entity_path for chunk in chunks}
+    for expected in (
+        "/world/plan/tcp",
+        "/world/executed/tcp",
+        "/plots/object_z",
+        "/plots/finger_force",
+        "/plots/gripper_width",
+        "/plots/joints",
+        "/events",
+        "/verdict",
+    ):
+        assert expected in paths, expected
+    assert any(p.startswith("/world/candidates/") for p in paths)
+    assert sum(p.startswith("/world/bodies/") for p in paths) > 10
+    # The object-height series is on the sim_time timeline and spans the episode.
+    z_chunks = [c for c in chunks if c.entity_path == "/plots/object_z"]
+    times, values = [], []
+    for chunk in z_chunks:
+        batch = chunk.to_record_batch()
+        if "sim_time" in batch.schema.names:
+            times += batch.column("sim_time").to_pylist()
+            values += [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+    assert len(times) > 100
+    if episodes.loc[0, "success"]:
+        assert max(values) - values[0] > 0.02  # lifted
+    overview = RrdReader(str(outcome.run_dir / "recording.rrd")).stream().to_chunks()
+    overview_paths = {chunk.entity_path for chunk in overview}
+    assert "/summary" in overview_paths and "/episodes" in overview_paths
+    assert any(p.startswith("/sweep/") for p in overview_paths)
+    points = json.loads(episodes.loc[0, "point"])
+    assert "pick.approach_filter" in points
