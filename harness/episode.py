@@ -409,11 +409,12 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         )
 
     # 3. Feasibility, candidate by candidate.
-    # The planning world holds the table where the robot physically collides with it, and
-    # always under strict semantics (reference quirk 21: planning ignores the table). It holds
-    # the target object under both semantics (fingers may touch it on the approach): the
-    # reference removes it while planning the pre-grasp and the grasp (section 6 step 2), which
-    # lets a transport sweep through it and knock it over; the harness plans around it.
+    # The planning world holds what the robot physically collides with: the table when robot-
+    # table contact is on (and always under strict semantics; the reference's planning ignores
+    # the table even where it is physical, quirk 21, planning fingers into it), and the target
+    # object under both semantics (the fingers may touch it on the approach; the reference
+    # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
+    # transport sweep through it and knock it over).
     strict = pick.semantics == "strict"
     planner.sync(obj_name, check_table=task.physics.table_contact or strict, check_target=True)
     q_now = scene.active_q(arm)

@@ -123,7 +123,7 @@ class ArmHandles:
     finger_geom_side: np.ndarray  # (ngeom,) 0 left, 1 right, -1 not a finger geom of this arm
 
 
-def _body_subtree(model: mujoco.MjModel, root: int) -> list[int]:
+def body_subtree(model: mujoco.MjModel, root: int) -> list[int]:
     out = [root]
     for body in range(root + 1, model.nbody):
         parent = int(model.body_parentid[body])
@@ -245,7 +245,7 @@ class Scene:
             return bid
 
         root = body_id(root_name)
-        robot_bodies = set(_body_subtree(model, root))
+        robot_bodies = set(body_subtree(model, root))
         robot_geom = np.array([int(b) in robot_bodies for b in model.geom_bodyid])
         root_weld = int(model.body_weldid[root])
         static_robot_geom = robot_geom & (model.body_weldid[model.geom_bodyid] == root_weld)
@@ -289,7 +289,7 @@ class Scene:
             fingers = tuple(body_id(b) for b in arm.finger_bodies)
             side = np.full(model.ngeom, -1, dtype=np.int64)
             for s, finger in enumerate(fingers):
-                for b in _body_subtree(model, finger):
+                for b in body_subtree(model, finger):
                     side[model.geom_bodyid == b] = s
             arms[name] = ArmHandles(
                 name=name,
@@ -565,7 +565,7 @@ class Scene:
         if cached is None:
             cached = np.full(self.model.ngeom, -1, dtype=np.int64)
             for index, handles in enumerate(self.arms.values()):
-                for body in _body_subtree(self.model, handles.base_body):
+                for body in body_subtree(self.model, handles.base_body):
                     cached[self.model.geom_bodyid == body] = index
             self._geom_arm_cache = cached
         return cached

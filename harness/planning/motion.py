@@ -8,7 +8,7 @@ contacts. What counts as a collision depends on the phase of the motion:
   against the table or any object; robot-robot pairs listed in the robot's ``collisions.json``
   (the self-collision pairs) and any pair across the two arms;
 - ``approach`` (pre-grasp -> grasp): the same, except the picking arm's fingers may touch the
-  target object;
+  target object (a palm pressing on it would stop the hand short of the grasp);
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
   is checked against the target object.
 
@@ -20,7 +20,8 @@ reference removes it while planning the pre-grasp and the grasp, pick-skill.md s
 Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
 
 - ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
-  current joint state, within 5 mm / 0.05 rad. Reachability only, as in the reference.
+  current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the
+  reference's cuRobo IK checks collisions too). No path is checked, as in the reference.
 - ``forward``: the chained plan: a collision-free joint path from the current state to the
   pre-grasp (direct interpolation first, RRT-Connect within a time budget otherwise), the
   straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
@@ -479,19 +480,27 @@ class PickPlanner:
         test_grasp: bool,
         rng: np.random.Generator,
     ) -> CandidateVerdict:
-        """``ik`` mode: the pre-grasp and the grasp, each from the current state."""
+        """``ik`` mode: the pre-grasp and the grasp, each from the current state, each solution
+        checked for collisions (as the reference's collision-aware IK does; the grasp with the
+        approach rules, so the fingers may touch the object)."""
         start = time.perf_counter()
         pre = self.solve_ik(T_world_pregrasp, q_current, rng)
         verdict = CandidateVerdict(position, pose_index, score, False, "", ik_pregrasp=pre)
         if not pre.success:
             verdict.stage = "ik_pregrasp"
             verdict.detail = _ik_detail(pre)
+        elif pairs := self.checker.contacts(pre.q, "transport"):
+            verdict.stage = "ik_pregrasp"
+            verdict.detail = f"IK solution in collision ({self.checker.describe(pairs)})"
         elif test_grasp:
             grasp = self.solve_ik(T_world_grasp, q_current, rng)
             verdict.ik_grasp = grasp
             if not grasp.success:
                 verdict.stage = "ik_grasp"
                 verdict.detail = _ik_detail(grasp)
+            elif pairs := self.checker.contacts(grasp.q, "approach"):
+                verdict.stage = "ik_grasp"
+                verdict.detail = f"IK solution in collision ({self.checker.describe(pairs)})"
         verdict.feasible = verdict.stage == ""
         verdict.time_s = time.perf_counter() - start
         return verdict
