@@ -1,0 +1,104 @@
+"""Benchmark section ``episodes``: wall time of whole pick episodes, and its ratio to bare physics.
+
+Per robot, the canonical task (``tasks/pick/<robot>.yaml``, the default cube) runs ``n`` seeded
+episodes on one cached scene (the scene build is excluded: a sweep worker pays it once). Each
+episode's wall time is split into planning (candidate selection, feasibility, plan, timing) and
+simulation (the executed control loop). The ratio's denominator is measured in the same run on
+the same episode: the scene is reset with the same seed and the episode's logged actuator
+commands are replayed with ``mj_step(m, d, n)`` per servo chunk -- the same physics steps with
+nothing of the harness around them.
+
+Targets (FR3, ik mode, TOP-RA): median episode under 0.2 s, wall / bare physics under 3.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from harness.bench import Figure, figure
+from harness.config import load_task
+from harness.episode import SETTLE_TIME_S, EpisodeSpec, run_episode
+
+SECTION = "episodes"
+TASKS_DIR = Path(__file__).resolve().parents[2] / "tasks" / "pick"
+TASKS = ("fr3", "split_aloha_left", "lift2_left")
+WALL_TARGET_S = {"fr3": 0.2}
+RATIO_TARGET = {"fr3": 3.0}
+
+
+def bare_physics_time(result: Any, seed: int) -> float:
+    """Seconds of ``mj_step`` alone for the episode's physics: reset with the same seed, then
+    the settling steps and the logged commands, chunk by chunk."""
+    scene = result.scene
+    task = result.spec.task
+    scene.reset(task, np.random.default_rng(seed), settle_time=0.0)
+    m, d = scene.model, scene.data
+    settle = max(1, round(SETTLE_TIME_S / m.opt.timestep))
+    log = result.ctrl_log or []
+    start = time.perf_counter()
+    mujoco.mj_step(m, d, settle)
+    for steps, ctrl in log:
+        d.ctrl[:] = ctrl
+        mujoco.mj_step(m, d, steps)
+    return time.perf_counter() - start
+
+
+def run(quick: bool) -> list[Figure]:
+    count = 8 if quick else 30
+    figures: list[Figure] = []
+    for name in TASKS:
+        task = load_task(TASKS_DIR / f"{name}.yaml")
+        cache: dict[str, Any] = {}
+        run_episode(EpisodeSpec(task=task, seed=10_000), cache)  # build the scene, warm up
+        walls, plans, sims, ratios, bares = [], [], [], [], []
+        steps, successes = [], 0
+        for seed in range(count):
+            result = run_episode(EpisodeSpec(task=task, seed=seed, log_ctrl=True), cache)
+            row = result.row
+            successes += bool(row["success"])
+            walls.append(row["wall_time_s"])
+            plans.append(result.timings.get("plan_s", float("nan")))
+            sims.append(result.timings.get("sim_s", float("nan")))
+            if result.ctrl_log:
+                bare = bare_physics_time(result, seed)
+                bares.append(bare)
+                ratios.append(row["wall_time_s"] / bare)
+                steps.append(row["sim_steps"] + result.timings.get("settle_steps", 0.0))
+        label = f"{name} ({task.pick.test_mode}, {task.pick.timing})"
+        notes = f"{successes}/{count} successful"
+        extra = {
+            "successes": successes,
+            "episodes": count,
+            "mean_physics_steps": float(np.mean(steps)) if steps else None,
+            "bare_steps_per_s": float(np.sum(steps) / np.sum(bares)) if bares else None,
+        }
+        figures.append(
+            figure(
+                SECTION,
+                f"{label}: episode wall time",
+                walls,
+                "s",
+                target=WALL_TARGET_S.get(name),
+                notes=notes,
+                extra=extra,
+            )
+        )
+        figures.append(figure(SECTION, f"{label}: planning per episode", plans, "s"))
+        figures.append(figure(SECTION, f"{label}: simulation per episode", sims, "s"))
+        if bares:
+            figures.append(figure(SECTION, f"{label}: bare mj_step per episode", bares, "s"))
+            figures.append(
+                figure(
+                    SECTION,
+                    f"{label}: wall / bare mj_step",
+                    ratios,
+                    "x",
+                    target=RATIO_TARGET.get(name),
+                )
+            )
+    return figures
