@@ -218,12 +218,12 @@ def test_coacd_result_is_cached_on_disk(tmp_path: Path, isolated_cache: Path) ->
     runs = assets.DECOMPOSITION_RUNS
     first = ObjectAsset.load(path)
     assert first.collision_source == "coacd"
-    assert assets.DECOMPOSITION_RUNS == runs + 1
+    assert runs + 1 == assets.DECOMPOSITION_RUNS
     cached = sorted(isolated_cache.glob("*.npz"))
     assert len(cached) == 1
     second = ObjectAsset.load(path)
     assert second.collision_source == "cache"
-    assert assets.DECOMPOSITION_RUNS == runs + 1  # not decomposed again
+    assert runs + 1 == assets.DECOMPOSITION_RUNS  # not decomposed again
     assert len(second.collision_pieces) == len(first.collision_pieces) >= 2
     for (v1, f1), (v2, f2) in zip(first.collision_pieces, second.collision_pieces, strict=True):
         np.testing.assert_array_equal(v1, v2)
@@ -231,7 +231,7 @@ def test_coacd_result_is_cached_on_disk(tmp_path: Path, isolated_cache: Path) ->
     # scale and CoACD parameters are part of the key
     ObjectAsset.load(path, scale=(2.0, 2.0, 2.0))
     ObjectAsset.load(path, coacd_params=CoacdParams(max_convex_hull=4))
-    assert assets.DECOMPOSITION_RUNS == runs + 3
+    assert runs + 3 == assets.DECOMPOSITION_RUNS
     assert len(list(isolated_cache.glob("*.npz"))) == 3
 
 
@@ -241,7 +241,7 @@ def test_convex_meshes_skip_coacd(tmp_path: Path, isolated_cache: Path) -> None:
     runs = assets.DECOMPOSITION_RUNS
     asset = ObjectAsset.load(path)
     assert asset.collision_source == "convex" and len(asset.collision_pieces) == 1
-    assert assets.DECOMPOSITION_RUNS == runs
+    assert runs == assets.DECOMPOSITION_RUNS
     assert not isolated_cache.exists()
 
 
