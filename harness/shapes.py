@@ -300,7 +300,7 @@ DEFAULT_OBJECTS: tuple[DefaultObject, ...] = (
     DefaultObject(
         "box",
         "box",
-        "5 x 8 x 14 cm tea box; the 5 cm side fits all, the 8 cm side only Lift-2",
+        "5 x 8 x 14 cm tea box; 5 cm side: every gripper; 8 cm side: Lift-2 (FR3 at its limit)",
         lambda: box((0.05, 0.08, 0.14)),
         mass=0.15,
         orientations=((0, 0, 0), (90, 0, 0)),
@@ -323,7 +323,7 @@ DEFAULT_OBJECTS: tuple[DefaultObject, ...] = (
     DefaultObject(
         "mug",
         "mug",
-        "8 cm mug with a handle; the body is too wide, rim and handle are pinchable",
+        "mug with a handle, 8 cm body (Lift-2, FR3 at its limit); rim and handle pinchable by all",
         lambda: mug(),
         mass=0.3,
     ),
