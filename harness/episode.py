@@ -59,7 +59,14 @@ from harness.transforms import quat_to_matrix
 
 SETTLE_TIME_S = 0.1  # object settling after placement (the reference: 20 steps before warm-up)
 TOPPRA_GRIDPOINTS = 30
-PLAN_RETRIES = 2  # extra attempts for a randomised (RRT / restart) plan failure
+PLAN_RETRIES = 2
+# The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the
+# joint limits: time-optimal at full limits, the small arms' soft servos (kp 80, wrists 10)
+# overshoot the grasp by up to a centimetre.
+CARTESIAN_SPEED_SCALE = 0.5
+# Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
+# small arms' wrists have kp 10) does not dip a finger into it during execution.
+STRICT_TABLE_CLEARANCE = 0.005  # extra attempts for a randomised (RRT / restart) plan failure
 
 # Candidate verdict labels (also used by the Rerun recorder's colours).
 REJECTED, PASSED, INFEASIBLE, FEASIBLE, CHOSEN = (
@@ -416,7 +423,12 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
     # transport sweep through it and knock it over).
     strict = pick.semantics == "strict"
-    planner.sync(obj_name, check_table=task.physics.table_contact or strict, check_target=True)
+    planner.sync(
+        obj_name,
+        check_table=task.physics.table_contact or strict,
+        check_target=True,
+        table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
+    )
     q_now = scene.active_q(arm)
     approach = scene.robot.convention.approach_index
     order = selection.order
@@ -575,7 +587,7 @@ def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict
             waypoints,
             limits.velocity,
             limits.acceleration,
-            limits.speed_scale,
+            limits.speed_scale * CARTESIAN_SPEED_SCALE,
             gridpoints=TOPPRA_GRIDPOINTS,
             joint_names=names,
             label=label,

@@ -54,6 +54,9 @@ MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the refere
 SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
 STATIC_SPEED = 0.02  # m/s: the object is "at rest" below this (strict)
 STATIC_WAIT_S = 1.0  # strict: how long to wait for the object to come to rest
+# Strict: a robot-environment contact during execution is a collision beyond this penetration
+# (m). Plans keep 0.1 mm; tracking lag lets a finger planned to graze the table dip a little.
+EXECUTION_PENETRATION = 0.002
 
 FailureReason = Literal[
     "",
@@ -433,7 +436,6 @@ class PickExecutor:
             if self.gripper_row >= len(gripper_plan):
                 self.gripper_plan = None
 
-
     def _check_collisions(self) -> None:
         """Strict: robot-environment collisions at the executed configuration (check model,
         so they are seen even where the physics ignores robot-table contact)."""
@@ -444,7 +446,8 @@ class PickExecutor:
         if target == "lift" or self.head >= len(self.commands) or self.head_after_attach():
             phase = "carry"
         checker.data.qpos[:] = self.data.qpos
-        pairs = checker.contacts(self.data.qpos[self.handles.active_qpos], phase)
+        q = self.data.qpos[self.handles.active_qpos]
+        pairs = checker.contacts(q, phase, EXECUTION_PENETRATION)
         if pairs:
             self.out.collisions.append(f"t={self.time:.3f}s {checker.describe(pairs)}")
 

@@ -556,11 +556,12 @@ class Scene:
 
     def _cross_arm(self, g1: np.ndarray, g2: np.ndarray) -> np.ndarray:
         """True where two robot geoms belong to different arms' subtrees."""
-        owner = self._geom_arm
+        owner = self.geom_arm
         return (owner[g1] >= 0) & (owner[g2] >= 0) & (owner[g1] != owner[g2])
 
     @property
-    def _geom_arm(self) -> np.ndarray:
+    def geom_arm(self) -> np.ndarray:
+        """(ngeom,) index of the arm (in ``arms`` order) whose subtree holds each geom, or -1."""
         cached = getattr(self, "_geom_arm_cache", None)
         if cached is None:
             cached = np.full(self.model.ngeom, -1, dtype=np.int64)

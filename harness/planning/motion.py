@@ -5,8 +5,9 @@ private ``MjData``: set the active joints, ``mj_kinematics`` + ``mj_collision``,
 contacts. What counts as a collision depends on the phase of the motion:
 
 - ``transport`` (current state -> pre-grasp): any robot part except the parts welded to the root
-  against the table or any object; robot-robot pairs listed in the robot's ``collisions.json``
-  (the self-collision pairs) and any pair across the two arms;
+  against the table or any object; any robot-robot contact the physics model has (MuJoCo leaves
+  out parent-child and welded pairs and the excluded finger pair), within an arm or across the
+  two arms -- planning sees exactly the self-contacts that would stop the arm in simulation;
 - ``approach`` (pre-grasp -> grasp): the same, except the picking arm's fingers may touch the
   target object (a palm pressing on it would stop the hand short of the grasp);
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
@@ -33,7 +34,6 @@ with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -87,16 +87,23 @@ class CollisionChecker:
         self.finger = self.handles.finger_geom_side >= 0
         self.geom_object = scene.geom_object
         self.geom_body = m.geom_bodyid.copy()
-        self.geom_arm = scene._geom_arm
-        self.self_pairs = _self_collision_pairs(scene)
         self.target_index = -1
         self.check_table = True
         self.check_target = True
+        self.table_clearance = 0.0
         self.allowed: set[tuple[int, int]] = set()
         self.checks = 0
 
-    def sync(self, target_object: str, check_table: bool = True, check_target: bool = True) -> None:
+    def sync(
+        self,
+        target_object: str,
+        check_table: bool = True,
+        check_target: bool = True,
+        table_clearance: float = 0.0,
+    ) -> None:
         """Copy the scene's current state (robot root, all joints, objects) into the checker.
+
+        ``table_clearance`` (m) makes coming closer than that to the table a collision.
 
         ``check_table`` False leaves the table out of the planning world (the reference's
         planning ignore list always holds it); ``check_target`` False leaves the target object
@@ -110,6 +117,8 @@ class CollisionChecker:
         bits = TABLE_BIT if check_table else 0
         self.model.geom_contype[table] = bits
         self.model.geom_conaffinity[table] = bits
+        self.model.geom_margin[table] = table_clearance
+        self.table_clearance = table_clearance
         refresh_body_masks(self.model)
         self.check_table = check_table
         self.check_target = check_target
@@ -122,8 +131,11 @@ class CollisionChecker:
         q_now = src.qpos[self.handles.active_qpos].copy()
         self.allowed = set(self.contacts(q_now, "transport"))
 
-    def contacts(self, q_active: np.ndarray, phase: Phase) -> list[tuple[int, int]]:
-        """Offending (geom, geom) pairs at ``q_active`` for ``phase``."""
+    def contacts(
+        self, q_active: np.ndarray, phase: Phase, tolerance: float | None = None
+    ) -> list[tuple[int, int]]:
+        """Offending (geom, geom) pairs at ``q_active`` for ``phase``: penetrating deeper than
+        ``tolerance`` (default: the checker's planning tolerance)."""
         m, d = self.model, self.data
         d.qpos[self.handles.active_qpos] = q_active
         mujoco.mj_kinematics(m, d)
@@ -133,8 +145,14 @@ class CollisionChecker:
         if ncon == 0:
             return []
         geoms = d.contact.geom[:ncon]
-        deep = d.contact.dist[:ncon] < -self.tolerance
         g1, g2 = geoms[:, 0], geoms[:, 1]
+        limit = -(self.tolerance if tolerance is None else tolerance)
+        dist = d.contact.dist[:ncon]
+        if self.table_clearance > 0.0:
+            table = self.scene.table_geom
+            deep = dist < np.where((g1 == table) | (g2 == table), self.table_clearance, limit)
+        else:
+            deep = dist < limit
         robot, moving = self.robot, self.moving
         obj = self.geom_object
         env_hit = (moving[g1] & ~robot[g2]) | (moving[g2] & ~robot[g1])
@@ -153,19 +171,10 @@ class CollisionChecker:
         out = []
         for i in np.flatnonzero(hits):
             a, b = int(g1[i]), int(g2[i])
-            if robot_pair[i] and not self._self_collision(a, b):
-                continue
             if (a, b) in self.allowed:
                 continue
             out.append((a, b))
         return out
-
-    def _self_collision(self, a: int, b: int) -> bool:
-        arm_a, arm_b = self.geom_arm[a], self.geom_arm[b]
-        if arm_a >= 0 and arm_b >= 0 and arm_a != arm_b:
-            return True
-        pair = (int(self.geom_body[a]), int(self.geom_body[b]))
-        return pair in self.self_pairs
 
     def collides(self, q_active: np.ndarray, phase: Phase) -> bool:
         return bool(self.contacts(q_active, phase))
@@ -205,25 +214,6 @@ def _van_der_corput_order(n: int) -> list[int]:
         step = half
     order.extend(k for k in range(n) if k not in seen)
     return order
-
-
-def _self_collision_pairs(scene: Scene) -> set[tuple[int, int]]:
-    """Body-id pairs from the robot's collisions.json (both orders); empty without the file."""
-    path = scene.robot.collisions_path
-    if not path.is_file():
-        return set()
-    try:
-        pairs = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return set()
-    out: set[tuple[int, int]] = set()
-    for a, b in pairs:
-        ia = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, a)
-        ib = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_BODY, b)
-        if ia >= 0 and ib >= 0:
-            out.add((ia, ib))
-            out.add((ib, ia))
-    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -384,10 +374,16 @@ class PickPlanner:
 
     # -- helpers --------------------------------------------------------------------------------
 
-    def sync(self, target_object: str, check_table: bool = True, check_target: bool = True) -> None:
+    def sync(
+        self,
+        target_object: str,
+        check_table: bool = True,
+        check_target: bool = True,
+        table_clearance: float = 0.0,
+    ) -> None:
         """Take the scene's current state as the planning world and IK posture."""
         scene = self.scene
-        self.checker.sync(target_object, check_table, check_target)
+        self.checker.sync(target_object, check_table, check_target, table_clearance)
         self.ik.set_base_pose(scene.T_world_root())
         posture = {
             name: float(scene.data.qpos[adr])
