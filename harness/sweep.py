@@ -187,6 +187,34 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     return {**cleared, **point}
 
 
+def object_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
+    """Swapping the target object's mesh also renames the object after the mesh.
+
+    A sweep axis ``object.mesh: [cube, banana]`` then reports ``object = banana`` in its rows
+    (and ``pick.objects`` follows), unless the point names the object itself.
+    """
+    mesh_keys = ("object.mesh", "objects.0.mesh")
+    mesh = next((point[k] for k in mesh_keys if k in point), None)
+    if mesh is None or any(k in point for k in ("object.name", "objects.0.name")):
+        return {}
+    target = task.target_object
+    if task.objects[0].name != target.name:
+        return {}
+    name = Path(str(mesh)).stem if Path(str(mesh)).suffix else str(mesh)
+    if name == target.name:
+        return {}
+    if name in {obj.name for obj in task.objects}:
+        raise ConfigError(f"object mesh {mesh!r} would rename the target to an existing name")
+    picked = [name if n == target.name else n for n in (task.pick.objects or [target.name])]
+    return {"objects.0.name": name, "pick.objects": picked}
+
+
+def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
+    """Everything a point changes in a task: its own keys plus the implied ones."""
+    implied = {**filter_overrides(task, point), **object_overrides(task, point)}
+    return {**implied, **point}
+
+
 def check_filters(task: TaskConfig) -> None:
     """Resolve the task's filters for its robot now, so clashes fail at expansion."""
     from harness.grasps import resolve_filters
@@ -212,7 +240,7 @@ def expand(sweep: SweepConfig, sweep_path: Path | None) -> list[SweepEpisode]:
     for task in tasks:
         for point_id, point in enumerate(points):
             try:
-                configured = apply_overrides(task, filter_overrides(task, point))
+                configured = apply_overrides(task, point_overrides(task, point))
                 check_filters(configured)
             except ConfigError as exc:
                 raise ConfigError(

@@ -128,3 +128,13 @@ def test_a_task_filtering_one_axis_twice_fails_at_expansion(tmp_path: Path):
     }
     with pytest.raises(ConfigError, match="set only one of them"):
         expand(make_sweep(tasks=[clash]), tmp_path / "s.yaml")
+
+
+def test_swapping_the_mesh_renames_the_target_object():
+    sweep = make_sweep(
+        axes={"object.mesh": ["cube", "banana", "/data/meshes/mug.obj"]}, episodes_per_point=1
+    )
+    tasks = [e.task for e in expand(sweep, None)]
+    assert [t.target_object.name for t in tasks] == ["cube", "banana", "mug"]
+    assert [t.pick.objects for t in tasks] == [["cube"], ["banana"], ["mug"]]
+    assert tasks[2].objects[0].mesh == "/data/meshes/mug.obj"
