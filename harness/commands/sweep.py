@@ -40,6 +40,19 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cell(value: object) -> str:
+    """Compact cell text: ``["downward", 140.0]`` -> ``downward 140``."""
+    import json
+
+    if isinstance(value, str) and value.startswith("["):
+        try:
+            items = json.loads(value)
+        except json.JSONDecodeError:
+            return value
+        return " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in items)
+    return str(value)
+
+
 def print_summary(run_dir: Path, console: Console) -> None:
     """The per-point summary table and the paths of the report and the recording."""
     import pandas as pd
@@ -50,9 +63,14 @@ def print_summary(run_dir: Path, console: Console) -> None:
         summary = pd.read_csv(summary_path)
         table = Table(title=f"success per point ({run_dir})")
         keys = [c for c in ("robot", "arm", "object") if c in summary.columns]
-        params = [c for c in summary.columns if c.startswith("param.")]
+        # Swept keys, minus those the key columns already show (object.mesh -> object).
+        params = [
+            c
+            for c in summary.columns
+            if c.startswith("param.") and c not in ("param.object.mesh", "param.objects.0.mesh")
+        ]
         for column in [*keys, *params]:
-            table.add_column(column.removeprefix("param."))
+            table.add_column(column.removeprefix("param.").removeprefix("pick."))
         for column in ("n", "rate", "95% CI", "top failure"):
             table.add_column(column, justify="right")
         fail_columns = [c for c in summary.columns if c.startswith("fail.")]
@@ -60,7 +78,7 @@ def print_summary(run_dir: Path, console: Console) -> None:
             fails = {c.removeprefix("fail."): int(row[c]) for c in fail_columns if row[c] > 0}
             top = max(fails, key=fails.get) if fails else ""
             table.add_row(
-                *[str(row[c]) for c in [*keys, *params]],
+                *[_cell(row[c]) for c in [*keys, *params]],
                 str(int(row["n"])),
                 f"{row['rate']:.0%}",
                 f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
