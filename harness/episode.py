@@ -100,7 +100,7 @@ class EpisodeSpec:
 
 @dataclass
 class EpisodeTrace:
-    """Per-step arrays of an episode for viewers (times in s of simulated time)."""
+    """Per-servo-chunk (~10 ms) arrays of an episode for viewers (times in s of simulated time)."""
 
     time: np.ndarray  # (T,)
     qpos: np.ndarray  # (T, nq) full MuJoCo qpos (replay with mj_kinematics)

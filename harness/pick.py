@@ -122,7 +122,7 @@ SEGMENT_OF_TARGET = {"pregrasp": "transport", "grasp": "approach", "lift": "lift
 
 @dataclass
 class ExecutionTrace:
-    """Per-control-step record of an execution (arrays are trimmed to ``steps``)."""
+    """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
 
     time: np.ndarray  # (T,) s since the start of the execution
     qpos: np.ndarray  # (T, nq) full MuJoCo qpos
@@ -289,7 +289,7 @@ class PickExecutor:
         self.feedforward = np.where(kp > 0, kv / np.maximum(kp, 1e-12), 0.0)
         self.ctrl_lower = m.actuator_ctrlrange[active, 0].copy()
         self.ctrl_upper = m.actuator_ctrlrange[active, 1].copy()
-        capacity = task.max_episode_length + 2
+        capacity = (task.max_episode_length + 2) * len(self.chunk_sizes)
         self.recorder = (
             TraceRecorder(scene, self.arm, self.object_name, capacity) if record else None
         )
@@ -310,6 +310,7 @@ class PickExecutor:
         self.post: str | None = None  # strict, after the list: "finish", "settle", "hold"
         self.post_start = 0
         self.hold_reference: np.ndarray | None = None
+        self.forces: tuple[float, float] = (0.0, 0.0)
 
     # -- timing helpers -------------------------------------------------------------------------
 
@@ -408,6 +409,10 @@ class PickExecutor:
             self.pending_segment = None
             self._event(f"segment {segment} ({self.targets.segments[segment].duration:.3f} s)")
         arm_plan, gripper_plan = self.arm_plan, self.gripper_plan
+        out = self.out
+        recorder = self.recorder
+        phase = self._phase_label() if recorder is not None else ""
+        forces = (0.0, 0.0)
         for chunk, size in enumerate(self.chunk_sizes):
             if arm_plan is not None:
                 d.ctrl[h.active_actuators] = arm_plan[self.arm_row, chunk]
@@ -416,9 +421,13 @@ class PickExecutor:
             if self.ctrl_log is not None:
                 self.ctrl_log.append((size, d.ctrl.copy()))
             self.scene.step(size)
-        self.out.sim_steps += self.substeps
+            out.sim_steps += size
+            if recorder is not None or chunk == len(self.chunk_sizes) - 1:
+                forces = self.scene.finger_forces(self.arm, self.object_name)
+            if recorder is not None:  # one trace row per servo chunk (~10 ms)
+                recorder.record(self.time, phase, forces)
+        self.forces = forces
         self.step += 1
-        out = self.out
         out.max_joint_vel = max(out.max_joint_vel, self.scene.robot_joint_speed())
         speed = float(np.linalg.norm(d.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]))
         out.max_object_vel = max(out.max_object_vel, speed)
@@ -436,6 +445,13 @@ class PickExecutor:
             if self.gripper_row >= len(gripper_plan):
                 self.gripper_plan = None
 
+    def _phase_label(self) -> str:
+        """The head command as ``function:target`` (or the strict post-phase)."""
+        if self.head < len(self.commands):
+            command = self.commands[self.head]
+            return f"{command.function}:{command.target}"
+        return self.post or "verdict"
+
     def _check_collisions(self) -> None:
         """Strict: robot-environment collisions at the executed configuration (check model,
         so they are seen even where the physics ignores robot-table contact)."""
@@ -443,7 +459,7 @@ class PickExecutor:
         assert checker is not None
         target = self.commands[min(self.head, len(self.commands) - 1)].target
         phase: Phase = "approach" if target == "grasp" else "transport"
-        if target == "lift" or self.head >= len(self.commands) or self.head_after_attach():
+        if target == "lift" or self.head >= len(self.commands) or self._attached():
             phase = "carry"
         checker.data.qpos[:] = self.data.qpos
         q = self.data.qpos[self.handles.active_qpos]
@@ -451,7 +467,8 @@ class PickExecutor:
         if pairs:
             self.out.collisions.append(f"t={self.time:.3f}s {checker.describe(pairs)}")
 
-    def head_after_attach(self) -> bool:
+    def _attached(self) -> bool:
+        """The attach event has passed: the object is in the hand (carry rules)."""
         return any(c.event == "attach" for c in self.commands[: self.head])
 
     def _progress(self, forces: tuple[float, float]) -> bool:
@@ -507,14 +524,7 @@ class PickExecutor:
             if reason is not None:
                 self._fail("sim_unstable", reason)
                 break
-            forces = self.scene.finger_forces(self.arm, self.object_name)
-            if self.recorder is not None:
-                phase = (
-                    f"{self.commands[self.head].function}:{self.commands[self.head].target}"
-                    if self.head < len(self.commands)
-                    else (self.post or "verdict")
-                )
-                self.recorder.record(self.time, phase, forces)
+            forces = self.forces
             if self.checker is not None:
                 self._check_collisions()
             if self.head < len(self.commands):

@@ -3,6 +3,7 @@ test modes and both timings, determinism, the row schema and the trace."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,7 @@ from test_scene import make_task, write_box
 
 from harness.config import apply_overrides, load_task
 from harness.episode import EpisodeSpec, run_episode
+from harness.pick import SERVO_CHUNK_S
 from harness.results import FAILURE_REASONS, SCHEMA
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
@@ -190,7 +192,10 @@ def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
     result = episode(task, 5, cache)
     trace = result.trace
     n = len(trace.time)
-    assert n == result.row["sim_steps"] // round(task.control_dt / 0.002)
+    substeps = round(task.control_dt / 0.002)
+    chunks = math.ceil(substeps * 0.002 / SERVO_CHUNK_S - 1e-9)  # servo chunks per step
+    assert n == chunks * result.row["sim_steps"] // round(task.control_dt / 0.002)
+    assert trace.time[-1] == pytest.approx(result.row["sim_time_s"])
     assert trace.qpos.shape == (n, result.scene.model.nq)
     for name in ("tcp_pose", "ee_pose", "object_pose"):
         assert getattr(trace, name).shape == (n, 7)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ from test_scene import make_task, write_box
 
 from harness.config import PickConfig
 from harness.episode import EpisodeSpec, run_episode
-from harness.pick import IDLE_POP_STEPS, build_commands
+from harness.pick import IDLE_POP_STEPS, SERVO_CHUNK_S, build_commands
 
 CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
 
@@ -76,7 +77,7 @@ def test_reference_pick_sequence_and_closing_quirk(cube: Path, cache: dict) -> N
     assert times["segment transport"] < times["segment approach"] < times["segment lift"]
     assert times["gripper close"] < times["approach done"]
     closed = next(t for t, text in trace.events if text.startswith("closed"))
-    control_dt = result.row["sim_time_s"] / len(trace.time)
+    control_dt = round(task.control_dt / 0.002) * 0.002
     assert closed - times["gripper close"] >= (task.pick.gripper_change_steps - 1) * control_dt
     end = trace.ee_pose[-1, :3]
     assert np.linalg.norm(end - trace.T_world_lift[:3, 3]) < task.pick.t_eps
@@ -93,8 +94,9 @@ def test_idle_pop_completes_the_list_when_poses_are_never_reached(cube: Path, ca
     result = run(task, 0, cache)
     assert result.failure_reason != "timeout"
     trace = result.trace
-    steps = {phase: int(np.sum(trace.phase == phase)) for phase in set(trace.phase)}
-    assert steps["open_gripper:pregrasp"] > IDLE_POP_STEPS
+    rows = {phase: int(np.sum(trace.phase == phase)) for phase in set(trace.phase)}
+    chunks_per_step = math.ceil(round(task.control_dt / 0.002) * 0.002 / SERVO_CHUNK_S - 1e-9)
+    assert rows["open_gripper:pregrasp"] > IDLE_POP_STEPS * chunks_per_step
     assert result.success, result.row["error_message"]
 
 
@@ -132,7 +134,7 @@ def test_episode_length_limit_is_a_timeout(cube: Path, cache: dict) -> None:
     task = make_task("fr3", "left", cube, object=CENTRE, max_episode_length=15)
     result = run(task, 0, cache)
     assert result.failure_reason == "timeout"
-    assert len(result.trace.time) == 15
+    assert result.row["sim_steps"] == 15 * round(task.control_dt / 0.002)
 
 
 def test_return_to_pregrasp_runs_the_retreat(cube: Path, cache: dict) -> None:

@@ -163,6 +163,7 @@ def main(args: argparse.Namespace) -> int:
                 live.update(_table(rows, len(episodes)))
     except KeyboardInterrupt:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
+    console.print()
     finalize_run(run_dir)
     successes = sum(bool(row.get("success")) for row in rows)
     n = len(rows)
