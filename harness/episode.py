@@ -28,6 +28,7 @@ import json
 import math
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,7 +36,7 @@ import mujoco
 import numpy as np
 
 from harness import __version__
-from harness.config import TaskConfig
+from harness.config import PickConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.grasps import (
     EEPoses,
@@ -320,12 +321,6 @@ class _EpisodeStopError(Exception):
         self.message = message
 
 
-@dataclass
-class _Timers:
-    ik: float = 0.0
-    plan: float = 0.0
-
-
 def run_episode(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None = None) -> EpisodeResult:
     """Run one episode; exceptions become ``error`` rows (see the module docstring)."""
     wall_start = time.perf_counter()
@@ -361,7 +356,6 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     arm = task.arm
     scene.robot.arm(arm)  # a clear error for an unknown arm
     rng = np.random.default_rng(spec.seed)
-    timers = _Timers()
 
     # 1. Reset: placement, home + noise, settle.
     reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S)
@@ -450,43 +444,24 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         world = [T_world_base @ T_pre, T_world_base @ T_grasp]
         return world[0], world[1], (T_world_base @ T_lift if T_lift is not None else None)
 
-    cache: dict[int, CandidateVerdict] = {}
-    verdicts: list[CandidateVerdict] = []
-    chosen: CandidateVerdict | None = None
     ik_time_before = ik.total_time
-    for position, pose_index in enumerate(order.indices.tolist()):
-        score = float(order.scores[position])
-        if pose_index in cache:  # the reference re-tests duplicates; the answer is the same
-            previous = cache[pose_index]
-            verdict = CandidateVerdict(
-                position, pose_index, score, previous.feasible, previous.stage, previous.detail,
-                previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
-            )  # fmt: skip
-        else:
-            T_pre, T_grasp, T_lift = targets_for(T_base_candidates[position], strict)
-            if pick.test_mode == "ik":
-                verdict = planner.test_ik(
-                    position, pose_index, score, q_now, T_pre, T_grasp,
-                    pick.pre_grasp_offset > 0, rng,
-                )  # fmt: skip
-            else:
-                verdict = planner.plan_chain(
-                    position, pose_index, score, q_now, T_pre, T_grasp, T_lift,
-                    pick.return_to_pregrasp, rng,
-                )  # fmt: skip
-            cache[pose_index] = verdict
-        verdicts.append(verdict)
-        if verdict.feasible:
-            chosen = verdict
-            break
+    verdicts, chosen = _test_candidates(
+        planner, pick, order.indices.tolist(), order.scores.tolist(),
+        lambda position: targets_for(T_base_candidates[position], strict), q_now, rng,
+    )  # fmt: skip
     row["n_tested"] = len(verdicts)
     row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
+
+    def stop_planning(reason: FailureReason, message: str) -> _EpisodeStopError:
+        """Record the planning time and the trace so far, and end the episode."""
+        row["plan_time_s"] = time.perf_counter() - t0
+        row["ik_time_s"] = ik.total_time - ik_time_before
+        finish_trace(None, verdicts, chosen, None, None)
+        return _EpisodeStopError(reason, message)
+
     if chosen is None:
         if strict or not verdicts:
-            timers.plan = time.perf_counter() - t0
-            _fill_timing(row, timers, ik, ik_time_before)
-            finish_trace(None, verdicts, None, None, None)
-            raise _EpisodeStopError(
+            raise stop_planning(
                 "no_feasible_candidate",
                 f"none of the {len(verdicts)} candidates passed the {pick.test_mode} test"
                 + (f"; last: {verdicts[-1].stage}: {verdicts[-1].detail}" if verdicts else ""),
@@ -514,25 +489,19 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         if failure.stage not in ("transport", "ik_pregrasp"):
             break  # deterministic failures do not change on a retry
     if plan is None:
-        timers.plan = time.perf_counter() - t0
-        _fill_timing(row, timers, ik, ik_time_before)
-        finish_trace(None, verdicts, chosen, None, None)
-        raise _EpisodeStopError("plan_failed", f"{failure.stage}: {failure.detail}")
+        raise stop_planning("plan_failed", f"{failure.stage}: {failure.detail}")
     try:
         segments = time_plan(plan, scene, arm, task)
     except TimingError as exc:
-        timers.plan = time.perf_counter() - t0
-        _fill_timing(row, timers, ik, ik_time_before)
-        finish_trace(None, verdicts, chosen, None, None)
-        raise _EpisodeStopError("plan_failed", f"timing: {exc}") from None
-    timers.plan = time.perf_counter() - t0
-    _fill_timing(row, timers, ik, ik_time_before)
+        raise stop_planning("plan_failed", f"timing: {exc}") from None
+    row["plan_time_s"] = time.perf_counter() - t0
+    row["ik_time_s"] = ik.total_time - ik_time_before
     row["traj_duration_s"] = sum(s.duration for s in segments.values())
     targets = PickTargets(plan.T_world_pregrasp, plan.T_world_grasp, plan.T_world_lift, segments)
     planned = _planned_tcp(ik, scene, arm, segments, task.control_dt)
 
     # 5. Execute and judge.
-    result.timings["plan_s"] = timers.plan
+    result.timings["plan_s"] = row["plan_time_s"]
     clock = time.perf_counter()
     executor = PickExecutor(
         scene, task, targets, reset.object_init_position, lift_offset, planner.checker,
@@ -559,15 +528,54 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         raise _EpisodeStopError(outcome.failure_reason, outcome.message)
 
 
-def _fill_timing(row: dict[str, Any], timers: _Timers, ik: WholeBodyIK, before: float) -> None:
-    row["ik_time_s"] = ik.total_time - before
-    row["plan_time_s"] = timers.plan
+def _test_candidates(
+    planner: PickPlanner,
+    pick: PickConfig,
+    indices: list[int],
+    scores: list[float],
+    targets_of: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
+    q_now: np.ndarray,
+    rng: np.random.Generator,
+) -> tuple[list[CandidateVerdict], CandidateVerdict | None]:
+    """Walk the ordered candidates until one passes ``pick.test_mode``; (verdicts, chosen).
+
+    ``targets_of(position)`` gives the world pre-grasp, grasp and lift poses of a candidate.
+    A duplicate (the reference draws with replacement) reuses the first answer: the reference
+    re-tests it and gets the same one.
+    """
+    tested: dict[int, CandidateVerdict] = {}
+    verdicts: list[CandidateVerdict] = []
+    for position, pose_index in enumerate(indices):
+        score = float(scores[position])
+        if pose_index in tested:
+            previous = tested[pose_index]
+            verdict = CandidateVerdict(
+                position, pose_index, score, previous.feasible, previous.stage, previous.detail,
+                previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
+            )  # fmt: skip
+        else:
+            T_pre, T_grasp, T_lift = targets_of(position)
+            if pick.test_mode == "ik":
+                verdict = planner.test_ik(
+                    position, pose_index, score, q_now, T_pre, T_grasp,
+                    pick.pre_grasp_offset > 0, rng,
+                )  # fmt: skip
+            else:
+                verdict = planner.plan_chain(
+                    position, pose_index, score, q_now, T_pre, T_grasp, T_lift,
+                    pick.return_to_pregrasp, rng,
+                )  # fmt: skip
+            tested[pose_index] = verdict
+        verdicts.append(verdict)
+        if verdict.feasible:
+            return verdicts, verdict
+    return verdicts, None
 
 
 def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict[str, Trajectory]:
-    """Timed segments of a chain plan. ``pick.timing`` times the joint-space transport (and the
-    retreat); the Cartesian approach and lift always use TOPP-RA through their dense IK
-    waypoints (offline Ruckig would stop at every waypoint)."""
+    """Timed segments of a chain plan. ``pick.timing`` times the joint-space transport; the
+    Cartesian approach, lift and retreat always use TOPP-RA through their dense IK waypoints
+    (offline Ruckig would stop at every waypoint), at ``CARTESIAN_SPEED_SCALE``."""
     robot = scene.robot
     names = scene.arms[arm].active_names
     limits = TimingLimits(
