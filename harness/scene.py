@@ -35,7 +35,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from harness.assets import ObjectAsset, resolve_mesh
+from harness.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
 from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.robot import RobotModel
@@ -213,10 +213,14 @@ class Scene:
         )
         base = Path(base_dir)
         assets: dict[str, ObjectAsset] = {}
+        objects = [with_object_defaults(obj) for obj in objects]
         for obj in objects:
             mesh_path = resolve_mesh(obj.mesh, base)
+            grasps = obj.grasps
+            if grasps and not Path(grasps).is_absolute() and (base / grasps).is_file():
+                grasps = str(base / grasps)  # relative to the task file
             asset = ObjectAsset.load(
-                mesh_path, obj.scale, obj.grasps, mass=obj.mass, friction=obj.friction
+                mesh_path, obj.scale, grasps, mass=obj.mass, friction=obj.friction
             )
             assets[obj.name] = asset
             _add_object(spec, obj.name, asset)
@@ -358,7 +362,7 @@ class Scene:
         arm = self.robot.arm(task.arm)
         T_world_objects: dict[str, np.ndarray] = {}
         choice: int | None = None
-        configs = {config.name: config for config in task.objects}
+        configs = {config.name: with_object_defaults(config) for config in task.objects}
         for obj in self.objects.values():
             # The task's placement and orientations (the scene may have been built for another
             # task with the same objects), falling back to the scene's own.
@@ -651,13 +655,34 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
         )
 
 
+def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
+    """A default object (``mesh: cube``) takes ``mass``, ``friction`` and ``orientations`` from
+    its ``tasks/objects/<name>/object.yaml`` unless the task sets them."""
+    name = obj.mesh
+    if "/" in name or "\\" in name or not (default_objects_dir() / name).is_dir():
+        return obj
+    info = load_object_info(name)
+    update: dict[str, object] = {}
+    for key in ("mass", "friction", "orientations", "category"):
+        if key not in obj.model_fields_set and info.get(key) is not None:
+            update[key] = info[key]
+    if not update:
+        return obj
+    return ObjectConfig.model_validate({**obj.model_dump(), **update})
+
+
 def scene_key(task: TaskConfig) -> str:
-    """Cache key of the scene a task needs: robot, object physics and assets, physics options."""
-    objects = [
-        obj.model_dump(mode="json", include={"name", "mesh", "grasps", "scale", "mass", "friction"})
-        for obj in task.objects
-    ]
-    return json.dumps(
-        [task.robot, str(task.base_dir()), objects, task.physics.model_dump(mode="json")],
-        sort_keys=True,
-    )
+    """Cache key of the scene a task needs: the robot, each object's resolved mesh file and
+    physical properties, and the physics options (not placements: those are per episode)."""
+    base = task.base_dir()
+    objects = []
+    for obj in map(with_object_defaults, task.objects):
+        try:
+            mesh = str(resolve_mesh(obj.mesh, base).resolve())
+        except HarnessError:
+            mesh = f"{base}/{obj.mesh}"  # unresolvable: Scene.build reports it
+        grasps = obj.grasps
+        if grasps and not Path(grasps).is_absolute():
+            grasps = str((base / grasps).resolve()) if (base / grasps).exists() else grasps
+        objects.append([obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction])
+    return json.dumps([task.robot, objects, task.physics.model_dump(mode="json")], sort_keys=True)
