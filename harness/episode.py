@@ -481,9 +481,11 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     failure = chosen
     while plan is None and attempts <= PLAN_RETRIES:
         attempts += 1
+        tested = chosen.ik_pregrasp
         failure = planner.plan_chain(
             chosen.position, chosen.pose_index, chosen.score, q_now, T_pre, T_grasp, T_lift,
             pick.return_to_pregrasp, rng,
+            pregrasp_seed=tested.q if tested is not None and tested.success else None,
         )  # fmt: skip
         plan = failure.plan
         if failure.stage not in ("transport", "ik_pregrasp"):

@@ -46,6 +46,7 @@ from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
 from harness.scene import TABLE_BIT, Scene, refresh_body_masks
 
 Phase = Literal["transport", "approach", "carry"]
+COLLISION_FREE_IK_ATTEMPTS = 3  # fresh IK restarts when a solution is in collision
 Collides = Callable[[np.ndarray], bool]
 
 
@@ -397,6 +398,33 @@ class PickPlanner:
     ) -> IKResult:
         return self.ik.solve(T_world_target, seed, rng, self.settings.ik)
 
+    def collision_free_ik(
+        self,
+        T_world_target: np.ndarray,
+        seeds: list[np.ndarray],
+        phase: Phase,
+        rng: np.random.Generator | None,
+        attempts: int = COLLISION_FREE_IK_ATTEMPTS,
+    ) -> tuple[IKResult, str]:
+        """An IK solution that is also collision-free for ``phase``: from the seeds first, then
+        from random restarts while the solutions collide. Returns the result and "" -- or, when
+        every solution found collides, the last one and why."""
+        result = self.ik.solve(T_world_target, seeds[0], rng, self.settings.ik, seeds[1:])
+        colliding: tuple[IKResult, str] | None = None
+        for attempt in range(attempts + 1):
+            if result.success:
+                pairs = self.checker.contacts(result.q, phase)
+                if not pairs:
+                    return result, ""
+                colliding = (result, f"IK solution in collision ({self.checker.describe(pairs)})")
+            elif attempt == 0:
+                return result, ""  # not reachable at all: restarts were already spent
+            if rng is None or attempt == attempts:
+                break
+            restart = self.ik.random_configuration(rng)
+            result = self.ik.solve(T_world_target, restart, rng, self.settings.ik)
+        return colliding if colliding is not None else (result, "")
+
     def edge_free(self, phase: Phase) -> Callable[[np.ndarray, np.ndarray], bool]:
         resolution = self.settings.collision_resolution
 
@@ -480,23 +508,17 @@ class PickPlanner:
         checked for collisions (as the reference's collision-aware IK does; the grasp with the
         approach rules, so the fingers may touch the object)."""
         start = time.perf_counter()
-        pre = self.solve_ik(T_world_pregrasp, q_current, rng)
+        pre, why = self.collision_free_ik(T_world_pregrasp, [q_current], "transport", rng)
         verdict = CandidateVerdict(position, pose_index, score, False, "", ik_pregrasp=pre)
-        if not pre.success:
+        if not pre.success or why:
             verdict.stage = "ik_pregrasp"
-            verdict.detail = _ik_detail(pre)
-        elif pairs := self.checker.contacts(pre.q, "transport"):
-            verdict.stage = "ik_pregrasp"
-            verdict.detail = f"IK solution in collision ({self.checker.describe(pairs)})"
+            verdict.detail = why or _ik_detail(pre)
         elif test_grasp:
-            grasp = self.solve_ik(T_world_grasp, q_current, rng)
+            grasp, why = self.collision_free_ik(T_world_grasp, [q_current], "approach", rng)
             verdict.ik_grasp = grasp
-            if not grasp.success:
+            if not grasp.success or why:
                 verdict.stage = "ik_grasp"
-                verdict.detail = _ik_detail(grasp)
-            elif pairs := self.checker.contacts(grasp.q, "approach"):
-                verdict.stage = "ik_grasp"
-                verdict.detail = f"IK solution in collision ({self.checker.describe(pairs)})"
+                verdict.detail = why or _ik_detail(grasp)
         verdict.feasible = verdict.stage == ""
         verdict.time_s = time.perf_counter() - start
         return verdict
@@ -512,8 +534,12 @@ class PickPlanner:
         T_world_lift: np.ndarray | None,
         return_to_pregrasp: bool,
         rng: np.random.Generator,
+        pregrasp_seed: np.ndarray | None = None,
     ) -> CandidateVerdict:
-        """``forward`` mode (and execution planning): the whole chained, checked motion."""
+        """``forward`` mode (and execution planning): the whole chained, checked motion.
+
+        ``pregrasp_seed`` (e.g. the solution an ``ik`` test found) is tried before the current
+        state as the pre-grasp IK seed."""
         start = time.perf_counter()
         verdict = CandidateVerdict(position, pose_index, score, False, "")
 
@@ -522,10 +548,13 @@ class PickPlanner:
             verdict.time_s = time.perf_counter() - start
             return verdict
 
-        pre = self.solve_ik(T_world_pregrasp, q_current, rng)
+        seeds = [q_current] if pregrasp_seed is None else [pregrasp_seed, q_current]
+        pre, why = self.collision_free_ik(T_world_pregrasp, seeds, "transport", rng)
         verdict.ik_pregrasp = pre
         if not pre.success:
             return fail("ik_pregrasp", _ik_detail(pre))
+        if why:
+            return fail("ik_pregrasp", why)
         transport, used_rrt, why = self.joint_path(q_current, pre.q, "transport", rng)
         if transport is None:
             return fail("transport", why)
