@@ -210,3 +210,41 @@ def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
     assert len(trace.planned_tcp) > 10
     assert np.linalg.norm(trace.planned_tcp[-1] - trace.tcp_pose[-1, :3]) < 0.02
     assert np.all(np.diff(trace.planned_time) >= 0)
+
+
+# --------------------------------------------------------------------------------------------
+# harness run
+
+
+def test_harness_run_writes_a_run_directory(tmp_path: Path, capsys) -> None:
+    """Two episodes with an override: exit 0, episodes.csv in the sweep layout with the
+    override as a parameter column, the success rate with its Wilson interval printed."""
+    import pandas as pd
+
+    from harness.cli import main
+
+    out = tmp_path / "run"
+    code = main(
+        [
+            "run",
+            str(TASKS_DIR / "fr3.yaml"),
+            "--episodes",
+            "2",
+            "--seed",
+            "3",
+            "--set",
+            "pick.timing=ruckig",
+            "--out",
+            str(out),
+            "--record",
+            "none",
+        ]
+    )
+    assert code == 0
+    frame = pd.read_csv(out / "episodes.csv")
+    assert len(frame) == 2
+    assert set(frame["timing"]) == {"ruckig"}
+    assert "param.pick.timing" in frame.columns
+    assert (out / "sweep.yaml").is_file() and (out / "summary.csv").is_file()
+    printed = capsys.readouterr().out
+    assert "Wilson" in printed and "/2" in printed
