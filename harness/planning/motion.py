@@ -63,7 +63,8 @@ class PlannerSettings:
     cartesian_step: float = 0.01  # m between Cartesian IK waypoints
     max_joint_jump: float = 0.3  # largest joint change allowed between Cartesian waypoints
     penetration_tolerance: float = 1e-4  # contacts shallower than this are not collisions
-    rrt_time_budget: float = 0.2  # s per RRT-Connect query
+    # Budgets are counts, not seconds: a plan must not depend on machine load (same seed, same row).
+    rrt_max_iterations: int = 1000  # samples per RRT-Connect query
     rrt_step: float = 0.2  # joint-space extension step
     rrt_max_nodes: int = 4000
     shortcut_iterations: int = 40
@@ -230,15 +231,17 @@ def rrt_connect(
     edge_free: Callable[[np.ndarray, np.ndarray], bool],
     rng: np.random.Generator,
     step: float,
-    time_budget: float,
+    max_iterations: int,
     max_nodes: int,
 ) -> list[np.ndarray] | None:
     """Bidirectional RRT (RRT-Connect) from ``start`` to ``goal``; None when the budget runs out.
 
+    The budget is ``max_iterations`` samples and ``max_nodes`` tree nodes, never wall time, so
+    the result depends only on the inputs and ``rng``.
+
     ``config_free(q)`` and ``edge_free(qa, qb)`` are the collision tests. Trees grow by at most
     ``step`` (max-norm) per extension; the other tree greedily connects towards each new node.
     """
-    deadline = time.perf_counter() + time_budget
     trees: list[tuple[list[np.ndarray], list[int]]] = [([start], [-1]), ([goal], [-1])]
 
     def nearest(nodes: list[np.ndarray], q: np.ndarray) -> int:
@@ -265,7 +268,9 @@ def rrt_connect(
         return out
 
     a, b = 0, 1
-    while time.perf_counter() < deadline and len(trees[0][0]) + len(trees[1][0]) < max_nodes:
+    for _ in range(max_iterations):
+        if len(trees[0][0]) + len(trees[1][0]) >= max_nodes:
+            break
         sample = lower + (upper - lower) * rng.random(len(lower))
         status, new_index = extend(trees[a], sample)
         if status != "trapped":
@@ -456,7 +461,7 @@ class PickPlanner:
             edge_free,
             rng,
             s.rrt_step,
-            s.rrt_time_budget,
+            s.rrt_max_iterations,
             s.rrt_max_nodes,
         )
         if path is None:
