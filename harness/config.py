@@ -792,8 +792,10 @@ def apply_overrides(task: TaskConfig, overrides: dict[str, Any]) -> TaskConfig:
         try:
             _check_dotted_key(key)
             set_dotted(data, key, value)
-        except (ValueError, KeyError, IndexError, TypeError) as exc:
-            raise ConfigError(str(exc).strip("'\""), file=task.source, key=key) from None
+        except KeyError as exc:  # str(KeyError) quotes its message
+            raise ConfigError(str(exc.args[0]), file=task.source, key=key) from None
+        except (ValueError, IndexError, TypeError) as exc:
+            raise ConfigError(str(exc), file=task.source, key=key) from None
     try:
         return TaskConfig.model_validate(data)
     except ValidationError as exc:

@@ -148,6 +148,9 @@ def _position_servo(
     return actuator
 
 
+FINGER_LIMIT_SOLREF = (0.002, 1.0)
+
+
 def _force_limit(actuator: mujoco.MjsActuator, limit: float) -> None:
     actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     actuator.forcerange = [-limit, limit]
@@ -159,6 +162,9 @@ def _add_gripper(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
         joint = spec.joint(name)
         joint.damping = [arm.gripper.damping, 0.0, 0.0]
         joint.armature = arm.gripper.armature
+        # Stiff travel limits: with the default soft limit a large object pried the FR3 fingers
+        # open to 14.6 cm against a 4 cm stroke; 2 ms limit stiffness holds them near it.
+        joint.solref_limit = list(FINGER_LIMIT_SOLREF)
     spec.add_equality(
         name=f"{arm.name}_finger_coupling",
         type=mujoco.mjtEq.mjEQ_JOINT,

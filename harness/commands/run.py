@@ -31,6 +31,7 @@ from harness.config import (
     parse_set_value,
 )
 from harness.errors import HarnessError
+from harness.stats import wilson_interval
 
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
@@ -104,23 +105,6 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
     except (TypeError, ValueError):
         return ""
     return "" if number != number else pattern.format(number)
-
-
-def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """95% Wilson score interval of a binomial proportion (harness.stats when present)."""
-    try:
-        from harness.stats import wilson_interval as wilson
-
-        lo, hi = wilson(successes, n)
-        return float(lo), float(hi)
-    except ImportError:
-        if n == 0:
-            return 0.0, 1.0
-        p = successes / n
-        denom = 1 + z * z / n
-        centre = (p + z * z / (2 * n)) / denom
-        half = z * ((p * (1 - p) / n + z * z / (4 * n * n)) ** 0.5) / denom
-        return max(0.0, centre - half), min(1.0, centre + half)
 
 
 def main(args: argparse.Namespace) -> int:
