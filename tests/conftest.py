@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# Offscreen rendering without a display (must be set before mujoco is first imported).
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 import pytest
 
