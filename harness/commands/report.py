@@ -7,9 +7,9 @@ import math
 from pathlib import Path
 
 import pandas as pd
-from rich.console import Console
 from rich.table import Table
 
+from harness.commands.console import make_console
 from harness.report import (
     FAIL_PREFIX,
     build_report,
@@ -26,7 +26,7 @@ def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
     paths = build_report(run_dir, export=True)
-    console = Console()
+    console = make_console()
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
@@ -82,7 +82,7 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
 def compare(args: argparse.Namespace) -> int:
     """Per-point success-rate differences between two runs, with a two-proportion test."""
     comparison = compare_runs(Path(args.run_a), Path(args.run_b))
-    console = Console()
+    console = make_console()
     params = varying_params(comparison) or [c for c in comparison.columns if c.startswith("param.")]
     table = Table(title=f"B - A per point   A = {args.run_a}   B = {args.run_b}")
     for column in ("robot", "arm", "object", *[_short(p) for p in params]):

@@ -18,10 +18,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
+from harness.commands.console import make_console
 from harness.config import (
     ConfigError,
     SweepConfig,
@@ -113,7 +113,7 @@ def main(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
-    console = Console()
+    console = make_console()
     tasks = load_run_tasks(args)
     overrides = parse_overrides(args.overrides)
     for task in tasks:  # fail early, with the task file named, on a bad override

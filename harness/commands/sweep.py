@@ -7,11 +7,12 @@ from pathlib import Path
 
 from rich.console import Console
 
+from harness.commands.console import make_console
 from harness.sweep import run_sweep
 
 
 def main(args: argparse.Namespace) -> int:
-    console = Console()
+    console = make_console()
     outcome = run_sweep(
         Path(args.sweep) if args.sweep else None,
         resume_dir=Path(args.resume) if args.resume else None,
