@@ -642,7 +642,7 @@ def _make_trace(
     parts: dict[str, Any],
 ) -> EpisodeTrace:
     d = scene.data
-    # Candidates: every tested pose, then passing poses up to a cap.
+    # Candidates: every tested pose, then passing and rejected poses, each up to a cap.
     status: dict[int, str] = {}
     detail: dict[int, str] = {}
     for v in verdicts:
@@ -653,6 +653,12 @@ def _make_trace(
     passing = selection.filter_result.passing_indices
     for index in passing[:MAX_TRACE_CANDIDATES].tolist():
         status.setdefault(int(index), PASSED)
+    # What the filters threw away, evenly thinned to the same cap so the viewer stays light.
+    rejected = np.flatnonzero(~selection.filter_result.combined)
+    if len(rejected) > MAX_TRACE_CANDIDATES:
+        rejected = rejected[np.linspace(0, len(rejected) - 1, MAX_TRACE_CANDIDATES).astype(int)]
+    for index in rejected.tolist():
+        status.setdefault(int(index), REJECTED)
     indices = np.array(sorted(status), dtype=np.int64)
     T_world_ee = (
         T_world_base @ selection.T_base_ee_at(indices) if len(indices) else np.zeros((0, 4, 4))

@@ -158,7 +158,7 @@ def test_recordings_read_back_with_rerun(tmp_path: Path):
         "/verdict",
     ):
         assert expected in paths, expected
-    assert any(p.startswith("/world/candidates/") for p in paths)
+    assert {"/world/candidates/rejected", "/world/candidates/chosen"} <= paths
     assert sum(p.startswith("/world/bodies/") for p in paths) > 10
     # The object-height series is on the sim_time timeline and spans the episode.
     z_chunks = [c for c in chunks if c.entity_path == "/plots/object_z"]
