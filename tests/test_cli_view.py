@@ -1,0 +1,33 @@
+"""``harness view``: without a display it explains how to open the recording."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from harness.cli import main
+
+
+def test_view_without_display_prints_instructions(tmp_path: Path, monkeypatch, capsys):
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"RRF2")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(recording)]) == 0
+    out = capsys.readouterr().out
+    assert "no display" in out and "rerun x.rrd" in out
+
+
+def test_view_missing_file_is_one_line_error(tmp_path: Path, capsys):
+    assert main(["view", str(tmp_path / "missing.rrd")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "missing.rrd: no such recording" in err[0]
+
+
+@pytest.mark.parametrize("argv", [["--version"]])
+def test_version(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 0
+    assert capsys.readouterr().out.startswith("pick-harness ")
