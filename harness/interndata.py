@@ -325,6 +325,22 @@ OBJECT_KEYS_IGNORED: dict[str, str] = {
 
 
 @dataclass(frozen=True)
+class SkippedSkill:
+    """A skill of the file that pick-harness does not run (anything but ``pick``)."""
+
+    key: str  # where it is: tasks[0].skills[0].split_aloha[0].right[1]
+    name: str  # place, heuristic__skill, ...
+    robot_name: str
+    arm: str
+    mode: str | None = None  # heuristic__skill's mode (home, ...), when given
+
+    def describe(self) -> str:
+        """``tasks[0].skills[0].split_aloha[0].right[1]: place (split_aloha right)``."""
+        mode = f" mode {self.mode}" if self.mode else ""
+        return f"{self.key}: {self.name}{mode} ({self.robot_name} {self.arm})"
+
+
+@dataclass(frozen=True)
 class InternDataPick:
     """One ``pick`` skill of an InternDataEngine file as a harness task, with its provenance.
 
@@ -332,7 +348,8 @@ class InternDataPick:
     robot's list of arm groups inside the stage (also sequential), ``skill_index`` the arm's
     skill list. ``order`` is the pick's position in execution order over the whole file.
     ``skipped`` holds the notes of everything in the file the task does not carry (other skills,
-    ignored keys, approximations).
+    ignored keys, approximations); ``skipped_skills`` the file's skills that are not run (the
+    same for every pick of a file).
     """
 
     task: TaskConfig
@@ -345,6 +362,7 @@ class InternDataPick:
     order: int
     key: str
     skipped: list[str] = field(default_factory=list)
+    skipped_skills: tuple[SkippedSkill, ...] = ()
 
     @property
     def robot(self) -> str:
@@ -607,6 +625,7 @@ class _TaskMapper:
         asset_root: Path | None,
         substitutes: dict[str, str],
         check_assets: bool,
+        check_grasps: bool = False,
     ) -> None:
         self.where = where
         self.index = index
@@ -615,7 +634,9 @@ class _TaskMapper:
         self.asset_root = asset_root
         self.substitutes = substitutes
         self.check_assets = check_assets
+        self.check_grasps = check_assets and check_grasps
         self.notes: list[str] = []  # the file's notes, then (during task_config) one pick's
+        self.skipped_skills: list[SkippedSkill] = []
         self.stem = Path(where.file).stem
 
     # -- helpers --------------------------------------------------------------------------------
@@ -682,6 +703,7 @@ class _TaskMapper:
                     order=order,
                     key=self.key(pick.path),
                     skipped=self.notes,
+                    skipped_skills=tuple(self.skipped_skills),
                 )
             )
         self.notes = file_notes
@@ -949,6 +971,16 @@ class _TaskMapper:
                                 picks.append(_PickSkill(skill, kpath, robot, arm, stage, phase, k))
                                 continue
                             skipped[str(name)] = skipped.get(str(name), 0) + 1
+                            mode = skill.get("mode")
+                            self.skipped_skills.append(
+                                SkippedSkill(
+                                    self.key(kpath),
+                                    str(name),
+                                    robot.name,
+                                    str(arm),
+                                    str(mode) if mode is not None else None,
+                                )
+                            )
                             self.note(
                                 f"skipped {self.key(kpath)}: skill {name!r} (pick-harness runs "
                                 "pick skills only; each pick starts from the initial scene)"
@@ -991,9 +1023,12 @@ class _TaskMapper:
                 ]
                 origin[("pick", "ignore_substring")] = (*robot.path, "ignore_substring")
 
+        target = str(wanted[0]) if isinstance(wanted, list) and wanted else None
         object_configs: list[dict[str, Any]] = []
         for obj in objects.values():
             config = self.object_config(obj, obj.name in required, regions, origin, object_configs)
+            if config is not None and obj.name == target and self.check_grasps:
+                self.check_grasp_file(obj, Path(config["mesh"]), block, pick.path)
             if config is not None:
                 object_configs.append(config)
 
@@ -1120,6 +1155,36 @@ class _TaskMapper:
             self.note(f"{obj.name!r}: no table region; the arm's object region from robot.yaml")
         return config
 
+    def check_grasp_file(
+        self, obj: _Object, mesh: Path, block: dict[str, Any], pick_path: KeyPath
+    ) -> None:
+        """The picked object's grasp file must exist: the pick's ``npy_name`` next to its asset
+        (the reference's rule; the harness also takes ``<mesh>_grasps.npy`` or ``grasps.npy``
+        for the default name). Checked here so a missing one is one located line up front, not
+        an ``error`` row per episode."""
+        from harness.assets import DEFAULT_NPY_NAME, find_grasp_file
+        from harness.errors import InputFileError
+
+        npy_name = block.get("npy_name", DEFAULT_NPY_NAME)
+        if not isinstance(npy_name, str) or not npy_name:
+            return  # PickConfig validation reports it at the pick's npy_name
+        try:
+            found = find_grasp_file(mesh, npy_name)
+        except InputFileError:
+            found = None
+        if found is not None:
+            return
+        if npy_name != DEFAULT_NPY_NAME:
+            raise self.error(
+                (*pick_path, "npy_name"),
+                f"grasp file not found next to the asset of {obj.name!r}: {mesh.parent / npy_name}",
+            )
+        raise self.error(
+            (*obj.path, "path"),
+            f"no grasp file next to the asset: {mesh.parent / npy_name} (the pick reads its "
+            "npy_name, default Aligned_grasp_sparse.npy, next to the USD)",
+        )
+
     def translate(self, exc: ValidationError, origin: dict[KeyPath, KeyPath]) -> ConfigError:
         """A TaskConfig validation error, located at the InternData key the value came from."""
         loc, message, line_loc = describe_validation_error(exc, TaskConfig)
@@ -1142,6 +1207,7 @@ def load_interndata_tasks(
     asset_root: Path | None = None,
     objects: dict[str, str] | None = None,
     check_assets: bool = True,
+    check_grasps: bool = False,
 ) -> list[InternDataPick]:
     """Every ``pick`` skill of an InternDataEngine task file as a harness task, in run order.
 
@@ -1149,7 +1215,10 @@ def load_interndata_tasks(
     file's own ``asset_root``, relative to the current directory as in the reference).
     ``objects`` substitutes assets by object name: ``{name: PATH}`` or ``{name: PATH@SCALE}``; a
     substitute is used at scale 1 unless it gives one. ``check_assets`` makes a missing asset of a
-    picked object an error (``harness validate`` turns it off).
+    picked object an error (``harness validate`` turns it off); ``check_grasps`` (with
+    ``check_assets``) also requires each pick's grasp file next to its object's asset, so that a
+    run fails up front with one located line instead of an ``error`` row per episode
+    (``harness run --interndata`` turns it on).
     """
     path = Path(path)
     substitutes = dict(objects or {})
@@ -1161,7 +1230,9 @@ def load_interndata_tasks(
     picks: list[InternDataPick] = []
     names: set[str] = set()
     for index, task in enumerate(data["tasks"]):
-        mapper = _TaskMapper(where, task, index, asset_root, substitutes, check_assets)
+        mapper = _TaskMapper(
+            where, task, index, asset_root, substitutes, check_assets, check_grasps
+        )
         picks.extend(mapper.map(first_order=len(picks)))
         if isinstance(task, dict) and isinstance(task.get("objects"), list):
             names.update(

@@ -6,7 +6,9 @@ can continue it. ``--set key=value`` overrides become the point's parameters (``
 columns). Episode seeds and ids are those a sweep with the same seed would use.
 
 ``--interndata FILE`` runs every pick skill of an InternDataEngine task file (each as its own
-task), with ``--asset-root`` and ``--object NAME=PATH[@SCALE]`` substitutions.
+task), with ``--asset-root`` and ``--object NAME=PATH[@SCALE]`` substitutions. The skills it
+does not run (place, heuristic__skill, ...) are listed before the run and, with every other
+note of the mapping (ignored keys, approximations), in ``RUN_DIR/skipped.txt``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import importlib.util
 import re
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.live import Live
 from rich.table import Table
@@ -33,6 +35,9 @@ from harness.config import (
 from harness.errors import HarnessError
 from harness.stats import wilson_interval
 
+if TYPE_CHECKING:
+    from harness.interndata import InternDataPick
+
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
 
@@ -47,25 +52,58 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
     return out
 
 
+def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
+    """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
+    if args.task:
+        raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
+    if importlib.util.find_spec("harness.interndata") is None:
+        raise HarnessError("--interndata is not yet supported (harness/interndata.py missing)")
+    from harness.interndata import load_interndata_tasks, parse_object_substitutions
+
+    picks = load_interndata_tasks(
+        args.interndata,
+        asset_root=Path(args.asset_root) if args.asset_root else None,
+        objects=parse_object_substitutions(args.object),
+        check_grasps=True,
+    )
+    if not picks:
+        raise HarnessError(f"{args.interndata}: the file has no pick skill")
+    return picks
+
+
+def interndata_summary(path: str, picks: list[InternDataPick]) -> list[str]:
+    """What the run takes from an InternData file: its picks, then the skills it skips."""
+    lines = [f"InternDataEngine file {path}: {len(picks)} pick skill(s), each run as a task"]
+    for pick in picks:
+        objects = ", ".join(obj.name for obj in pick.task.objects)
+        lines.append(
+            f"  {pick.task.name}: {pick.key} -> {pick.robot} {pick.arm}, picks "
+            f"{pick.task.target_object.name!r} (scene: {objects})"
+        )
+    skipped = picks[0].skipped_skills if picks else ()
+    if skipped:
+        lines.append(f"skipped {len(skipped)} skill(s) (pick-harness runs pick skills only):")
+        lines.extend(f"  {skill.describe()}" for skill in skipped)
+    return lines
+
+
+def write_skipped(run_dir: Path, path: str, picks: list[InternDataPick]) -> Path:
+    """``RUN_DIR/skipped.txt``: the summary plus every note of the mapping, per task."""
+    lines = interndata_summary(path, picks)
+    for pick in picks:
+        lines += ["", f"notes for {pick.task.name} ({pick.key}):"]
+        lines += [f"  {note}" for note in pick.skipped] or ["  none"]
+    out = run_dir / "skipped.txt"
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
 def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
     """The task(s) of this run, with paths made absolute."""
     from harness.sweep import _absolute_paths
 
     if args.interndata:
-        if args.task:
-            raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-        if importlib.util.find_spec("harness.interndata") is None:
-            raise HarnessError("--interndata is not yet supported (harness/interndata.py missing)")
-        from harness.interndata import load_interndata_tasks, parse_object_substitutions
-
-        picks = load_interndata_tasks(
-            args.interndata,
-            asset_root=Path(args.asset_root) if args.asset_root else None,
-            objects=parse_object_substitutions(args.object),
-        )
-        if not picks:
-            raise HarnessError(f"{args.interndata}: the file has no pick skill")
-        return [_absolute_paths(pick.task) for pick in picks]
+        return [_absolute_paths(pick.task) for pick in load_interndata_picks(args)]
     if not args.task:
         raise HarnessError("give a task YAML (harness run TASK.yaml) or --interndata FILE")
     if args.object:
@@ -109,12 +147,13 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 def main(args: argparse.Namespace) -> int:
     from harness.results import ResultStore
-    from harness.sweep import execute, expand, finalize_run, write_sweep_yaml
+    from harness.sweep import _absolute_paths, execute, expand, finalize_run, write_sweep_yaml
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
     console = make_console()
-    tasks = load_run_tasks(args)
+    picks = load_interndata_picks(args) if args.interndata else []
+    tasks = [_absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
     overrides = parse_overrides(args.overrides)
     for task in tasks:  # fail early, with the task file named, on a bad override
         apply_overrides(task, overrides)
@@ -135,6 +174,16 @@ def main(args: argparse.Namespace) -> int:
     if (run_dir / "sweep.yaml").exists():
         raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
     write_sweep_yaml(run_dir, sweep, tasks)
+    if picks:
+        for line in interndata_summary(args.interndata, picks):
+            console.print(line, highlight=False, markup=False, soft_wrap=True)
+        notes = write_skipped(run_dir, args.interndata, picks)
+        console.print(
+            f"notes (skipped skills, ignored keys, approximations): {notes}",
+            highlight=False,
+            markup=False,
+            soft_wrap=True,
+        )
     store = ResultStore(run_dir)
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
@@ -166,7 +215,8 @@ def main(args: argparse.Namespace) -> int:
         console.print(
             "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
         )
-    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report)")
+    extra = ", skipped.txt" if picks else ""
+    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
     return 0 if n == len(episodes) else 130
 
 
