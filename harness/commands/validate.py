@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_any
+
+if TYPE_CHECKING:
+    from harness.interndata import InternDataPick
 
 
 def describe(kind: str, loaded: object) -> str:
@@ -36,6 +40,16 @@ def describe(kind: str, loaded: object) -> str:
     return f"{kind} file"
 
 
+def describe_pick(pick: InternDataPick) -> str:
+    """One indented line per InternData pick: where it is, robot, arm, picked object."""
+    task = pick.task
+    alias = f" ({pick.robot_name!r} in the file)" if pick.robot_name != task.robot else ""
+    return (
+        f"pick {pick.order} {pick.key}: task {task.name!r}, robot {task.robot}{alias} "
+        f"arm {task.arm}, object {task.target_object.name!r}"
+    )
+
+
 def main(args: argparse.Namespace) -> int:
     failed = 0
     for path in args.files:
@@ -44,8 +58,10 @@ def main(args: argparse.Namespace) -> int:
             if kind == "interndata":
                 from harness.interndata import load_interndata_tasks
 
-                tasks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
-                print(f"ok {path}: InternDataEngine task file, {len(tasks)} pick task(s)")
+                picks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
+                print(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")
+                for pick in picks:
+                    print(f"  {describe_pick(pick)}")
                 continue
         except ConfigError as exc:
             print(f"error: {exc.one_line()}", file=sys.stderr)
