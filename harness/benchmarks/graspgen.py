@@ -12,13 +12,12 @@ from __future__ import annotations
 import os
 import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 from harness import shapes
 from harness.assets import ObjectAsset, load_mesh
 from harness.bench import Figure, figure, time_call
+from harness.benchmarks.machine import one_core
 from harness.graspgen import generate_grasps
 
 SECTION = "graspgen"
@@ -26,20 +25,6 @@ EXAMPLE_BOTTLE = (
     Path(__file__).resolve().parents[2].parent
     / "shared/datasets/interndata-examples/objects/recyclable_garbage/bottle_0/Aligned_obj.usd"
 )
-
-
-@contextmanager
-def one_core() -> Iterator[str]:
-    """Pin this process to a single CPU for the duration (Linux); yields a note for the figure."""
-    if not hasattr(os, "sched_getaffinity"):
-        yield "not pinned (no sched_setaffinity on this platform)"
-        return
-    before = os.sched_getaffinity(0)
-    os.sched_setaffinity(0, {min(before)})
-    try:
-        yield f"pinned to CPU {min(before)}"
-    finally:
-        os.sched_setaffinity(0, before)
 
 
 def _generation_figures(quick: bool) -> list[Figure]:

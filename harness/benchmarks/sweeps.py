@@ -1,28 +1,63 @@
-"""Sweep throughput: episodes per second with 1 and 2 process-pool workers, and worker memory.
+"""Benchmark section ``sweeps``: steady-state episodes/s with 1 and 2 workers, and worker memory.
 
-Both runs execute the same episodes (an FR3 cube task, ik mode, toppra) back to back in one
-``harness bench`` invocation, so the scaling ratio is measured under the same machine load.
-Worker start-up (imports, scene build) is included in the wall time and also reported apart.
+Each round runs the same FR3 episodes (cube, ik mode, TOPP-RA) through the sweep's own
+process pool (``harness.sweep.run_process_pool``) with 1 and with 2 workers, back to back in one
+``harness bench`` invocation (the order alternates between rounds, so a drift in the machine's
+load does not always favour the same side).
+
+Steady state, not start-up: a worker pays spawn + imports + scene build (seconds) before its
+first result, which on a short sweep would swamp the 2-worker run. Worker *i* is handed episode
+*i* first, so its first result is recognisable; the steady window runs from the moment the last
+worker delivered its first result to the last result, and counts the results inside it. (At the
+window's start the other worker is part-way through an episode that is counted whole; at its end
+it has been idle since its last result. The two edges cancel on average.) Start-up is reported
+separately, and so is the end-to-end rate a sweep of this length sees.
+
+The machine is shared, so every round also measures
+- the scaling this machine gives perfectly parallel CPU-bound work right now (a pure-Python
+  loop in 1 and 2 processes, ``machine.calibrate_scaling``): the reference for the 1.8x target;
+- the CPU time other processes used during each pool run (``/proc/stat``), and the load average;
+- each episode's own wall time inside the worker, whose 2-worker / 1-worker ratio shows how much
+  the workers slow each other down (shared caches, memory bandwidth, other processes).
 """
 
 from __future__ import annotations
 
+import statistics
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from harness.bench import Figure, figure
-from harness.config import load_task
+from harness.benchmarks.machine import (
+    CpuUse,
+    ScalingCalibration,
+    calibrate_scaling,
+    cpu_snapshot,
+    cpu_use_between,
+    load_average,
+)
+from harness.config import TaskConfig, load_task
 from harness.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
 
+SECTION = "sweeps"
 ROOT = Path(__file__).resolve().parents[2]
+SCALING_TARGET = 1.8
+# Other processes using more than this many CPUs on average during a pool run: the machine was
+# busy, and the 2-worker run could not have had two CPUs to itself.
+BUSY_CPUS = 0.25
 
 
-def _episodes(count: int) -> list[SweepEpisode]:
+def _task() -> TaskConfig:
     task = load_task(ROOT / "tasks" / "pick" / "fr3.yaml")
-    task = task.model_copy(
+    return task.model_copy(
         update={"pick": task.pick.model_copy(update={"test_mode": "ik", "timing": "toppra"})}
     )
+
+
+def _episodes(task: TaskConfig, count: int) -> list[SweepEpisode]:
     return [
         SweepEpisode(
             episode_id=episode_id(task.name, {}, index),
@@ -38,59 +73,245 @@ def _episodes(count: int) -> list[SweepEpisode]:
     ]
 
 
-def _throughput(workers: int, count: int) -> tuple[float, float, list[float]]:
-    """Episodes/s over the whole pool run, time to first result, peak RSS per worker (MiB)."""
-    rows: list[dict] = []
-    first: list[float] = []
+@dataclass
+class PoolRun:
+    """One process-pool run and what it tells about throughput, start-up and memory."""
+
+    workers: int
+    episodes: int
+    wall_s: float  # the whole run, spawn to the last worker joined
+    first_result_s: list[float]  # per worker: run start -> its first episode's result
+    steady_count: int  # results after every worker had delivered its first
+    steady_window_s: float
+    episode_s: list[float]  # each steady episode's wall time inside its worker
+    rss_first_mb: list[float]  # each worker's peak RSS after its first episode
+    rss_peak_mb: float  # the largest worker's peak RSS at the end
+    successes: int
+    cpu: CpuUse
+    load_start: list[float] | None
+    load_end: list[float] | None
+
+    @property
+    def steady_rate(self) -> float:
+        return self.steady_count / self.steady_window_s if self.steady_window_s > 0 else 0.0
+
+    @property
+    def overall_rate(self) -> float:
+        return self.episodes / self.wall_s
+
+
+def pool_run(task: TaskConfig, workers: int, count: int) -> PoolRun:
+    """Run ``count`` episodes on ``workers`` pool workers and time every result's arrival."""
+    if count <= workers:
+        raise ValueError(f"need more episodes ({count}) than workers ({workers})")
+    episodes = _episodes(task, count)
+    arrivals: list[tuple[float, dict[str, Any]]] = []
+    load_start = load_average()
+    before = cpu_snapshot()
     start = time.perf_counter()
 
-    def on_result(row: dict) -> None:
-        if not first:
-            first.append(time.perf_counter() - start)
-        rows.append(row)
+    def on_result(row: dict[str, Any]) -> None:
+        arrivals.append((time.perf_counter() - start, row))
 
     with tempfile.TemporaryDirectory() as run_dir:
-        stats = run_process_pool(_episodes(count), Path(run_dir), "none", on_result, workers)
-    memory = [float(row.get("worker_peak_rss_mb", float("nan"))) for row in rows]
-    return stats.finished / stats.wall_time_s, first[0] if first else float("nan"), memory
+        stats = run_process_pool(episodes, Path(run_dir), "none", on_result, workers)
+    cpu = cpu_use_between(before, cpu_snapshot())  # after the pool joined its workers
+    if stats.crashed or len(arrivals) != count:
+        raise RuntimeError(f"pool run lost episodes: {stats.crashed} crashed, {stats.errors}")
+    first = [t for t, row in arrivals if row["episode_index"] < workers]
+    warm = max(first)
+    steady = [(t, row) for t, row in arrivals if t > warm]
+    return PoolRun(
+        workers=workers,
+        episodes=count,
+        wall_s=stats.wall_time_s,
+        first_result_s=first,
+        steady_count=len(steady),
+        steady_window_s=arrivals[-1][0] - warm,
+        episode_s=[float(row["wall_time_s"]) for _, row in steady],
+        rss_first_mb=[
+            float(row["worker_peak_rss_mb"])
+            for _, row in arrivals
+            if row["episode_index"] < workers
+        ],
+        rss_peak_mb=max(float(row["worker_peak_rss_mb"]) for _, row in arrivals),
+        successes=sum(bool(row.get("success")) for _, row in arrivals),
+        cpu=cpu,
+        load_start=load_start,
+        load_end=load_average(),
+    )
+
+
+@dataclass
+class Round:
+    """One round: the machine's reference scaling, then a 1-worker and a 2-worker run."""
+
+    calibration: ScalingCalibration
+    one: PoolRun
+    two: PoolRun
+
+    @property
+    def scaling(self) -> float:
+        return self.two.steady_rate / self.one.steady_rate
+
+    @property
+    def slowdown(self) -> float:
+        """Median episode time in a worker with 2 workers over that with 1."""
+        return statistics.median(self.two.episode_s) / statistics.median(self.one.episode_s)
+
+
+def measure(rounds: int, count: int, calibration_rounds: int) -> list[Round]:
+    task = _task()
+    results = []
+    for index in range(rounds):
+        calibration = calibrate_scaling(2, rounds=calibration_rounds)
+        order = (1, 2) if index % 2 == 0 else (2, 1)
+        runs = {workers: pool_run(task, workers, count) for workers in order}
+        results.append(Round(calibration, runs[1], runs[2]))
+    return results
+
+
+def _others(runs: list[PoolRun]) -> list[float]:
+    return [run.cpu.others_cpus for run in runs if run.cpu.others_cpus is not None]
+
+
+def _scaling_notes(rounds: list[Round]) -> str:
+    """What the scaling figure needs next to it: the machine's own scaling and how busy it was."""
+    reference = statistics.median(s for r in rounds for s in r.calibration.scalings)
+    scaling = statistics.median(r.scaling for r in rounds)
+    others = _others([run for r in rounds for run in (r.one, r.two)])
+    busiest = max(others) if others else None
+    loads = [run.load_start[0] for r in rounds for run in (r.one, r.two) if run.load_start]
+    parts = [
+        f"steady state; machine reference (CPU-bound loop, same run) {reference:.2f}x, "
+        f"sweep at {scaling / reference:.0%} of it",
+        f"episode time in a worker {statistics.median(r.slowdown for r in rounds):.2f}x "
+        "longer with 2 workers",
+    ]
+    if busiest is not None:
+        state = "busy" if busiest > BUSY_CPUS else "quiet"
+        parts.append(f"machine {state}: other processes used up to {busiest:.2f} CPUs")
+    if loads:
+        parts.append(f"1-min load {min(loads):.2f}-{max(loads):.2f} at run starts")
+    return "; ".join(parts)
 
 
 def run(quick: bool) -> list[Figure]:
-    count = 8 if quick else 24
-    one, first_one, memory_one = _throughput(1, count)
-    two, first_two, memory_two = _throughput(2, count)
-    scaling = two / one
-    return [
-        figure(
-            "sweeps",
-            "episodes/s, 1 worker",
-            [one],
-            "ep/s",
-            higher_is_better=True,
-            notes=f"{count} FR3 episodes incl. worker start-up ({first_one:.2f} s to first)",
-        ),
-        figure(
-            "sweeps",
-            "episodes/s, 2 workers",
-            [two],
-            "ep/s",
-            higher_is_better=True,
-            notes=f"{count} FR3 episodes incl. worker start-up ({first_two:.2f} s to first)",
-        ),
-        figure(
-            "sweeps",
-            "scaling 1 -> 2 workers",
-            [scaling],
-            "x",
-            target=1.8,
-            higher_is_better=True,
-            notes="ratio of the two rows above, same run",
-        ),
-        figure(
-            "sweeps",
-            "peak memory per worker",
-            memory_one + memory_two,
-            "MiB",
-            notes="ru_maxrss of each worker after each episode",
-        ),
+    count = 40 if quick else 120
+    rounds = measure(1 if quick else 3, count, calibration_rounds=2 if quick else 3)
+    ones = [r.one for r in rounds]
+    twos = [r.two for r in rounds]
+    runs = ones + twos
+    what = f"{count} FR3 episodes per run (ik, toppra), {len(rounds)} round(s)"
+    references = [s for r in rounds for s in r.calibration.scalings]
+    per_run = [
+        {
+            "workers": run.workers,
+            "steady_rate": run.steady_rate,
+            "steady_count": run.steady_count,
+            "steady_window_s": run.steady_window_s,
+            "overall_rate": run.overall_rate,
+            "wall_s": run.wall_s,
+            "first_result_s": run.first_result_s,
+            "successes": run.successes,
+            "others_cpus": run.cpu.others_cpus,
+            "steal_cpus": run.cpu.steal_cpus,
+            "own_cpus": run.cpu.own_cpus,
+            "load_start": run.load_start,
+            "load_end": run.load_end,
+        }
+        for run in runs
     ]
+    figures = [
+        figure(
+            SECTION,
+            f"episodes/s, {workers} worker{'s' if workers > 1 else ''} (steady state)",
+            [run.steady_rate for run in group],
+            "ep/s",
+            higher_is_better=True,
+            notes=f"{what}; from the last worker's first result to the last result",
+        )
+        for workers, group in ((1, ones), (2, twos))
+    ]
+    figures.append(
+        figure(
+            SECTION,
+            "scaling 1 -> 2 workers (steady state)",
+            [r.scaling for r in rounds],
+            "x",
+            target=SCALING_TARGET,
+            higher_is_better=True,
+            notes=_scaling_notes(rounds),
+            extra={"runs": per_run},
+        )
+    )
+    figures.append(
+        figure(
+            SECTION,
+            "machine reference: CPU-bound loop, 1 -> 2 processes",
+            references,
+            "x",
+            higher_is_better=True,
+            notes="pure-Python loop, processes started before timing; what this machine gave "
+            "perfectly parallel work during this section",
+            extra={
+                "single_s": [s for r in rounds for s in r.calibration.single_s],
+                "parallel_s": [p for r in rounds for p in r.calibration.parallel_s],
+            },
+        )
+    )
+    figures.append(
+        figure(
+            SECTION,
+            "episode time in a worker, 2 workers / 1 worker",
+            [r.slowdown for r in rounds],
+            "x",
+            notes="median per-episode wall time inside the workers; 1.0 = no mutual slowdown",
+        )
+    )
+    figures.append(
+        figure(
+            SECTION,
+            "worker start-up to first result",
+            [t for run in runs for t in run.first_result_s],
+            "s",
+            notes="spawn + imports + scene build + first episode, per worker; not in the "
+            "steady-state rates",
+        )
+    )
+    figures.extend(
+        figure(
+            SECTION,
+            f"episodes/s incl. start-up, {workers} worker{'s' if workers > 1 else ''}",
+            [run.overall_rate for run in group],
+            "ep/s",
+            higher_is_better=True,
+            notes=f"what a {count}-episode sweep sees end to end",
+        )
+        for workers, group in ((1, ones), (2, twos))
+    )
+    rss_first = [m for run in runs for m in run.rss_first_mb]
+    figures.append(
+        figure(
+            SECTION,
+            "peak memory per worker",
+            [run.rss_peak_mb for run in runs],
+            "MiB",
+            notes=f"largest worker's ru_maxrss at the end of each run ({count} episodes); "
+            f"{statistics.median(rss_first):.0f} MiB after its first episode",
+            extra={"rss_after_first_episode_mb": rss_first},
+        )
+    )
+    others = _others(runs)
+    if others:
+        figures.append(
+            figure(
+                SECTION,
+                "other processes' CPU use during the pool runs",
+                others,
+                "CPUs",
+                notes="all CPUs' busy time (/proc/stat) minus this process tree's, per run; "
+                f"above {BUSY_CPUS} the machine was busy",
+            )
+        )
+    return figures

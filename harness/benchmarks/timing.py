@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from harness.bench import Figure, figure, time_call
+from harness.benchmarks.machine import one_core
 from harness.planning.timing import (
     ruckig_through,
     time_parameterize_ruckig,
@@ -55,6 +56,11 @@ def planner_waypoints(count: int = 12, seed: int = 0) -> np.ndarray:
 
 
 def run(quick: bool) -> list[Figure]:
+    with one_core():
+        return _figures(quick)
+
+
+def _figures(quick: bool) -> list[Figure]:
     reps = 20 if quick else 100
     figures: list[Figure] = []
     pick = pick_waypoints()
