@@ -58,7 +58,10 @@ from harness.planning.timing import (
 from harness.scene import Scene, invert, scene_key
 from harness.transforms import quat_to_matrix
 
-SETTLE_TIME_S = 0.1  # object settling after placement (the reference: 20 steps before warm-up)
+# Object settling after placement: the reference steps PhysX 20 times at 1/30 s before the first
+# skill. Shorter, and objects placed tilted (orientation_mode random) are still moving when the
+# grasp is chosen.
+SETTLE_TIME_S = 20 / 30
 TOPPRA_GRIDPOINTS = 30
 PLAN_RETRIES = 2
 # The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the

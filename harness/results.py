@@ -191,11 +191,21 @@ def _typed(values: pd.Series, column: Column) -> pd.Series:
     if column.dtype == "bool":
         return values.astype("object").map(_to_bool).astype("bool")
     blank = values.astype("object").map(lambda v: isinstance(v, str) and not v.strip())
-    numbers = pd.to_numeric(values.astype("object").mask(blank, None), errors="raise")
-    numbers = numbers.astype("float64")
     if column.dtype == "int":
-        return numbers.fillna(float(null)).round().astype("int64")
-    return numbers
+        # Not through float64: 63-bit episode seeds must survive exactly.
+        cells = values.astype("object").mask(blank | values.isna(), null)
+        return pd.Series([_to_int(v) for v in cells], index=values.index, dtype="int64")
+    numbers = pd.to_numeric(values.astype("object").mask(blank, None), errors="raise")
+    return numbers.astype("float64")
+
+
+def _to_int(value: Any) -> int:
+    if isinstance(value, str):
+        value = value.strip()
+        return int(value) if value.lstrip("-").isdigit() else round(float(value))
+    if isinstance(value, float):
+        return round(value)
+    return int(value)
 
 
 def _param_series(values: pd.Series) -> pd.Series:

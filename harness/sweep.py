@@ -73,7 +73,7 @@ def episode_id(task_name: str, point: dict[str, Any], episode_index: int) -> str
     return f"{task_name}-e{episode_index:04d}-{digest}"
 
 
-def _absolute_paths(task: TaskConfig) -> TaskConfig:
+def absolute_paths(task: TaskConfig) -> TaskConfig:
     """Make object mesh / grasp paths absolute so the task no longer depends on its file."""
     base = task.base_dir()
     objects = []
@@ -87,15 +87,24 @@ def _absolute_paths(task: TaskConfig) -> TaskConfig:
     return task.model_copy(update={"objects": objects})
 
 
-def load_sweep_tasks(sweep: SweepConfig, sweep_path: Path | None) -> list[TaskConfig]:
-    """Resolve the sweep's task entries (paths, inline tasks, InternDataEngine files)."""
+INTERNDATA_ENTRY_KEYS = ("interndata", "asset_root", "objects")
+
+
+def load_sweep_tasks(
+    sweep: SweepConfig, sweep_path: Path | None, notes: list[str] | None = None
+) -> list[TaskConfig]:
+    """Resolve the sweep's task entries (paths, inline tasks, InternDataEngine files).
+
+    What each InternDataEngine file contributes and skips (other skills, ignored keys,
+    approximations) is appended to ``notes`` when given.
+    """
     base = sweep_path.resolve().parent if sweep_path else Path.cwd()
     tasks: list[TaskConfig] = []
     for index, entry in enumerate(sweep.tasks):
         if isinstance(entry, str):
             path = Path(entry) if Path(entry).is_absolute() else base / entry
             try:
-                tasks.append(_absolute_paths(load_task(path)))
+                tasks.append(absolute_paths(load_task(path)))
             except ConfigError as exc:
                 if exc.file is None or "file not found" in exc.message:
                     raise ConfigError(
@@ -105,20 +114,30 @@ def load_sweep_tasks(sweep: SweepConfig, sweep_path: Path | None) -> list[TaskCo
                     ) from None
                 raise
         elif "interndata" in entry:
-            from harness.interndata import load_interndata_tasks
+            from harness.interndata import load_interndata_tasks, note_lines
 
+            unknown = [k for k in entry if k not in INTERNDATA_ENTRY_KEYS]
+            if unknown:
+                raise ConfigError(
+                    f"unknown key {unknown[0]!r} in an interndata entry; expected "
+                    f"{', '.join(INTERNDATA_ENTRY_KEYS)}",
+                    file=sweep_path,
+                    key=f"tasks[{index}].{unknown[0]}",
+                )
             path = Path(entry["interndata"])
             path = path if path.is_absolute() else base / path
             root = entry.get("asset_root")
             objects = {k: str(base / v) for k, v in (entry.get("objects") or {}).items()}
             picks = load_interndata_tasks(
-                path, asset_root=base / root if root else None, objects=objects
+                path, asset_root=base / root if root else None, objects=objects, check_grasps=True
             )
-            tasks.extend(_absolute_paths(pick.task) for pick in picks)
+            if notes is not None:
+                notes.extend(note_lines(path, picks))
+            tasks.extend(absolute_paths(pick.task) for pick in picks)
         else:
             data = {"source": str(sweep_path) if sweep_path else None, **entry}
             task = validate_model(TaskConfig, data, None, ("tasks", index))
-            tasks.append(_absolute_paths(task))
+            tasks.append(absolute_paths(task))
     names = [task.name for task in tasks]
     duplicates = sorted({name for name in names if names.count(name) > 1})
     if duplicates:
@@ -232,9 +251,15 @@ def select_samples(episodes: list[SweepEpisode], count: int) -> set[str]:
     return {e.episode_id for e in ranked[:count]}
 
 
-def expand(sweep: SweepConfig, sweep_path: Path | None) -> list[SweepEpisode]:
-    """All episodes of the sweep, in a deterministic order (task, point, episode)."""
-    tasks = load_sweep_tasks(sweep, sweep_path)
+def expand(
+    sweep: SweepConfig, sweep_path: Path | None, tasks: list[TaskConfig] | None = None
+) -> list[SweepEpisode]:
+    """All episodes of the sweep, in a deterministic order (task, point, episode).
+
+    ``tasks`` are the sweep's resolved tasks when the caller has already loaded them.
+    """
+    if tasks is None:
+        tasks = load_sweep_tasks(sweep, sweep_path)
     points = sweep_points(sweep)
     episodes: list[SweepEpisode] = []
     for task in tasks:
@@ -657,14 +682,19 @@ def run_sweep(
         updates["episodes_per_point"] = episodes_per_point
     if updates:
         sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
-    tasks = load_sweep_tasks(sweep, source)
-    episodes = expand(sweep, source)
+    notes: list[str] = []
+    tasks = load_sweep_tasks(sweep, source, notes)
+    episodes = expand(sweep, source, tasks)
     if resume_dir is None:
         if (run_dir / "sweep.yaml").exists():
             raise ConfigError(
                 "run directory already holds a sweep; use --resume to continue it", file=run_dir
             )
         write_sweep_yaml(run_dir, sweep, tasks)
+        if notes:
+            from harness.interndata import write_notes
+
+            write_notes(run_dir, notes)
     store = ResultStore(run_dir)
     done_ids = store.completed_ids()
     todo = [e for e in episodes if e.episode_id not in done_ids]

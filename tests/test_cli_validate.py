@@ -125,8 +125,16 @@ def test_interndata_files(examples_dir: Path) -> None:
     assert result.stdout.splitlines() == [
         f"ok {tasks / 'franka_single_pick_banana.yaml'}: InternDataEngine task file, "
         "1 pick task(s)",
+        "  pick 0 tasks[0].skills[0].franka[0].left[0]: task 'franka_single_pick_banana', "
+        "robot fr3 ('franka' in the file) arm left, object 'pick_object_left'",
         f"ok {tasks / 'split_aloha_sort_the_rubbish.yaml'}: InternDataEngine task file, "
         "2 pick task(s)",
+        "  pick 0 tasks[0].skills[0].split_aloha[0].right[0]: task "
+        "'split_aloha_sort_the_rubbish-0-right', robot split_aloha arm right, "
+        "object 'pick_object_right'",
+        "  pick 1 tasks[0].skills[0].split_aloha[1].left[0]: task "
+        "'split_aloha_sort_the_rubbish-1-left', robot split_aloha arm left, "
+        "object 'pick_object_left'",
     ]
     # The skipped place / home skills are reported as warnings.
     assert "skipping 2 'place' skill(s)" in result.stderr

@@ -33,7 +33,6 @@ from harness.config import (
     parse_set_value,
 )
 from harness.errors import HarnessError
-from harness.stats import wilson_interval
 
 if TYPE_CHECKING:
     from harness.interndata import InternDataPick
@@ -71,44 +70,17 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     return picks
 
 
-def interndata_summary(path: str, picks: list[InternDataPick]) -> list[str]:
-    """What the run takes from an InternData file: its picks, then the skills it skips."""
-    lines = [f"InternDataEngine file {path}: {len(picks)} pick skill(s), each run as a task"]
-    for pick in picks:
-        objects = ", ".join(obj.name for obj in pick.task.objects)
-        lines.append(
-            f"  {pick.task.name}: {pick.key} -> {pick.robot} {pick.arm}, picks "
-            f"{pick.task.target_object.name!r} (scene: {objects})"
-        )
-    skipped = picks[0].skipped_skills if picks else ()
-    if skipped:
-        lines.append(f"skipped {len(skipped)} skill(s) (pick-harness runs pick skills only):")
-        lines.extend(f"  {skill.describe()}" for skill in skipped)
-    return lines
-
-
-def write_skipped(run_dir: Path, path: str, picks: list[InternDataPick]) -> Path:
-    """``RUN_DIR/skipped.txt``: the summary plus every note of the mapping, per task."""
-    lines = interndata_summary(path, picks)
-    for pick in picks:
-        lines += ["", f"notes for {pick.task.name} ({pick.key}):"]
-        lines += [f"  {note}" for note in pick.skipped] or ["  none"]
-    out = run_dir / "skipped.txt"
-    out.write_text("\n".join(lines) + "\n")
-    return out
-
-
 def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
     """The task(s) of this run, with paths made absolute."""
-    from harness.sweep import _absolute_paths
+    from harness.sweep import absolute_paths
 
     if args.interndata:
-        return [_absolute_paths(pick.task) for pick in load_interndata_picks(args)]
+        return [absolute_paths(pick.task) for pick in load_interndata_picks(args)]
     if not args.task:
         raise HarnessError("give a task YAML (harness run TASK.yaml) or --interndata FILE")
     if args.object:
         raise HarnessError("--object substitutes InternDataEngine assets; use it with --interndata")
-    return [_absolute_paths(load_task(args.task))]
+    return [absolute_paths(load_task(args.task))]
 
 
 def run_name(tasks: list[TaskConfig]) -> str:
@@ -147,13 +119,13 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 def main(args: argparse.Namespace) -> int:
     from harness.results import ResultStore
-    from harness.sweep import _absolute_paths, execute, expand, finalize_run, write_sweep_yaml
+    from harness.sweep import absolute_paths, execute, expand, finalize_run, write_sweep_yaml
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
     console = make_console()
     picks = load_interndata_picks(args) if args.interndata else []
-    tasks = [_absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
+    tasks = [absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
     overrides = parse_overrides(args.overrides)
     for task in tasks:  # fail early, with the task file named, on a bad override
         apply_overrides(task, overrides)
@@ -175,9 +147,11 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
     write_sweep_yaml(run_dir, sweep, tasks)
     if picks:
-        for line in interndata_summary(args.interndata, picks):
+        from harness.interndata import note_lines, summary_lines, write_notes
+
+        for line in summary_lines(args.interndata, picks):
             console.print(line, highlight=False, markup=False, soft_wrap=True)
-        notes = write_skipped(run_dir, args.interndata, picks)
+        notes = write_notes(run_dir, note_lines(args.interndata, picks))
         console.print(
             f"notes (skipped skills, ignored keys, approximations): {notes}",
             highlight=False,
@@ -200,6 +174,8 @@ def main(args: argparse.Namespace) -> int:
     finalize_run(run_dir)
     successes = sum(bool(row.get("success")) for row in rows)
     n = len(rows)
+    from harness.stats import wilson_interval  # scipy: imported only when there is a result
+
     lo, hi = wilson_interval(successes, n)
     rate = successes / n if n else 0.0
     console.print(
