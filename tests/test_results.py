@@ -180,3 +180,15 @@ def test_empty_row_and_typed_frame_of_partial_rows() -> None:
     assert frame.loc[0, "success"]
     assert frame.loc[0, "n_total"] == 12 and frame.loc[0, "seed"] == 3
     assert frame.loc[0, "point"] == "{}"
+
+
+def test_63_bit_seeds_survive_csv_and_parquet_exactly(tmp_path: Path) -> None:
+    """Episode seeds are 63-bit: a float64 detour would change them and break replays."""
+    seeds = [6569863346532939966, (1 << 63) - 1, 0]
+    store = ResultStore(tmp_path)
+    for index, seed in enumerate(seeds):
+        store.append(row(f"s{index}", seed=seed))
+    csv_path, parquet_path = store.export()
+    assert store.load()["seed"].tolist() == seeds
+    assert read_episodes_csv(csv_path)["seed"].tolist() == seeds
+    assert pd.read_parquet(parquet_path)["seed"].tolist() == seeds
