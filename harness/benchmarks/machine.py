@@ -12,6 +12,7 @@ the sections use to make their numbers interpretable on a shared machine.
   processes at once (started together after spawning, so start-up is excluded). Its ratio is
   the scaling this machine can give *right now* to perfectly parallel work -- the reference
   for the sweep's 1 -> 2 worker scaling.
+- ``spawned_children_peak_mb()``: the true peak memory of live worker processes.
 - ``one_core()``: pin this process to one CPU for a measurement "on one core".
 """
 
@@ -113,6 +114,41 @@ def cpu_use_between(before: CpuSnapshot, after: CpuSnapshot) -> CpuUse:
     others = max(0.0, (after.busy_s - before.busy_s) / wall - own)
     steal = (after.steal_s or 0.0) - (before.steal_s or 0.0)
     return CpuUse(wall, own, others, steal / wall)
+
+
+def spawned_children_peak_mb() -> dict[int, float]:
+    """Peak resident memory (VmHWM, MiB) of each live ``multiprocessing`` spawn child of this
+    process, by pid; {} where /proc is unavailable.
+
+    Read from the parent because a spawned child's own ``ru_maxrss`` is useless for this: Linux
+    carries the parent's RSS high-water mark across the fork + exec into the child's
+    ``ru_maxrss``, so a small worker of a large parent reports the parent's size. VmHWM belongs
+    to the child's own address space."""
+    me = os.getpid()
+    peaks: dict[int, float] = {}
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return {}
+    for entry in entries:
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", encoding="ascii", errors="replace") as handle:
+                parent = int(handle.read().rsplit(")", 1)[1].split()[1])
+            if parent != me:
+                continue
+            with open(f"/proc/{entry}/cmdline", "rb") as handle:
+                if b"multiprocessing.spawn" not in handle.read():
+                    continue
+            with open(f"/proc/{entry}/status", encoding="ascii", errors="replace") as handle:
+                for line in handle:
+                    if line.startswith("VmHWM:"):
+                        peaks[int(entry)] = int(line.split()[1]) / 1024
+                        break
+        except (OSError, ValueError, IndexError):
+            continue  # the process ended while we looked
+    return peaks
 
 
 # --------------------------------------------------------------------------------------------

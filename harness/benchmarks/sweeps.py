@@ -38,6 +38,7 @@ from harness.benchmarks.machine import (
     cpu_snapshot,
     cpu_use_between,
     load_average,
+    spawned_children_peak_mb,
 )
 from harness.config import TaskConfig, load_task
 from harness.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
@@ -84,8 +85,9 @@ class PoolRun:
     steady_count: int  # results after every worker had delivered its first
     steady_window_s: float
     episode_s: list[float]  # each steady episode's wall time inside its worker
-    rss_first_mb: list[float]  # each worker's peak RSS after its first episode
-    rss_peak_mb: float  # the largest worker's peak RSS at the end
+    peak_after_first_mb: list[float]  # each worker's peak RSS once all had one episode done
+    peak_at_end_mb: list[float]  # each worker's peak RSS at the last result
+    row_peak_mb: float  # the largest ``worker_peak_rss_mb`` the rows report (see below)
     successes: int
     cpu: CpuUse
     load_start: list[float] | None
@@ -110,8 +112,18 @@ def pool_run(task: TaskConfig, workers: int, count: int) -> PoolRun:
     before = cpu_snapshot()
     start = time.perf_counter()
 
+    memory: dict[str, dict[int, float]] = {}
+    warm_up_left = set(range(workers))
+
     def on_result(row: dict[str, Any]) -> None:
         arrivals.append((time.perf_counter() - start, row))
+        # Read the workers' memory while they are alive: once every worker has finished its
+        # first episode, and at the last result (two /proc scans per run, off the hot path).
+        warm_up_left.discard(row["episode_index"])
+        if not warm_up_left and "first" not in memory:
+            memory["first"] = spawned_children_peak_mb()
+        if len(arrivals) == count:
+            memory["end"] = spawned_children_peak_mb()
 
     with tempfile.TemporaryDirectory() as run_dir:
         stats = run_process_pool(episodes, Path(run_dir), "none", on_result, workers)
@@ -129,12 +141,9 @@ def pool_run(task: TaskConfig, workers: int, count: int) -> PoolRun:
         steady_count=len(steady),
         steady_window_s=arrivals[-1][0] - warm,
         episode_s=[float(row["wall_time_s"]) for _, row in steady],
-        rss_first_mb=[
-            float(row["worker_peak_rss_mb"])
-            for _, row in arrivals
-            if row["episode_index"] < workers
-        ],
-        rss_peak_mb=max(float(row["worker_peak_rss_mb"]) for _, row in arrivals),
+        peak_after_first_mb=sorted(memory.get("first", {}).values()),
+        peak_at_end_mb=sorted(memory.get("end", {}).values()),
+        row_peak_mb=max(float(row.get("worker_peak_rss_mb", "nan")) for _, row in arrivals),
         successes=sum(bool(row.get("success")) for _, row in arrivals),
         cpu=cpu,
         load_start=load_start,
@@ -190,10 +199,39 @@ def _scaling_notes(rounds: list[Round]) -> str:
     ]
     if busiest is not None:
         state = "busy" if busiest > BUSY_CPUS else "quiet"
-        parts.append(f"machine {state}: other processes used up to {busiest:.2f} CPUs")
+        parts.append(
+            f"machine {state}: other processes used {statistics.median(others):.2f} CPUs "
+            f"(median over runs), up to {busiest:.2f}"
+        )
     if loads:
         parts.append(f"1-min load {min(loads):.2f}-{max(loads):.2f} at run starts")
     return "; ".join(parts)
+
+
+def _memory_figure(runs: list[PoolRun], count: int) -> Figure:
+    """Peak RSS per worker, read by the parent from each worker's /proc (VmHWM)."""
+    at_end = [m for run in runs for m in run.peak_at_end_mb]
+    after_first = [m for run in runs for m in run.peak_after_first_mb]
+    row_peak = max(run.row_peak_mb for run in runs)
+    if not at_end:  # no /proc: only the rows' ru_maxrss, which includes the parent's size
+        return figure(
+            SECTION,
+            "peak memory per worker (upper bound)",
+            [run.row_peak_mb for run in runs],
+            "MiB",
+            notes="ru_maxrss reported by the workers; includes the parent's RSS at spawn",
+        )
+    growth = statistics.median(at_end) - statistics.median(after_first) if after_first else 0.0
+    return figure(
+        SECTION,
+        "peak memory per worker",
+        at_end,
+        "MiB",
+        notes=f"VmHWM of each worker after {count} episodes (one sample per worker per run); "
+        f"{growth:+.0f} MiB since every worker's first episode. The rows' worker_peak_rss_mb "
+        f"(ru_maxrss) says {row_peak:.0f} MiB: it inherits the parent's RSS at spawn",
+        extra={"after_first_episode_mb": after_first, "row_worker_peak_rss_mb": row_peak},
+    )
 
 
 def run(quick: bool) -> list[Figure]:
@@ -290,18 +328,7 @@ def run(quick: bool) -> list[Figure]:
         )
         for workers, group in ((1, ones), (2, twos))
     )
-    rss_first = [m for run in runs for m in run.rss_first_mb]
-    figures.append(
-        figure(
-            SECTION,
-            "peak memory per worker",
-            [run.rss_peak_mb for run in runs],
-            "MiB",
-            notes=f"largest worker's ru_maxrss at the end of each run ({count} episodes); "
-            f"{statistics.median(rss_first):.0f} MiB after its first episode",
-            extra={"rss_after_first_episode_mb": rss_first},
-        )
-    )
+    figures.append(_memory_figure(runs, count))
     others = _others(runs)
     if others:
         figures.append(
