@@ -339,9 +339,12 @@ def format_target_notes(figures: list[Figure]) -> str:
     under which conditions, which the table has no room for."""
     with_target = [fig for fig in figures if fig.target is not None and fig.notes]
     with_target.sort(key=lambda fig: fig.meets_target is not False)
-    return "\n".join(
-        f"- {fig.section} / {fig.name}: {fig.verdict()}; {fig.notes}" for fig in with_target
-    )
+    lines, previous = [], None
+    for fig in with_target:
+        note = fig.notes if fig.notes != previous else "(as above)"
+        lines.append(f"- {fig.section} / {fig.name}: {fig.verdict()}; {note}")
+        previous = fig.notes
+    return "\n".join(lines)
 
 
 def bench_payload(

@@ -143,6 +143,8 @@ def test_format_table_rows_spreads_and_verdicts() -> None:
 def test_target_notes_list_missed_targets_first() -> None:
     notes = format_target_notes(_figures()).splitlines()
     assert notes == ["- sweeps / scaling: no (17% short); busy"]
+    same = [_fig(0.5, 1.0, notes="7 DoF"), _fig(0.6, 1.0, notes="7 DoF")]
+    assert format_target_notes(same).splitlines()[1].endswith("yes; (as above)")
 
 
 def test_json_payload_is_strict_json_with_machine_and_sections() -> None:
