@@ -19,6 +19,8 @@ Grasp file rule, first existing wins: an explicit path; ``<mesh folder>/<npy_nam
 
 from __future__ import annotations
 
+import copy
+import functools
 import hashlib
 import json
 import os
@@ -403,12 +405,19 @@ def list_default_objects() -> list[str]:
 
 
 def load_object_info(name: str) -> dict[str, Any]:
-    """The parsed ``tasks/objects/<name>/object.yaml`` of a default object."""
+    """The parsed ``tasks/objects/<name>/object.yaml`` of a default object (a fresh copy)."""
     path = default_objects_dir() / name / "object.yaml"
     if not path.is_file():
         raise InputFileError(
             path, f"no default object named {name!r}; available: {list_default_objects()}"
         )
+    return copy.deepcopy(_parse_object_info(path, path.stat().st_mtime_ns))
+
+
+@functools.lru_cache(maxsize=64)
+def _parse_object_info(path: Path, mtime_ns: int) -> dict[str, Any]:
+    """Parse once per file version: episodes ask for it several times each (scene key, reset)."""
+    del mtime_ns  # part of the cache key only
     try:
         info = yaml.safe_load(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as exc:

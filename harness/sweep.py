@@ -362,7 +362,18 @@ def _inject_fault(episode_id_: str) -> None:
 
 
 def _peak_rss_mb() -> float:
-    """Peak resident memory of this process in MiB (Linux reports KiB, macOS bytes)."""
+    """Peak resident memory of this process in MiB.
+
+    Linux: ``VmHWM`` -- a spawned worker's ``ru_maxrss`` carries the parent's RSS across
+    fork + exec and over-reports. Elsewhere ``ru_maxrss`` (KiB on Linux, bytes on macOS).
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
     import resource
     import sys
 
