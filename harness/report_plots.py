@@ -149,7 +149,13 @@ def _bars_with_ci(
     upper = np.clip(table["wilson_hi"].to_numpy(dtype=float) - rates, 0, None)
     ax.bar(positions, rates, width, color=colour, label=label, edgecolor="white")
     ax.errorbar(
-        positions, rates, yerr=[lower, upper], fmt="none", ecolor="#24292f", capsize=3, linewidth=1
+        positions,
+        rates,
+        yerr=np.vstack([lower, upper]),
+        fmt="none",
+        ecolor="#24292f",
+        capsize=3,
+        linewidth=1,
     )
     for x, hi, k, n in zip(
         positions, table["wilson_hi"], table["successes"], table["n"], strict=True

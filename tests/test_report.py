@@ -80,8 +80,7 @@ def fixture_run(tmp_path: Path) -> Path:
 
 def modified_run(source: Path, target: Path, edit) -> Path:
     target.mkdir()
-    frame = pd.read_csv(source / "episodes.csv", keep_default_na=False)
-    edit(frame)
+    frame = edit(pd.read_csv(source / "episodes.csv", keep_default_na=False))
     frame.to_csv(target / "episodes.csv", index=False)
     return target
 
@@ -238,11 +237,12 @@ def test_build_report_writes_every_file_and_a_self_contained_html(fixture_run: P
 
 @pytest.mark.parametrize("axes", [1, 0])
 def test_report_with_one_or_no_swept_axis(fixture_run: Path, tmp_path: Path, axes: int) -> None:
-    def edit(frame: pd.DataFrame) -> None:
-        frame.drop(columns=["param.pick.pre_grasp_offset"], inplace=True)
-        frame.drop(frame[frame["point_id"] == 2].index, inplace=True)
+    def edit(frame: pd.DataFrame) -> pd.DataFrame:
+        frame = frame.drop(columns=["param.pick.pre_grasp_offset"])
+        frame = frame[frame["point_id"] != 2]
         if axes == 0:
-            frame.drop(columns=["param.pick.approach_filter"], inplace=True)
+            frame = frame.drop(columns=["param.pick.approach_filter"])
+        return frame
 
     run = modified_run(fixture_run, tmp_path / f"axes{axes}", edit)
     paths = build_report(run)
@@ -291,11 +291,11 @@ def test_missing_run_or_episodes_names_the_path(tmp_path: Path) -> None:
 
 
 def test_compare_runs_differences_and_p_values(fixture_run: Path, tmp_path: Path) -> None:
-    def fix_fr3_point_1(frame: pd.DataFrame) -> None:
+    def fix_fr3_point_1(frame: pd.DataFrame) -> pd.DataFrame:
         rows = (frame["robot"] == "fr3") & (frame["point_id"] == 1)
         frame.loc[rows, "success"] = True
         frame.loc[rows, "failure_reason"] = ""
-        frame.drop(frame[(frame["arm"] == "right") & (frame["point_id"] == 2)].index, inplace=True)
+        return frame[~((frame["arm"] == "right") & (frame["point_id"] == 2))]
 
     run_b = modified_run(fixture_run, tmp_path / "b", fix_fr3_point_1)
     comparison = compare_runs(fixture_run, run_b)
