@@ -137,16 +137,14 @@ def test_inspect_errors(bottle: Path, tmp_path: Path, capsys: pytest.CaptureFixt
     assert "--filter-x" in capsys.readouterr().err
 
 
-def test_robot_convention_fallback_without_robot_module(monkeypatch: pytest.MonkeyPatch) -> None:
-    import sys
-
+def test_robot_convention_comes_from_robot_yaml() -> None:
     from harness.commands.grasps import robot_convention
     from harness.errors import HarnessError
     from harness.grasps import REFERENCE_CONVENTIONS
 
-    monkeypatch.setitem(sys.modules, "harness.robot", None)  # import raises ImportError
-    assert robot_convention("lift2", "right") is REFERENCE_CONVENTIONS["lift2"]
-    with pytest.raises(HarnessError, match="known robots: fr3, lift2, split_aloha"):
+    convention = robot_convention("lift2", "right")
+    assert convention.ee_axis == REFERENCE_CONVENTIONS["lift2"].ee_axis == "x"
+    with pytest.raises(HarnessError, match="available robots: fr3, lift2, split_aloha"):
         robot_convention("ur5", "left")
     with pytest.raises(HarnessError, match="no right arm"):
         robot_convention("fr3", "right")

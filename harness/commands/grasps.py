@@ -19,36 +19,23 @@ from harness.config import PickConfig, validate_model
 from harness.errors import HarnessError
 from harness.grasps import (
     AXES,
-    REFERENCE_CONVENTIONS,
     CandidateSelection,
     GripperConvention,
     ee_poses_for_pick,
     load_grasp_file,
     select_candidates,
 )
+from harness.robot import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
 
 
 def robot_convention(name: str, arm: str) -> GripperConvention:
-    """The gripper convention of robot ``name`` (checking it has ``arm``), from ``harness.robot``.
-
-    Until ``harness/robot.py`` is importable, fall back to the reference tables
-    (REFERENCE_CONVENTIONS; fr3 has one arm, ``left``). Remove the fallback once it is.
-    """
-    try:
-        from harness.robot import RobotModel
-    except ImportError:
-        if name not in REFERENCE_CONVENTIONS:
-            known = ", ".join(sorted(REFERENCE_CONVENTIONS))
-            raise HarnessError(f"unknown robot {name!r}; known robots: {known}") from None
-        arms = ["left"] if name == "fr3" else ["left", "right"]
-        convention = REFERENCE_CONVENTIONS[name]
-    else:
-        model = RobotModel.load(name)
-        arms, convention = list(model.arms), model.convention
-    if arm not in arms:
-        raise HarnessError(f"robot {name!r} has no {arm} arm; its arms: {', '.join(arms)}")
-    return convention
+    """The gripper convention of robot ``name`` (robots/<name>/robot.yaml), checking its ``arm``."""
+    model = RobotModel.load(name)
+    if arm not in model.arms:
+        arms = ", ".join(model.arms)
+        raise HarnessError(f"robot {name!r} has no {arm} arm; its arms: {arms}")
+    return model.convention
 
 
 def _filter_value(flag: str, values: list[str] | None) -> list[Any] | None:

@@ -14,7 +14,6 @@ note of the mapping (ignored keys, approximations), in ``RUN_DIR/skipped.txt``.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import re
 import time
 from pathlib import Path
@@ -55,8 +54,6 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
     if args.task:
         raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-    if importlib.util.find_spec("harness.interndata") is None:
-        raise HarnessError("--interndata is not yet supported (harness/interndata.py missing)")
     from harness.interndata import load_interndata_tasks, parse_object_substitutions
 
     picks = load_interndata_tasks(
