@@ -486,7 +486,18 @@ def run_process_pool(
         process = context.Process(
             target=_worker_main, args=(child, str(run_dir), record), daemon=True
         )
-        process.start()
+        # Ctrl-C goes to the whole terminal process group. The worker ignores SIGINT once its
+        # main runs, but a signal during its start-up (imports) would kill it and look like a
+        # crash. The child inherits the signal mask across fork + exec, so start it with SIGINT
+        # blocked: only the parent ever sees Ctrl-C, and it stops the workers itself.
+        blocked = hasattr(signal, "pthread_sigmask")
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            process.start()
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         child.close()
         return _Worker(process, parent)
 

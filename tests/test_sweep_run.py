@@ -122,7 +122,7 @@ def test_segfaulting_worker_becomes_an_error_row(tmp_path: Path, monkeypatch):
     assert frame.loc[victim, "failure_reason"] == "error"
     assert "signal 11" in frame.loc[victim, "error_message"]
     others = frame.drop(index=victim)
-    assert (others["failure_reason"].fillna("") != "error").all()
+    assert (others["failure_reason"] != "error").all()
 
 
 @pytest.mark.slow
@@ -177,3 +177,49 @@ def test_recordings_read_back_with_rerun(tmp_path: Path):
     assert any(p.startswith("/sweep/") for p in overview_paths)
     points = json.loads(episodes.loc[0, "point"])
     assert "pick.approach_filter" in points
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
+    """A real SIGINT to the whole process group (as Ctrl-C in a terminal), then --resume."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    sweep_path = write_sweep(tmp_path, episodes=6)
+    run_dir = tmp_path / "run"
+    harness = [sys.executable, "-m", "harness.cli", "sweep"]
+    process = subprocess.Popen(
+        [*harness, str(sweep_path), "--out", str(run_dir), "--workers", "2", "--no-progress"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    store = run_dir / "episodes.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        if store.is_file() and len(store.read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+    assert process.poll() is None, process.communicate()
+    os.killpg(process.pid, signal.SIGINT)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    assert "interrupted" in out and "--resume" in out
+    assert "Traceback" not in err
+    kept = rows(run_dir)
+    assert 3 <= len(kept) < 12 and kept["episode_id"].is_unique
+    assert (kept["failure_reason"] != "error").all()  # no worker "crashed"
+
+    resumed = subprocess.run(
+        [*harness, "--resume", str(run_dir), "--no-progress"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    full = run_sweep(sweep_path, out=tmp_path / "full", workers=2, progress=False)
+    pd.testing.assert_frame_equal(rows(full.run_dir)[DETERMINISTIC], rows(run_dir)[DETERMINISTIC])
