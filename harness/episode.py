@@ -10,9 +10,20 @@ feasibility test), ``plan_failed`` (the executed motion could not be planned or 
 ``velocity_invalid``, ``sim_unstable`` (NaN or MuJoCo warnings), ``timeout`` (the episode
 length limit), ``error`` (an exception, with its message).
 
-Randomness: one ``numpy.random.Generator`` seeded with ``spec.seed`` drives, in order, the
-scene reset (robot root, object placement and orientation, home noise), the candidate draw, the
-post-grasp lift offset, and the planner's random restarts -- same spec, same row.
+Timeline (the reference's, section 7 and quirks 6 and 7): reset and place; one reference step
+(1/30 s) of physics; record the target's ``obj_init_trans`` (the lift reference); settle 20
+steps; choose and test the grasp from the object pose at that moment; plan; 10 warm-up steps
+with the robot holding still; execute. ``max_episode_length`` counts the execution's control
+steps only, as the reference's loop does.
+
+Randomness: one ``numpy.random.Generator`` seeded with ``spec.seed`` drives, in this fixed
+order, the scene reset (robot root, object placement and orientation, home noise), the
+candidate draw (``reference``: 20 weighted draws with replacement; ``strict`` with
+``strict_sampling`` only), the post-grasp lift offset, and the planner's random restarts and
+RRT samples -- same spec, same row. The reference uses two streams instead (Python ``random``
+for the candidate draw, NumPy for the scene and the lift offset, quirk 22). The distributions
+are the same; the numbers cannot be (different generators), so one stream in a documented order
+is the simpler way to make each row reproducible from its seed.
 
 The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint and object
 trajectories, TCP poses, gripper width, finger forces, phases and events, every candidate with
@@ -58,10 +69,14 @@ from harness.planning.timing import (
 from harness.scene import Scene, invert, scene_key
 from harness.transforms import quat_to_matrix
 
-# Object settling after placement: the reference steps PhysX 20 times at 1/30 s before the first
-# skill. Shorter, and objects placed tilted (orientation_mode random) are still moving when the
-# grasp is chosen.
+# The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,
+# step once, build the skill (it records obj_init_trans), settle 20 steps, generate the first
+# skill's commands (grasp selection and feasibility, from the object pose at that moment), step
+# 10 warm-up steps, then run the control loop. A shorter settle leaves objects placed tilted
+# (orientation_mode random) still moving when the grasp is chosen.
+INIT_RECORD_TIME_S = 1 / 30
 SETTLE_TIME_S = 20 / 30
+WARMUP_TIME_S = 10 / 30
 TOPPRA_GRIDPOINTS = 30
 PLAN_RETRIES = 2
 # The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the
@@ -360,8 +375,8 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     scene.robot.arm(arm)  # a clear error for an unknown arm
     rng = np.random.default_rng(spec.seed)
 
-    # 1. Reset: placement, home + noise, settle.
-    reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S)
+    # 1. Reset: placement, home + noise, obj_init_trans after one reference step, settle.
+    reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S)
     result.timings["settle_steps"] = float(reset.settle_steps)
     result.timings["setup_s"] = time.perf_counter() - clock
     if (reason := scene.unstable()) is not None:
@@ -418,13 +433,16 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     # the table even where it is physical, quirk 21, planning fingers into it), and the target
     # object under both semantics (the fingers may touch it on the approach; the reference
     # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
-    # transport sweep through it and knock it over).
+    # transport sweep through it and knock it over). Other objects are in it unless the pick's
+    # ignore_substring names them (the reference planner's ignore list); strict ignores nothing.
     strict = pick.semantics == "strict"
     planner.sync(
         obj_name,
         check_table=task.physics.table_contact or strict,
         check_target=True,
         table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
+        ignore_substring=() if strict else tuple(pick.ignore_substring),
+        hold_lift=True,  # the reference plans the arm alone, the lift held at its home
     )
     q_now = scene.active_q(arm)
     approach = scene.robot.convention.approach_index
@@ -435,22 +453,28 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         fixed = quat_to_matrix(np.asarray(pick.fixed_orientation, dtype=float))
 
     def targets_for(T_base_grasp: np.ndarray, apply_fixed: bool) -> tuple[np.ndarray, ...]:
-        T_grasp = T_base_grasp.copy()
-        if apply_fixed and fixed is not None:
-            T_grasp[:3, :3] = fixed
-        T_pre = T_grasp.copy()
-        T_pre[:3, 3] -= pick.pre_grasp_offset * T_grasp[:3, approach]
-        T_lift = None
-        if lift_offset != 0.0:
-            T_lift = T_grasp.copy()
-            T_lift[2, 3] += lift_offset
-        world = [T_world_base @ T_pre, T_world_base @ T_grasp]
-        return world[0], world[1], (T_world_base @ T_lift if T_lift is not None else None)
+        base = command_targets(
+            T_base_grasp,
+            pick.pre_grasp_offset,
+            approach,
+            lift_offset,
+            fixed if apply_fixed else None,
+            pick.semantics,
+        )
+        return tuple(T_world_base @ T if T is not None else None for T in base)
+
+    def test_targets(position: int) -> tuple[np.ndarray, ...]:
+        """The poses a candidate is tested at. Reference: fixed_orientation is applied after the
+        test (quirk 13), and a forward test plans no lift (the reference tests only the
+        pre-grasp and the grasp); strict tests what it executes."""
+        T_pre, T_grasp, T_lift = targets_for(T_base_candidates[position], strict)
+        return T_pre, T_grasp, (T_lift if strict else None)
 
     ik_time_before = ik.total_time
     verdicts, chosen = _test_candidates(
         planner, pick, order.indices.tolist(), order.scores.tolist(),
-        lambda position: targets_for(T_base_candidates[position], strict), q_now, rng,
+        test_targets, q_now, rng,
+        return_to_pregrasp=pick.return_to_pregrasp and strict,
     )  # fmt: skip
     row["n_tested"] = len(verdicts)
     row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
@@ -482,6 +506,11 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     plan: ChainPlan | None = chosen.plan if (fixed is None or strict) else None
     attempts = 0
     failure = chosen
+    if plan is not None and not strict and (T_lift is not None or pick.return_to_pregrasp):
+        # Reference forward test: the chosen plan ends at the grasp; plan its carry now.
+        plan, stage, why = planner.plan_carry(plan, T_lift, pick.return_to_pregrasp)
+        if plan is None:
+            raise stop_planning("plan_failed", f"{stage}: {why}")
     while plan is None and attempts <= PLAN_RETRIES:
         attempts += 1
         tested = chosen.ik_pregrasp
@@ -505,16 +534,23 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     targets = PickTargets(plan.T_world_pregrasp, plan.T_world_grasp, plan.T_world_lift, segments)
     planned = _planned_tcp(ik, scene, arm, segments, task.control_dt)
 
-    # 5. Execute and judge.
+    # 5. The reference's 10 warm-up steps (robot holding its home), then execute and judge.
     result.timings["plan_s"] = row["plan_time_s"]
     clock = time.perf_counter()
+    warmup_steps = max(1, round(WARMUP_TIME_S / scene.model.opt.timestep))
+    warmup_ctrl = scene.data.ctrl.copy()
+    scene.step(warmup_steps)
+    result.timings["warmup_steps"] = float(warmup_steps)
+    if (reason := scene.unstable()) is not None:
+        raise _EpisodeStopError("sim_unstable", f"during the warm-up steps: {reason}")
     executor = PickExecutor(
         scene, task, targets, reset.object_init_position, lift_offset, planner.checker,
         record=True, log_ctrl=spec.log_ctrl,
     )  # fmt: skip
     outcome = executor.run()
     result.timings["sim_s"] = time.perf_counter() - clock
-    result.ctrl_log = executor.ctrl_log
+    if executor.ctrl_log is not None:
+        result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
     finish_trace(outcome, verdicts, chosen, targets, planned)
     row.update(
         {
@@ -533,6 +569,41 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
         raise _EpisodeStopError(outcome.failure_reason, outcome.message)
 
 
+def command_targets(
+    T_base_grasp: np.ndarray,
+    pre_grasp_offset: float,
+    approach_index: int,
+    lift_offset: float,
+    fixed_rotation: np.ndarray | None = None,
+    semantics: str = "reference",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate (section 6).
+
+    The pre-grasp is the grasp moved ``pre_grasp_offset`` back along EE column
+    ``approach_index`` (the reference picks column 0 when "r5a" is in the planner file name and
+    column 2 otherwise, quirk 14: the same column as ``ee_axis`` on all three robots); the lift
+    is the grasp moved ``lift_offset`` up along base z, in the grasp's orientation (quirk 12).
+    ``fixed_rotation`` replaces the orientation of all three. Under ``reference`` semantics the
+    positions stay those of the candidate (the reference overwrites only the quaternions, after
+    computing the pre-grasp from the candidate's own approach axis, quirk 13); under
+    ``strict`` the pre-grasp backs off along the fixed orientation's approach axis, so the
+    approach is straight along the executed hand axis.
+    """
+    T_grasp = np.array(T_base_grasp, dtype=float)
+    if fixed_rotation is not None and semantics == "strict":
+        T_grasp[:3, :3] = fixed_rotation
+    T_pre = T_grasp.copy()
+    T_pre[:3, 3] -= pre_grasp_offset * T_grasp[:3, approach_index]
+    if fixed_rotation is not None:
+        T_grasp[:3, :3] = fixed_rotation
+        T_pre[:3, :3] = fixed_rotation
+    T_lift = None
+    if lift_offset != 0.0:
+        T_lift = T_grasp.copy()
+        T_lift[2, 3] += lift_offset
+    return T_pre, T_grasp, T_lift
+
+
 def _test_candidates(
     planner: PickPlanner,
     pick: PickConfig,
@@ -541,10 +612,13 @@ def _test_candidates(
     targets_of: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
     q_now: np.ndarray,
     rng: np.random.Generator,
+    return_to_pregrasp: bool = False,
 ) -> tuple[list[CandidateVerdict], CandidateVerdict | None]:
     """Walk the ordered candidates until one passes ``pick.test_mode``; (verdicts, chosen).
 
-    ``targets_of(position)`` gives the world pre-grasp, grasp and lift poses of a candidate.
+    ``targets_of(position)`` gives the world pre-grasp, grasp and lift poses of a candidate
+    (the lift None when the test plans none); a ``forward`` test plans the return to the
+    pre-grasp only with ``return_to_pregrasp``.
     A duplicate (the reference draws with replacement) reuses the first answer: the reference
     re-tests it and gets the same one.
     """
@@ -568,7 +642,7 @@ def _test_candidates(
             else:
                 verdict = planner.plan_chain(
                     position, pose_index, score, q_now, T_pre, T_grasp, T_lift,
-                    pick.return_to_pregrasp, rng,
+                    return_to_pregrasp, rng,
                 )  # fmt: skip
             tested[pose_index] = verdict
         verdicts.append(verdict)

@@ -12,8 +12,14 @@ Commands (pick-skill.md section 6), each a target pose plus a gripper action, in
 10. pre-grasp, final gripper command (``return_to_pregrasp``)
 
 Progress (section 7): once per control step the head command pops when the EE is within
-``t_eps`` (m) and ``o_eps`` (rad) of its target, or after more than 10 idle control steps (no
-active arm trajectory). A command whose target differs from the previous one starts the next
+``t_eps`` (m) and ``o_eps`` (rad, ``2 acos(min(|q . q*|, 1))``) of its target, or when the idle
+counter (the reference controller's ``num_last_cmd``) exceeds 10. As in the reference, the
+counter counts control steps without an active arm trajectory, except while the head command is
+an ``update_*`` one (the reference holds the arm there without counting), and it is reset only
+when a command with a new target pose (more than 5e-3 away, the controller's re-plan test)
+becomes head -- not on a pop, so once it exceeds 10 every further command with the same target
+pops one per step (the closing commands of a grasp the arm never reached within ``t_eps``).
+A command whose target differs from the previous one starts the next
 planned trajectory segment (transport, approach, lift, retreat) as soon as the previous segment
 has finished -- the harness plays each planned segment to its end rather than re-planning from a
 moving state, so the arm never jumps. The gripper action of the head command is applied while it
@@ -48,8 +54,11 @@ from harness.config import PickConfig, TaskConfig
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.scene import Scene, invert
+from harness.transforms import matrix_to_quat, quat_angle_between
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps
+REPLAN_EPS = 5e-3  # the controller re-plans (and resets its idle count) for targets this far
+HOLD_FUNCTIONS = ("update_pose_cost_metric", "update_specific")  # hold the arm, count nothing
 MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the reference)
 SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
 STATIC_SPEED = 0.02  # m/s: the object is "at rest" below this (strict)
@@ -114,6 +123,25 @@ def build_commands(pick: PickConfig, lift_offset: float) -> list[PickCommand]:
 
 
 SEGMENT_OF_TARGET = {"pregrasp": "transport", "grasp": "approach", "lift": "lift"}
+
+
+def pose_reached(T_ee: np.ndarray, T_target: np.ndarray, t_eps: float, o_eps: float) -> bool:
+    """The reference ``is_subtask_done`` test: ``|p - p*| < t_eps`` and
+    ``2 acos(min(|q . q*|, 1)) < o_eps``, both strict."""
+    if float(np.linalg.norm(T_ee[:3, 3] - T_target[:3, 3])) >= t_eps:
+        return False
+    quats = matrix_to_quat(np.stack([T_ee[:3, :3], T_target[:3, :3]]))
+    return float(quat_angle_between(quats[0], quats[1])) < o_eps
+
+
+def _target_moved(T_from: np.ndarray, T_to: np.ndarray) -> bool:
+    """The controller's re-plan test: translation or quaternion difference norm > 5e-3."""
+    if float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3])) > REPLAN_EPS:
+        return True
+    q_from, q_to = matrix_to_quat(np.stack([T_from[:3, :3], T_to[:3, :3]]))
+    if float(np.dot(q_from, q_to)) < 0.0:  # same rotation, opposite sign: compare like for like
+        q_to = -q_to
+    return float(np.linalg.norm(q_to - q_from)) > REPLAN_EPS
 
 
 # --------------------------------------------------------------------------------------------
@@ -297,7 +325,8 @@ class PickExecutor:
         self.out = PickOutcome()
         self.step = 0
         self.head = 0
-        self.idle = 0
+        self.idle = 0  # the reference controller's num_last_cmd
+        self.planned_target: np.ndarray | None = None  # the last target that reset ``idle``
         self.previous_target = "current"
         self.pending_segment: str | None = None
         self.started_segments: set[str] = set()
@@ -359,6 +388,11 @@ class PickExecutor:
         command = self.commands[index]
         if command.event:
             self._event(f"{command.function}: {command.event}")
+        if command.target != "current" and command.function not in HOLD_FUNCTIONS:
+            T_target = self._target_pose(command.target, np.eye(4))
+            if self.planned_target is None or _target_moved(self.planned_target, T_target):
+                self.planned_target = T_target
+                self.idle = 0  # the reference re-plans here and resets num_last_cmd
         if command.target not in ("current", self.previous_target):
             segment = "retreat" if command.number == 10 else SEGMENT_OF_TARGET[command.target]
             if segment in self.targets.segments and segment not in self.started_segments:
@@ -378,12 +412,9 @@ class PickExecutor:
                 self._event(f"gripper {command.gripper}")
 
     def _reached(self, T_ee: np.ndarray, T_target: np.ndarray) -> bool:
-        """The reference ``is_done`` pose test (m, rad)."""
-        if float(np.linalg.norm(T_ee[:3, 3] - T_target[:3, 3])) >= self.pick.t_eps:
-            return False
-        R = T_ee[:3, :3].T @ T_target[:3, :3]
-        angle = math.acos(max(-1.0, min(1.0, 0.5 * (float(np.trace(R)) - 1.0))))
-        return angle < self.pick.o_eps
+        """The reference ``is_done`` pose test: ``|p - p*| < t_eps`` (m) and
+        ``2 acos(min(|q . q*|, 1)) < o_eps`` (rad)."""
+        return pose_reached(T_ee, T_target, self.pick.t_eps, self.pick.o_eps)
 
     def _tcp_error(self) -> float:
         """Distance between the executed and the planned TCP point at the grasp."""
@@ -438,8 +469,10 @@ class PickExecutor:
                 if self.arm_segment == "approach":
                     error = self._tcp_error()
                     self._event(f"approach done, TCP {error * 1e3:.2f} mm from the planned grasp")
-        else:
-            self.idle += 1
+        elif self.head >= len(self.commands) or (
+            self.commands[self.head].function not in HOLD_FUNCTIONS
+        ):
+            self.idle += 1  # no active trajectory (update_* commands hold without counting)
         if gripper_plan is not None:
             self.gripper_row += 1
             if self.gripper_row >= len(gripper_plan):
@@ -497,8 +530,7 @@ class PickExecutor:
                     f"below {self.pick.min_finger_force} N",
                 )
                 return False
-        self.head += 1
-        self.idle = 0
+        self.head += 1  # the idle count carries on: only a new target resets it
         if self.head < len(self.commands):
             self._start_command(self.head)
             return False
@@ -516,6 +548,8 @@ class PickExecutor:
         """Execute until the verdict, a failure, or the episode length limit."""
         out, d = self.out, self.data
         out.object_z_before = float(d.xpos[self.obj.body_id][2])
+        # The controller's last planned target starts as the EE pose (its reset).
+        self.planned_target = self.scene.T_world_body(self.handles.ee_body)
         self._start_command(0)
         done = False
         while not done and not out.failure_reason:

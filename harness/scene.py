@@ -145,7 +145,7 @@ class ResetState:
     object_init_position: np.ndarray  # target object, before settling (reference obj_init_trans)
     home: dict[str, float]
     orientation_choice: int | None = None
-    settle_steps: int = 0
+    settle_steps: int = 0  # physics steps of the reset (init_record_time + settle_time)
 
 
 # --------------------------------------------------------------------------------------------
@@ -343,9 +343,18 @@ class Scene:
     # -- reset ----------------------------------------------------------------------------------
 
     def reset(
-        self, task: TaskConfig, rng: np.random.Generator, settle_time: float = 0.1
+        self,
+        task: TaskConfig,
+        rng: np.random.Generator,
+        settle_time: float = 0.1,
+        init_record_time: float = 0.0,
     ) -> ResetState:
         """Start an episode: place the robot and objects, set home + noise, settle the objects.
+
+        The target object's position is recorded (``object_init_position``, the reference's
+        ``obj_init_trans``) after ``init_record_time`` seconds of physics, then the scene settles
+        ``settle_time`` more seconds. The reference steps once (1/30 s) after placing, builds
+        the skill (recording ``obj_init_trans``), then settles 20 steps.
 
         Draw order from ``rng``: robot root (position, yaw), then per object (position, yaw,
         orientation choice), then the arm's home noise.
@@ -387,11 +396,16 @@ class Scene:
         self.set_robot_configuration(home)
         mujoco.mj_forward(m, d)
         target = self.objects[task.target_object.name]
-        init_position = d.qpos[target.qpos_adr : target.qpos_adr + 3].copy()
         settle_steps = 0
-        if settle_time > 0:
-            settle_steps = max(1, round(settle_time / m.opt.timestep))
+        if init_record_time > 0:
+            settle_steps = max(1, round(init_record_time / m.opt.timestep))
             self.step(settle_steps)
+        init_position = d.qpos[target.qpos_adr : target.qpos_adr + 3].copy()
+        if settle_time > 0:
+            steps = max(1, round(settle_time / m.opt.timestep))
+            self.step(steps)
+            settle_steps += steps
+        if settle_steps:
             for obj in self.objects.values():
                 T_world_objects[obj.name] = self.T_world_body(obj.body_id)
         return ResetState(T_world_root, T_world_objects, init_position, home, choice, settle_steps)

@@ -11,9 +11,21 @@ import pytest
 from test_scene import make_task, write_box
 
 from harness.config import apply_overrides, load_task
-from harness.episode import EpisodeSpec, run_episode
+from harness.episode import (
+    INIT_RECORD_TIME_S,
+    SETTLE_TIME_S,
+    WARMUP_TIME_S,
+    EpisodeSpec,
+    command_targets,
+    get_scene,
+    grasp_file_for,
+    run_episode,
+)
+from harness.grasps import select_candidates
 from harness.pick import SERVO_CHUNK_S
 from harness.results import FAILURE_REASONS, SCHEMA
+from harness.robot import RobotModel
+from harness.scene import invert
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
 TASK_FILES = ["fr3", "split_aloha_left", "split_aloha_right", "lift2_left", "lift2_right"]
@@ -248,3 +260,113 @@ def test_harness_run_writes_a_run_directory(tmp_path: Path, capsys) -> None:
     assert (out / "sweep.yaml").is_file() and (out / "summary.csv").is_file()
     printed = capsys.readouterr().out
     assert "Wilson" in printed and "/2" in printed
+
+
+# --------------------------------------------------------------------------------------------
+# Reference semantics: timeline, draw order, command targets, forward test (docs/semantics.md)
+
+CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
+# The reference's planner files (pick-skill.md section 3): the pre-grasp backs off along EE
+# column 0 when "r5a" is in the file name, else column 2 (quirk 14).
+REFERENCE_PLANNER_FILES = {
+    "fr3": ["fr3_left_arm.yml"],
+    "lift2": ["r5a_left_arm.yml", "r5a_right_arm.yml"],
+    "split_aloha": ["piper100_left_arm.yml", "piper100_right_arm.yml"],
+}
+
+
+@pytest.mark.parametrize("robot", sorted(REFERENCE_PLANNER_FILES))
+def test_pregrasp_column_matches_the_reference_r5a_rule(robot: str) -> None:
+    """The harness backs off along ee_axis; the reference along column 0 for "r5a" planner files
+    and column 2 otherwise. The two rules agree on all three robots."""
+    approach = RobotModel.load(robot).convention.approach_index
+    for planner_file in REFERENCE_PLANNER_FILES[robot]:
+        assert approach == (0 if "r5a" in planner_file else 2)
+    T_grasp = np.eye(4)
+    T_pre, _, _ = command_targets(T_grasp, 0.05, approach, 0.0)
+    assert np.allclose(T_pre[:3, 3], -0.05 * np.eye(3)[:, approach])
+
+
+def test_command_targets_fixed_orientation_reference_and_strict() -> None:
+    """fixed_orientation replaces the orientations only after the pre-grasp was computed from the
+    candidate's own approach axis (reference, quirk 13); strict backs off along the fixed axis.
+    The lift is the grasp moved up along base z in the grasp's orientation; offset 0 -> none."""
+    c, s = math.cos(0.4), math.sin(0.4)
+    T_grasp = np.eye(4)
+    T_grasp[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]  # approach z tilted
+    T_grasp[:3, 3] = [0.4, 0.1, 0.05]
+    fixed = np.diag([1.0, -1.0, -1.0])  # straight down
+    pre, grasp, lift = command_targets(T_grasp, 0.05, 2, 0.1, fixed, "reference")
+    assert np.allclose(pre[:3, 3], T_grasp[:3, 3] - 0.05 * T_grasp[:3, 2])
+    assert np.allclose(grasp[:3, 3], T_grasp[:3, 3])
+    for T in (pre, grasp, lift):
+        assert np.allclose(T[:3, :3], fixed)
+    assert np.allclose(lift[:3, 3], T_grasp[:3, 3] + [0.0, 0.0, 0.1])
+    pre, grasp, _ = command_targets(T_grasp, 0.05, 2, 0.1, fixed, "strict")
+    assert np.allclose(pre[:3, 3], T_grasp[:3, 3] + [0.0, 0.0, 0.05])
+    _, _, lift = command_targets(T_grasp, 0.05, 2, 0.0)
+    assert lift is None
+
+
+def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
+    """One reference step, obj_init_trans, 20 settle steps, selection, 10 warm-up steps,
+    execution; one Generator drawn in a fixed order: reset, candidate draw, lift offset. A
+    replay of the reset and the selection with the same seed gives the same lift reference,
+    candidates and lift offset."""
+    task = make_task("fr3", "left", cube, object=CENTRE)
+    result = episode(task, 7, cache)
+    row, trace, scene = result.row, result.trace, result.scene
+    assert result.success, row["error_message"]
+    timestep = scene.model.opt.timestep
+    settle = round(INIT_RECORD_TIME_S / timestep) + round(SETTLE_TIME_S / timestep)
+    assert result.timings["settle_steps"] == settle
+    assert result.timings["warmup_steps"] == round(WARMUP_TIME_S / timestep)
+    physics_steps = settle + result.timings["warmup_steps"] + row["sim_steps"]
+    assert scene.data.time == pytest.approx(physics_steps * timestep)
+    final_z = trace.object_pose[-1, 2]
+
+    rng = np.random.default_rng(7)
+    state = scene.reset(task, rng, settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S)
+    assert row["lift_height_m"] == pytest.approx(final_z - state.object_init_position[2])
+    T_world_obj = scene.T_world_object("target")
+    assert np.allclose(T_world_obj, trace.T_world_object_start)
+    bundle = get_scene(task, cache)
+    poses = bundle.poses(task, grasp_file_for(task, scene))
+    T_base_obj = invert(scene.T_world_base("left")) @ T_world_obj
+    selection = select_candidates(poses, scene.robot.convention, task.pick, T_base_obj, rng)
+    assert len(selection.order) == 20 and selection.order.outcome == "ok"
+    assert row["chosen_index"] in selection.order.indices.tolist()
+    lift_offset = rng.uniform(task.pick.post_grasp_offset_min, task.pick.post_grasp_offset_max)
+    assert row["post_grasp_offset"] == lift_offset
+
+
+@pytest.mark.parametrize("semantics", ["reference", "strict"])
+def test_forward_test_plans_the_lift_only_under_strict(
+    cube: Path, cache: dict, semantics: str
+) -> None:
+    """A lift of 1 m is out of the FR3's reach. The reference tests only the pre-grasp and the
+    grasp, so it executes the first candidate and fails on the lift (is_feasible:
+    plan_failed); strict tests the whole chain, rejects all 20 (no_feasible_candidate)."""
+    lift = {"post_grasp_offset_min": 1.0, "post_grasp_offset_max": 1.0}
+    pick = {"test_mode": "forward", "semantics": semantics, **lift}
+    task = make_task("fr3", "left", cube, object=CENTRE, pick=pick)
+    row = episode(task, 0, cache).row
+    if semantics == "reference":
+        assert row["failure_reason"] == "plan_failed"
+        assert row["error_message"].startswith("lift: ")
+        assert row["n_tested"] == 1 and row["n_feasible"] == 1
+    else:
+        assert row["failure_reason"] == "no_feasible_candidate"
+        assert row["n_tested"] == 20 and row["n_feasible"] == 0
+        assert "last: lift: " in row["error_message"]
+
+
+def test_lift2_picks_with_the_lift_held_at_its_home(cache: dict) -> None:
+    """The reference's Lift-2 planner moves the arm alone, the lift held at its home (0.46);
+    so does the episode (seed 3 raised the lift 16 cm when the IK could use it)."""
+    task = load_task(TASKS_DIR / "lift2_left.yaml")
+    result = episode(task, 3, cache)
+    check_pick(result)
+    trace = result.trace
+    assert trace.joint_names[0] == "lift_joint"
+    assert np.max(np.abs(trace.q[:, 0] - 0.46)) < 2e-3  # servo sag only

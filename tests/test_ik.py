@@ -134,6 +134,26 @@ def test_lift_moves_only_when_the_arm_cannot_reach() -> None:
     assert result.q[0] > 0.4  # the lift rose
 
 
+def test_held_lift_stays_at_its_seed() -> None:
+    """hold_lift: the lift is masked (the reference's pick plans the arm alone); the target that
+    needs the lift raised is then out of reach, with the lift exactly at its seed; releasing
+    the hold solves it again."""
+    robot = RobotModel.load("lift2")
+    ik, home = make_ik(robot, "left")
+    high = ik.fk(ik.clip(np.r_[0.46, 0.0, 1.57, 1.57, 0.0, 0.0, 0.0]))
+    seed = home.copy()
+    seed[0] = 0.0
+    ik.hold_lift(True)
+    assert ik.lift_held
+    held = ik.solve(high, seed, np.random.default_rng(0))
+    assert not held.success
+    assert held.q[0] == 0.0
+    near = ik.fk(ik.clip(home + np.r_[0.0, 0.3, 0.4, 0.3, 0.0, 0.2, 0.0]))
+    assert ik.solve(near, home, np.random.default_rng(0)).success  # the arm alone still works
+    ik.hold_lift(False)
+    assert ik.solve(high, seed, np.random.default_rng(0)).success
+
+
 def test_idle_arm_holds_its_posture() -> None:
     """Dual-arm: solving for the left arm never moves the right arm's joints."""
     robot = RobotModel.load("split_aloha")

@@ -169,6 +169,43 @@ def test_checker_table_switch(fr3) -> None:
     planner.sync("target", check_table=True)
 
 
+def test_checker_ignore_substring(tmp_path: Path) -> None:
+    """The pick's ignore_substring (the reference planner's ignore list) leaves the objects it
+    names out of the planning world; the target object follows check_target alone."""
+    mesh = write_box(tmp_path, (0.04, 0.04, 0.04), "cube")
+    fixed = {"yaw_range": [0, 0]}
+    task = make_task(
+        "fr3",
+        "left",
+        mesh,
+        object={"placement": {"pos_range": [[-0.1, 0.0, 0.0], [-0.1, 0.0, 0.0]], **fixed}},
+        extra_objects=[
+            {
+                "name": "gso_box_left",
+                "mesh": str(mesh),
+                "placement": {"pos_range": [[0.15, 0.0, 0.0], [0.15, 0.0, 0.0]], **fixed},
+            }
+        ],
+    )
+    scene, planner = _planner(task)
+    planner.sync("target", check_table=False)  # also the IK's base pose and posture
+    q_home = scene.active_q("left")
+    hits = {}
+    for name in ("gso_box_left", "target"):
+        T = top_down_grasp(scene, "left", name)
+        T[:3, 3] += [0.0, 0.0, -0.03]  # the palm into the box
+        result = planner.ik.solve(T, q_home, np.random.default_rng(0))
+        assert result.success
+        hits[name] = result.q
+    planner.sync("target", check_table=False)
+    assert planner.checker.collides(hits["gso_box_left"], "transport")
+    planner.sync("target", check_table=False, ignore_substring=["material", "gso_box"])
+    assert not planner.checker.collides(hits["gso_box_left"], "transport")
+    assert planner.checker.collides(hits["target"], "transport")
+    planner.sync("target", check_table=False, ignore_substring=["target"])
+    assert planner.checker.collides(hits["target"], "transport")
+
+
 def test_self_contacts_of_the_physics_model_are_collisions(fr3) -> None:
     """Any robot-robot contact MuJoCo generates (not parent-child, not welded) is a collision,
     e.g. link1 against link3 when the elbow folds back, which would stop the arm in simulation.

@@ -11,7 +11,8 @@ from test_scene import make_task, write_box
 
 from harness.config import PickConfig
 from harness.episode import EpisodeSpec, run_episode
-from harness.pick import IDLE_POP_STEPS, SERVO_CHUNK_S, build_commands
+from harness.pick import IDLE_POP_STEPS, SERVO_CHUNK_S, build_commands, pose_reached
+from harness.transforms import quat_to_matrix
 
 CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
 
@@ -61,6 +62,28 @@ def test_optional_commands() -> None:
 
 
 # --------------------------------------------------------------------------------------------
+# is_done pose test
+
+
+def test_pose_reached_is_the_reference_is_subtask_done() -> None:
+    """``|p - p*| < t_eps`` and ``2 acos(min(|q . q*|, 1)) < o_eps``, both strict; the q / -q
+    sign does not matter. Checked against the formula on random rotations."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        q_a, q_b = rng.normal(size=(2, 4))
+        q_a /= np.linalg.norm(q_a)
+        q_b = q_a + 0.01 * rng.normal(size=4)
+        q_b /= np.linalg.norm(q_b)
+        angle = 2.0 * math.acos(min(abs(float(np.dot(q_a, q_b))), 1.0))
+        T_a, T_b = np.eye(4), np.eye(4)
+        T_a[:3, :3], T_b[:3, :3] = quat_to_matrix(q_a), quat_to_matrix(-q_b)
+        T_b[:3, 3] = [0.004, 0.0, 0.0]
+        for o_eps in (0.5 * angle, 2.0 * angle):
+            assert pose_reached(T_a, T_b, 0.005, o_eps) == (angle < o_eps)
+        assert not pose_reached(T_a, T_b, 0.004, 1.0)  # |p - p*| = t_eps is not reached
+
+
+# --------------------------------------------------------------------------------------------
 # Execution
 
 
@@ -98,6 +121,12 @@ def test_idle_pop_completes_the_list_when_poses_are_never_reached(cube: Path, ca
     chunks_per_step = math.ceil(round(task.control_dt / 0.002) * 0.002 / SERVO_CHUNK_S - 1e-9)
     assert rows["open_gripper:pregrasp"] > IDLE_POP_STEPS * chunks_per_step
     assert result.success, result.row["error_message"]
+    # The idle count is the controller's num_last_cmd: reset by a new target, not by a pop.
+    # Once past 10 at the grasp, the closing commands (same target) pop one per control step.
+    closing = task.pick.gripper_change_steps * chunks_per_step
+    assert rows["close_gripper:grasp"] == closing
+    assert rows["update_specific:grasp"] == chunks_per_step  # pops at once, idle still > 10
+    assert rows["close_gripper:lift"] > IDLE_POP_STEPS * chunks_per_step  # new target: reset
 
 
 def test_strict_success_measures_the_hold(cube: Path, cache: dict) -> None:
@@ -110,6 +139,18 @@ def test_strict_success_measures_the_hold(cube: Path, cache: dict) -> None:
     assert any(text.startswith("object at rest: hold") for text in events)
     hold_start = next(t for t, text in result.trace.events if text.startswith("object at rest"))
     assert result.trace.time[-1] - hold_start >= task.pick.hold_time - 1e-6
+
+
+def test_strict_slip_bound_is_dropped(cube: Path, cache: dict) -> None:
+    """Strict: slip in the hold (object motion relative to the TCP) above max_slip is dropped,
+    though the reference verdict would pass the same episode (test above: success)."""
+    pick = {"semantics": "strict", "max_slip": 1e-9}
+    result = run(make_task("fr3", "left", cube, object=CENTRE, pick=pick), 0, cache)
+    assert result.failure_reason == "dropped"
+    assert "slipped" in result.row["error_message"]
+    assert result.row["slip_m"] > 1e-9
+    reference = run(make_task("fr3", "left", cube, object=CENTRE), 0, cache)
+    assert reference.success, reference.row["error_message"]
 
 
 def test_strict_finger_force_threshold(cube: Path, cache: dict) -> None:
@@ -159,3 +200,11 @@ def test_fixed_orientation_replaces_the_grasp_orientation(cube: Path, cache: dic
     scene = result.scene
     T_base_grasp = np.linalg.inv(scene.T_world_base("left")) @ result.trace.T_world_grasp
     assert np.allclose(T_base_grasp[:3, :3], np.diag([1.0, -1.0, -1.0]), atol=1e-9)
+    # Only the quaternions are replaced: the pre-grasp stays where the candidate's own approach
+    # axis put it, pre_grasp_offset behind its grasp position.
+    trace = result.trace
+    candidate = trace.candidate_T_world_ee[trace.candidate_status == "chosen"][0]
+    assert np.allclose(trace.T_world_grasp[:3, 3], candidate[:3, 3], atol=1e-9)
+    expected = candidate[:3, 3] - task.pick.pre_grasp_offset * candidate[:3, 2]
+    assert np.allclose(trace.T_world_pregrasp[:3, 3], expected, atol=1e-9)
+    assert np.allclose(trace.T_world_pregrasp[:3, :3], trace.T_world_grasp[:3, :3], atol=1e-9)

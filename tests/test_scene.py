@@ -152,6 +152,21 @@ def test_reset_is_deterministic_and_within_the_ranges(fr3_scene: tuple[Scene, Ta
         assert state.object_init_position[2] == pytest.approx(0.021, abs=1e-6)
 
 
+def test_init_position_is_recorded_after_one_reference_step(
+    fr3_scene: tuple[Scene, TaskConfig],
+) -> None:
+    """The reference builds the skill (recording obj_init_trans) one 1/30 s physics step after
+    placing: the cube placed 1 mm up (centre at 21 mm) has landed by then (MuJoCo's soft contact
+    still has it ~1 mm into the table top, mid-impact). The settle steps follow the record."""
+    scene, task = fr3_scene
+    timestep = scene.model.opt.timestep
+    state = scene.reset(task, np.random.default_rng(3), settle_time=0.2, init_record_time=1 / 30)
+    assert state.object_init_position[2] == pytest.approx(0.02, abs=1.5e-3)
+    assert state.object_init_position[2] < 0.0205  # no longer 1 mm up
+    assert state.settle_steps == round((1 / 30) / timestep) + round(0.2 / timestep)
+    assert scene.data.time == pytest.approx(state.settle_steps * timestep)
+
+
 def test_home_noise_matches_the_configured_std(fr3_scene: tuple[Scene, TaskConfig]) -> None:
     scene, task = fr3_scene
     arm = scene.robot.arm("left")

@@ -37,12 +37,12 @@ RATIO_TARGET = {"fr3": 3.0}
 
 def bare_physics_time(result: Any, seed: int) -> float:
     """Seconds of ``mj_step`` alone for the episode's physics: reset with the same seed, then
-    the settling steps and the logged commands, chunk by chunk."""
+    the settling steps and the logged commands (the warm-up steps first), chunk by chunk."""
     scene = result.scene
     task = result.spec.task
     scene.reset(task, np.random.default_rng(seed), settle_time=0.0)
     m, d = scene.model, scene.data
-    settle = max(1, round(SETTLE_TIME_S / m.opt.timestep))
+    settle = int(result.timings.get("settle_steps", round(SETTLE_TIME_S / m.opt.timestep)))
     log = result.ctrl_log or []
     start = time.perf_counter()
     mujoco.mj_step(m, d, settle)
@@ -79,7 +79,11 @@ def _task_figures(name: str, count: int, pinned: str) -> list[Figure]:
             bare = bare_physics_time(result, seed)
             bares.append(bare)
             ratios.append(row["wall_time_s"] / bare)
-            steps.append(row["sim_steps"] + result.timings.get("settle_steps", 0.0))
+            steps.append(
+                row["sim_steps"]
+                + result.timings.get("settle_steps", 0.0)
+                + result.timings.get("warmup_steps", 0.0)
+            )
     label = f"{name} ({task.pick.test_mode}, {task.pick.timing})"
     extra = {
         "successes": successes,

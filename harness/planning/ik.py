@@ -11,7 +11,9 @@ The solve is Gauss-Newton through placo's QP (joint limits are hard constraints)
 - a frame task on the end-effector frame (soft, position and orientation weight 1);
 - on a lift, a weak posture task that keeps the lift where it is unless the arm alone cannot
   reach; it is dropped for the final polish so it never leaves a residual
-  (../shared/reference/libraries.md section 1, "soft weights compete");
+  (../shared/reference/libraries.md section 1, "soft weights compete"); ``hold_lift(True)``
+  masks the lift instead, so it stays at its seed value (the reference's pick holds the lift at
+  its home and plans the arm alone, which is what the episode does);
 - convergence tolerances, an iteration cap, a stall test, and random restarts drawn from a
   ``numpy.random.Generator``. The solve always returns within ``max_iterations * (1 +
   max_restarts)`` iterations, with the best solution found and its residual.
@@ -127,6 +129,7 @@ class WholeBodyIK:
         self.solver.add_regularization_task(1e-6)
         self._lift_task = None
         self._lift_weight = float(lift_posture_weight)
+        self._lift_held = False
         if lift_joint is not None:
             if lift_joint not in self.joint_names:
                 raise ValueError(f"lift joint {lift_joint!r} must be one of the active joints")
@@ -136,6 +139,20 @@ class WholeBodyIK:
         self.total_time = 0.0  # seconds spent in solve(), for the episode's ik_time_s
 
     # -- state ----------------------------------------------------------------------------------
+
+    @property
+    def lift_held(self) -> bool:
+        return self._lift_held
+
+    def hold_lift(self, held: bool) -> None:
+        """Keep the lift at its seed value in every solve (masked), or solve it with the arm."""
+        if self.lift_joint is None or held == self._lift_held:
+            return
+        if held:
+            self.solver.mask_dof(self.lift_joint)
+        else:
+            self.solver.unmask_dof(self.lift_joint)
+        self._lift_held = held
 
     def set_base_pose(self, T_world_fbase: np.ndarray) -> None:
         """Place the (pinned) floating base: the robot root's world pose in the scene."""
@@ -210,14 +227,15 @@ class WholeBodyIK:
     ) -> tuple[np.ndarray, float, float, int]:
         self._set_active(self.clip(seed))
         iterations = 0
-        if self._lift_task is not None:
+        free_lift = self._lift_task is not None and not self._lift_held
+        if free_lift:
             lift_index = self.joint_names.index(self.lift_joint)  # type: ignore[arg-type]
             self._lift_task.set_joints({self.lift_joint: float(seed[lift_index])})
             self._lift_task.configure("lift_posture", "soft", self._lift_weight)
             used, _ = self._iterate(T_target, settings, polish=False)
             iterations += used
             self._lift_task.configure("lift_posture", "soft", 0.0)
-        used, _ = self._iterate(T_target, settings, polish=self._lift_task is not None)
+        used, _ = self._iterate(T_target, settings, polish=free_lift)
         iterations += used
         T_now = np.array(self.robot.get_T_world_frame(self.ee_frame))
         err_p, err_r = pose_errors(T_now, T_target)

@@ -24,9 +24,16 @@ Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
   current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the
   reference's cuRobo IK checks collisions too). No path is checked, as in the reference.
 - ``forward``: the chained plan: a collision-free joint path from the current state to the
-  pre-grasp (direct interpolation first, RRT-Connect within a time budget otherwise), the
-  straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
-  asked). The plan found is the one executed.
+  pre-grasp (direct interpolation first, RRT-Connect within a sample budget otherwise) and the
+  straight Cartesian approach to the grasp; under ``strict`` semantics also the lift (and the
+  return to the pre-grasp when asked). The reference plans the pre-grasp and the grasp, each
+  from the current state, and never the lift, so under ``reference`` semantics the episode
+  tests only the transport and the approach and plans the carry (``plan_carry``) for the chosen
+  candidate alone: a lift that cannot be planned fails the episode (``plan_failed``, the
+  reference's ``is_feasible``) instead of moving on to the next candidate. The approach is a
+  straight line from the pre-grasp rather than a free plan from the current state: the
+  harness executes exactly what it tested (docs/semantics.md). The plan found is the one
+  executed.
 
 Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
 with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.
@@ -35,7 +42,7 @@ with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -93,6 +100,7 @@ class CollisionChecker:
         self.check_table = True
         self.check_target = True
         self.table_clearance = 0.0
+        self.ignored_geom = np.zeros(m.ngeom, dtype=bool)  # geoms of ignored objects
         self.allowed: set[tuple[int, int]] = set()
         self.checks = 0
 
@@ -102,10 +110,14 @@ class CollisionChecker:
         check_table: bool = True,
         check_target: bool = True,
         table_clearance: float = 0.0,
+        ignore_substring: Sequence[str] = (),
     ) -> None:
         """Copy the scene's current state (robot root, all joints, objects) into the checker.
 
         ``table_clearance`` (m) makes coming closer than that to the table a collision.
+        ``ignore_substring`` leaves every other object whose name contains one of the
+        substrings out of the planning world (the pick's ``ignore_substring``, the reference
+        planner's ignore list); the target object follows ``check_target`` alone.
 
         ``check_table`` False leaves the table out of the planning world (the reference's
         planning ignore list always holds it); ``check_target`` False leaves the target object
@@ -129,6 +141,12 @@ class CollisionChecker:
         dst.mocap_pos[:] = src.mocap_pos
         dst.mocap_quat[:] = src.mocap_quat
         self.target_index = self.scene.object_names.index(target_object)
+        ignored = [
+            index
+            for index, name in enumerate(self.scene.object_names)
+            if index != self.target_index and any(part in name for part in ignore_substring)
+        ]
+        self.ignored_geom = np.isin(self.geom_object, ignored) & (self.geom_object >= 0)
         self.allowed = set()
         q_now = src.qpos[self.handles.active_qpos].copy()
         self.allowed = set(self.contacts(q_now, "transport"))
@@ -168,6 +186,7 @@ class CollisionChecker:
                 robot[g2] & (obj[g1] == self.target_index)
             )
             env_hit &= ~on_target
+        env_hit &= ~(self.ignored_geom[g1] | self.ignored_geom[g2])
         robot_pair = robot[g1] & robot[g2]
         hits = deep & (env_hit | robot_pair)
         out = []
@@ -386,10 +405,23 @@ class PickPlanner:
         check_table: bool = True,
         check_target: bool = True,
         table_clearance: float = 0.0,
+        ignore_substring: Sequence[str] = (),
+        hold_lift: bool = False,
     ) -> None:
-        """Take the scene's current state as the planning world and IK posture."""
+        """Take the scene's current state as the planning world and IK posture.
+
+        ``hold_lift`` keeps a lift joint where it is for every IK solve and joint path (the
+        reference's pick plans the arm alone with the lift at its home)."""
         scene = self.scene
-        self.checker.sync(target_object, check_table, check_target, table_clearance)
+        self.checker.sync(
+            target_object, check_table, check_target, table_clearance, ignore_substring
+        )
+        self.ik.hold_lift(hold_lift)
+        self.lower, self.upper = self.ik.lower.copy(), self.ik.upper.copy()
+        if hold_lift and self.ik.lift_joint is not None:
+            index = self.ik.joint_names.index(self.ik.lift_joint)
+            value = float(scene.data.qpos[scene.arms[self.arm].active_qpos[index]])
+            self.lower[index] = self.upper[index] = value
         self.ik.set_base_pose(scene.T_world_root())
         posture = {
             name: float(scene.data.qpos[adr])
@@ -426,7 +458,7 @@ class PickPlanner:
                 return result, ""  # not reachable at all: restarts were already spent
             if rng is None or attempt == attempts:
                 break
-            restart = self.ik.random_configuration(rng)
+            restart = rng.uniform(self.lower, self.upper)  # a held lift stays where it is
             result = self.ik.solve(T_world_target, restart, rng, self.settings.ik)
         return colliding if colliding is not None else (result, "")
 
@@ -569,33 +601,59 @@ class PickPlanner:
         if approach is None:
             return fail("approach", why)
         verdict.ik_grasp = IKResult(approach[-1], True, 0.0, 0.0, 0, 0)
+        plan = ChainPlan(
+            transport=transport,
+            approach=approach,
+            lift=None,
+            retreat=None,
+            T_world_pregrasp=T_world_pregrasp,
+            T_world_grasp=T_world_grasp,
+            T_world_lift=None,
+            used_rrt=used_rrt,
+        )
+        carried, stage, why = self.plan_carry(plan, T_world_lift, return_to_pregrasp)
+        if carried is None:
+            return fail(stage, why)
+        verdict.plan = carried
+        verdict.feasible = True
+        verdict.time_s = time.perf_counter() - start
+        return verdict
+
+    def plan_carry(
+        self, plan: ChainPlan, T_world_lift: np.ndarray | None, return_to_pregrasp: bool
+    ) -> tuple[ChainPlan | None, str, str]:
+        """Extend a plan that ends at the grasp with the carry: the Cartesian lift to
+        ``T_world_lift`` (if any) and, with ``return_to_pregrasp``, the line back to the
+        pre-grasp the transport reached. Returns (the extended plan, "", "") or (None, stage,
+        why) with stage ``lift`` or ``return``. Deterministic (no random restarts)."""
         lift = None
         retreat = None
-        q_end = approach[-1]
+        q_end = plan.approach[-1]
         if T_world_lift is not None:
             T_grasp_exact = self.ik.fk(q_end)
             lift, why = self.cartesian_path(q_end, T_grasp_exact, T_world_lift, "carry")
             if lift is None:
-                return fail("lift", why)
+                return None, "lift", why
             q_end = lift[-1]
         if return_to_pregrasp:
-            T_now = self.ik.fk(q_end)
-            retreat, why = self.cartesian_path(q_end, T_now, T_pre_exact, "carry")
+            T_pre_exact = self.ik.fk(plan.approach[0])
+            retreat, why = self.cartesian_path(q_end, self.ik.fk(q_end), T_pre_exact, "carry")
             if retreat is None:
-                return fail("return", why)
-        verdict.plan = ChainPlan(
-            transport=transport,
-            approach=approach,
-            lift=lift,
-            retreat=retreat,
-            T_world_pregrasp=T_world_pregrasp,
-            T_world_grasp=T_world_grasp,
-            T_world_lift=T_world_lift,
-            used_rrt=used_rrt,
+                return None, "return", why
+        return (
+            ChainPlan(
+                transport=plan.transport,
+                approach=plan.approach,
+                lift=lift,
+                retreat=retreat,
+                T_world_pregrasp=plan.T_world_pregrasp,
+                T_world_grasp=plan.T_world_grasp,
+                T_world_lift=T_world_lift,
+                used_rrt=plan.used_rrt,
+            ),
+            "",
+            "",
         )
-        verdict.feasible = True
-        verdict.time_s = time.perf_counter() - start
-        return verdict
 
 
 def _ik_detail(result: IKResult) -> str:
