@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
+from harness import episode as episode_module
 from harness.config import apply_overrides, load_task
 from harness.episode import (
     INIT_RECORD_TIME_S,
@@ -340,25 +341,33 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     assert row["post_grasp_offset"] == lift_offset
 
 
-@pytest.mark.parametrize("semantics", ["reference", "strict"])
-def test_forward_test_plans_the_lift_only_under_strict(
-    cube: Path, cache: dict, semantics: str
+@pytest.mark.parametrize(
+    ("semantics", "test_carry"), [("reference", True), ("reference", False), ("strict", True)]
+)
+def test_forward_test_and_the_lift(
+    cube: Path, cache: dict, monkeypatch: pytest.MonkeyPatch, semantics: str, test_carry: bool
 ) -> None:
-    """A lift of 1 m is out of the FR3's reach. The reference tests only the pre-grasp and the
-    grasp, so it executes the first candidate and fails on the lift (is_feasible:
-    plan_failed); strict tests the whole chain, rejects all 20 (no_feasible_candidate)."""
+    """A lift of 1 m is out of the FR3's reach. The forward test plans the lift (default): every
+    candidate fails there; reference proceeds with the last (plan_failed), strict stops
+    (no_feasible_candidate). Without the carry in the test (the reference's rule,
+    FORWARD_TEST_PLANS_CARRY False) the first candidate passes and its lift fails the episode."""
+    monkeypatch.setattr(episode_module, "FORWARD_TEST_PLANS_CARRY", test_carry)
     lift = {"post_grasp_offset_min": 1.0, "post_grasp_offset_max": 1.0}
     pick = {"test_mode": "forward", "semantics": semantics, **lift}
     task = make_task("fr3", "left", cube, object=CENTRE, pick=pick)
     row = episode(task, 0, cache).row
-    if semantics == "reference":
-        assert row["failure_reason"] == "plan_failed"
-        assert row["error_message"].startswith("lift: ")
-        assert row["n_tested"] == 1 and row["n_feasible"] == 1
-    else:
+    if semantics == "strict":
         assert row["failure_reason"] == "no_feasible_candidate"
         assert row["n_tested"] == 20 and row["n_feasible"] == 0
         assert "last: lift: " in row["error_message"]
+    elif test_carry:
+        assert row["failure_reason"] == "plan_failed"
+        assert row["n_tested"] == 20 and row["n_feasible"] == 0
+        assert row["error_message"].startswith("lift: ")
+    else:
+        assert row["failure_reason"] == "plan_failed"
+        assert row["error_message"].startswith("lift: ")
+        assert row["n_tested"] == 1 and row["n_feasible"] == 1
 
 
 def test_lift2_picks_with_the_lift_held_at_its_home(cache: dict) -> None:

@@ -24,16 +24,12 @@ Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
   current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the
   reference's cuRobo IK checks collisions too). No path is checked, as in the reference.
 - ``forward``: the chained plan: a collision-free joint path from the current state to the
-  pre-grasp (direct interpolation first, RRT-Connect within a sample budget otherwise) and the
-  straight Cartesian approach to the grasp; under ``strict`` semantics also the lift (and the
-  return to the pre-grasp when asked). The reference plans the pre-grasp and the grasp, each
-  from the current state, and never the lift, so under ``reference`` semantics the episode
-  tests only the transport and the approach and plans the carry (``plan_carry``) for the chosen
-  candidate alone: a lift that cannot be planned fails the episode (``plan_failed``, the
-  reference's ``is_feasible``) instead of moving on to the next candidate. The approach is a
-  straight line from the pre-grasp rather than a free plan from the current state: the
-  harness executes exactly what it tested (docs/semantics.md). The plan found is the one
-  executed.
+  pre-grasp (direct interpolation first, RRT-Connect within a sample budget otherwise), the
+  straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
+  asked). The plan found is the one executed. The reference plans the pre-grasp and the grasp,
+  each from the current state, and never the lift; the episode can test without the carry and
+  plan it (``plan_carry``) for the chosen candidate alone
+  (``harness.episode.FORWARD_TEST_PLANS_CARRY``, docs/semantics.md).
 
 Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
 with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.
