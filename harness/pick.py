@@ -51,6 +51,7 @@ from typing import Literal
 import numpy as np
 
 from harness.config import PickConfig, TaskConfig
+from harness.failures import FailureReason
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.scene import Scene, invert
@@ -66,21 +67,6 @@ STATIC_WAIT_S = 1.0  # strict: how long to wait for the object to come to rest
 # Strict: a robot-environment contact during execution is a collision beyond this penetration
 # (m). Plans keep 0.1 mm; tracking lag lets a finger planned to graze the table dip a little.
 EXECUTION_PENETRATION = 0.002
-
-FailureReason = Literal[
-    "",
-    "filter_empty",
-    "no_feasible_candidate",
-    "plan_failed",
-    "collision",
-    "no_contact",
-    "dropped",
-    "lift_below_threshold",
-    "velocity_invalid",
-    "sim_unstable",
-    "timeout",
-    "error",
-]
 
 
 # --------------------------------------------------------------------------------------------

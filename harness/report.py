@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import HarnessError
-from harness.results import FAILURE_REASONS, JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
+from harness.failures import FAILURE_REASONS
+from harness.results import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
 from harness.stats import compare_proportions, wilson_interval
 
 POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")

@@ -32,20 +32,6 @@ JSONL_NAME = "episodes.jsonl"
 CSV_NAME = "episodes.csv"
 PARQUET_NAME = "episodes.parquet"
 
-# The failure taxonomy (ARCHITECTURE.md), in pipeline order: first cause wins.
-FAILURE_REASONS: tuple[str, ...] = (
-    "filter_empty",
-    "no_feasible_candidate",
-    "plan_failed",
-    "collision",
-    "no_contact",
-    "dropped",
-    "lift_below_threshold",
-    "velocity_invalid",
-    "sim_unstable",
-    "timeout",
-    "error",
-)
 FILTER_OUTCOMES: tuple[str, ...] = ("ok", "fallback", "filter_empty")
 
 

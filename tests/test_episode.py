@@ -22,9 +22,10 @@ from harness.episode import (
     grasp_file_for,
     run_episode,
 )
+from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
 from harness.pick import SERVO_CHUNK_S
-from harness.results import FAILURE_REASONS, SCHEMA
+from harness.results import SCHEMA
 from harness.robot import RobotModel
 from harness.scene import invert
 

@@ -24,6 +24,7 @@ import pytest
 
 from harness.cli import main as cli_main
 from harness.errors import HarnessError
+from harness.failures import FAILURE_REASONS
 from harness.report import (
     best_settings,
     build_report,
@@ -34,7 +35,7 @@ from harness.report import (
     pooled,
     summarize,
 )
-from harness.results import FAILURE_REASONS, ResultStore
+from harness.results import ResultStore
 from harness.stats import (
     compare_proportions,
     fisher_exact_p,

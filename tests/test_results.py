@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from harness.errors import HarnessError
+from harness.failures import FAILURE_REASONS
 from harness.results import (
-    FAILURE_REASONS,
     SCHEMA,
     ResultStore,
     empty_row,
@@ -52,7 +52,7 @@ def test_schema_has_every_documented_column_with_its_type() -> None:
 def test_schema_matches_the_episode_row_and_the_failure_taxonomy() -> None:
     from harness.config import TaskConfig
     from harness.episode import EpisodeSpec, base_row
-    from harness.pick import FailureReason
+    from harness.failures import FailureReason
 
     task = TaskConfig(robot="fr3", objects=[{"name": "cube", "mesh": "cube"}])
     produced = base_row(EpisodeSpec(task=task, point={"pick.pre_grasp_offset": 0.08}))

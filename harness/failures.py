@@ -1,0 +1,29 @@
+"""The failure taxonomy of an episode (ARCHITECTURE.md): one definition for the executor and the
+row schema.
+
+Kept in its own module, free of heavy imports, so that ``harness.pick`` (MuJoCo) and
+``harness.results`` (pandas) can both name it without importing each other.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, get_args
+
+# In pipeline order: the first cause wins. "" means success.
+FailureReason = Literal[
+    "",
+    "filter_empty",
+    "no_feasible_candidate",
+    "plan_failed",
+    "collision",
+    "no_contact",
+    "dropped",
+    "lift_below_threshold",
+    "velocity_invalid",
+    "sim_unstable",
+    "timeout",
+    "error",
+]
+
+# The failure causes alone (without the success value ""), in the same order.
+FAILURE_REASONS: tuple[str, ...] = tuple(reason for reason in get_args(FailureReason) if reason)
