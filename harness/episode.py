@@ -66,8 +66,8 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
-from harness.scene import Scene, invert, scene_key
-from harness.transforms import quat_to_matrix
+from harness.scene import Scene, scene_key
+from harness.transforms import invert_T, quat_to_matrix
 
 # The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,
 # step once, build the skill (it records obj_init_trans), settle 20 steps, generate the first
@@ -396,7 +396,7 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     poses = bundle.poses(task, grasp_file_for(task, scene))
     T_world_base = scene.T_world_base(arm)
     T_world_obj = scene.T_world_object(obj_name)
-    T_base_obj = invert(T_world_base) @ T_world_obj
+    T_base_obj = invert_T(T_world_base) @ T_world_obj
     t0 = time.perf_counter()
     selection = select_candidates(poses, scene.robot.convention, pick, T_base_obj, rng)
     counts = selection.counts()

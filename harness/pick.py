@@ -54,8 +54,8 @@ from harness.config import PickConfig, TaskConfig
 from harness.failures import FailureReason
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
-from harness.scene import Scene, invert
-from harness.transforms import matrix_to_quat, quat_angle_between
+from harness.scene import Scene
+from harness.transforms import invert_T, matrix_to_quat, quat_angle_between
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps
 REPLAN_EPS = 5e-3  # the controller re-plans (and resets its idle count) for targets this far
@@ -617,7 +617,7 @@ class PickExecutor:
 
     def _object_in_tcp(self) -> np.ndarray:
         T_tcp = self.scene.T_world_body(self.handles.tcp_body)
-        return (invert(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
+        return (invert_T(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
 
     def _strict_post_step(self) -> bool:
         """Strict, after the list: finish the motion, wait for rest, hold; True when decided."""

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from harness.transforms import quat_to_matrix, wxyz_to_xyzw
+
 APP_ID = "pick-harness"
 
 # Candidate verdict -> RGB. Chosen is drawn on top, thicker.
@@ -35,11 +37,6 @@ GEOM_COLORS = {
     "table": (150, 110, 80),
     "other": (180, 180, 180),
 }
-
-
-def wxyz_to_xyzw(q: np.ndarray) -> np.ndarray:
-    q = np.asarray(q, dtype=float)
-    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
 
 
 def _rr():
@@ -125,7 +122,7 @@ def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
                     fill_mode="solid",
                 )
             elif gtype == mujoco.mjtGeom.mjGEOM_CAPSULE:
-                R = _quat_matrix(model.geom_quat[geom_id])
+                R = quat_to_matrix(model.geom_quat[geom_id])
                 start = pos - R[:, 2] * size[1]
                 archetype = rr.Capsules3D(
                     lengths=[2 * size[1]],
@@ -147,7 +144,7 @@ def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
                 mesh_id = model.geom_dataid[geom_id]
                 v0, nv = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
                 f0, nf = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
-                R = _quat_matrix(model.geom_quat[geom_id])
+                R = quat_to_matrix(model.geom_quat[geom_id])
                 vertices = model.mesh_vert[v0 : v0 + nv] @ R.T + pos
                 archetype = rr.Mesh3D(
                     vertex_positions=vertices,
@@ -166,17 +163,6 @@ def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
                 continue
             rec.log(path, archetype, static=True)
     return sorted(bodies)
-
-
-def _quat_matrix(q_wxyz: np.ndarray) -> np.ndarray:
-    w, x, y, z = q_wxyz
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def log_series(

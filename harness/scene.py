@@ -39,7 +39,13 @@ from harness.assets import ObjectAsset, default_objects_dir, load_object_info, r
 from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.robot import RobotModel
-from harness.transforms import euler_xyz_deg_to_matrix, make_T, matrix_to_quat, quat_to_matrix
+from harness.transforms import (
+    euler_xyz_deg_to_matrix,
+    invert_T,
+    make_T,
+    matrix_to_quat,
+    quat_to_matrix,
+)
 
 TABLE_NAME = "table"
 TABLE_HALF_SIZE = (0.8, 0.6, 0.025)  # m; top at z = 0
@@ -62,23 +68,11 @@ CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone
 # Small pose helpers
 
 
-def T_from_pos_quat(pos: np.ndarray, quat_wxyz: np.ndarray) -> np.ndarray:
-    return make_T(quat_to_matrix(quat_wxyz), pos)
-
-
 def T_from_pos_mat(pos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3] = np.asarray(xmat).reshape(3, 3)
     T[:3, 3] = pos
     return T
-
-
-def invert(T: np.ndarray) -> np.ndarray:
-    out = np.eye(4)
-    R = T[:3, :3]
-    out[:3, :3] = R.T
-    out[:3, 3] = -R.T @ T[:3, 3]
-    return out
 
 
 def yaw_quat(yaw_rad: float) -> np.ndarray:
@@ -489,11 +483,11 @@ class Scene:
 
     def T_base_frame(self, arm: str, name: str) -> np.ndarray:
         """Pose of a frame in the arm base frame (the planning and filter frame)."""
-        return invert(self.T_world_base(arm)) @ self.T_world_frame(name)
+        return invert_T(self.T_world_base(arm)) @ self.T_world_frame(name)
 
     def T_base_ee(self, arm: str) -> np.ndarray:
         handles = self.arms[arm]
-        return invert(self.T_world_body(handles.base_body)) @ self.T_world_body(handles.ee_body)
+        return invert_T(self.T_world_body(handles.base_body)) @ self.T_world_body(handles.ee_body)
 
     def T_world_root(self) -> np.ndarray:
         return self.T_world_body(self.root_body)

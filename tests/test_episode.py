@@ -27,7 +27,7 @@ from harness.grasps import select_candidates
 from harness.pick import SERVO_CHUNK_S
 from harness.results import SCHEMA
 from harness.robot import RobotModel
-from harness.scene import invert
+from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
 TASK_FILES = ["fr3", "split_aloha_left", "split_aloha_right", "lift2_left", "lift2_right"]
@@ -334,7 +334,7 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     assert np.allclose(T_world_obj, trace.T_world_object_start)
     bundle = get_scene(task, cache)
     poses = bundle.poses(task, grasp_file_for(task, scene))
-    T_base_obj = invert(scene.T_world_base("left")) @ T_world_obj
+    T_base_obj = invert_T(scene.T_world_base("left")) @ T_world_obj
     selection = select_candidates(poses, scene.robot.convention, task.pick, T_base_obj, rng)
     assert len(selection.order) == 20 and selection.order.outcome == "ok"
     assert row["chosen_index"] in selection.order.indices.tolist()

@@ -18,7 +18,8 @@ from harness.planning.motion import (
     rrt_connect,
     shortcut,
 )
-from harness.scene import Scene, invert
+from harness.scene import Scene
+from harness.transforms import invert_T
 
 
 def _planner(task) -> tuple[Scene, PickPlanner]:
@@ -333,7 +334,7 @@ def test_ik_test_checks_pregrasp_and_grasp_independently(fr3) -> None:
     ok = planner.test_ik(0, 3, 0.1, q_now, T_pre, T_grasp, True, rng)
     assert ok.feasible and ok.ik_pregrasp.success and ok.ik_grasp.success
     far = T_grasp.copy()
-    far[:3, 3] += invert(scene.T_world_base("left"))[:3, :3].T @ np.array([2.0, 0.0, 0.0])
+    far[:3, 3] += invert_T(scene.T_world_base("left"))[:3, :3].T @ np.array([2.0, 0.0, 0.0])
     bad = planner.test_ik(1, 4, 0.1, q_now, T_pre, far, True, rng)
     assert not bad.feasible and bad.stage == "ik_grasp"
     skipped = planner.test_ik(2, 5, 0.1, q_now, T_pre, far, False, rng)

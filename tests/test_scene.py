@@ -15,7 +15,8 @@ import pytest
 import trimesh
 
 from harness.config import PhysicsConfig, TaskConfig
-from harness.scene import TABLE_NAME, Scene, invert
+from harness.scene import TABLE_NAME, Scene
+from harness.transforms import invert_T
 
 CANONICAL = {
     "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
@@ -213,7 +214,7 @@ def test_arm_base_frame_faces_the_table(fr3_scene: tuple[Scene, TaskConfig]) -> 
     T_wb = scene.T_world_base("left")
     assert np.allclose(T_wb[:3, 0], [0, 1, 0], atol=1e-9)
     assert np.allclose(T_wb[:3, 2], [0, 0, 1], atol=1e-9)
-    T_bo = invert(T_wb) @ scene.T_world_object("target")
+    T_bo = invert_T(T_wb) @ scene.T_world_object("target")
     assert T_bo[0, 3] > 0.2
     assert np.allclose(scene.T_base_frame("left", "left_hand"), scene.T_base_ee("left"))
 
