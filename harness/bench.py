@@ -30,6 +30,7 @@ from harness.benchmarks.machine import (
     load_average,
     usable_cpus,
 )
+from harness.markdown import markdown_table
 
 # Section name -> module under harness.benchmarks, in the order they run.
 SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "sweeps")
@@ -310,10 +311,8 @@ def format_table(figures: list[Figure]) -> str:
 
     The spread column is the 10th - 90th percentile of the repetitions, or the 95% Wilson
     interval for success rates (marked "CI"); one repetition has no spread ("-")."""
-    rows = [
-        "| section | figure | median | spread (p10 – p90) | reps | target | met |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    header = ["section", "figure", "median", "spread (p10 – p90)", "reps", "target", "met"]
+    rows: list[list[Any]] = []
     for fig in figures:
         target = (
             "" if fig.target is None else f"{'≥' if fig.higher_is_better else '≤'} {fig.target:g}"
@@ -327,11 +326,9 @@ def format_table(figures: list[Figure]) -> str:
         verdict = fig.verdict()
         if verdict.startswith("no"):
             verdict = f"**{verdict}**"
-        rows.append(
-            f"| {fig.section} | {fig.name} | {_number(fig.median)} {fig.unit} | {spread} | "
-            f"{fig.repetitions} | {target} | {verdict} |"
-        )
-    return "\n".join(rows)
+        median = f"{_number(fig.median)} {fig.unit}"
+        rows.append([fig.section, fig.name, median, spread, fig.repetitions, target, verdict])
+    return "\n".join(markdown_table(header, rows))
 
 
 def format_target_notes(figures: list[Figure]) -> str:

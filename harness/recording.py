@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.markdown import markdown_table
 from harness.transforms import quat_to_matrix, wxyz_to_xyzw
 
 APP_ID = "pick-harness"
@@ -283,10 +284,11 @@ def _summary_markdown(summary: Any) -> str:
         if c in summary.columns
     ]
     columns += [c for c in summary.columns if c.startswith("param.") and c not in columns]
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    for _, row in summary[columns].iterrows():
-        cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.tolist()]
-        lines.append("| " + " | ".join(cells) + " |")
+    rows = [
+        [f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.tolist()]
+        for _, row in summary[columns].iterrows()
+    ]
+    lines = markdown_table(columns, rows)
     return "# Sweep summary\n\n" + "\n".join(lines)
 
 

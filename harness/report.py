@@ -29,6 +29,7 @@ import pandas as pd
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
+from harness.markdown import markdown_table
 from harness.results import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
 from harness.stats import compare_proportions, wilson_interval
 
@@ -549,9 +550,7 @@ def render_markdown(
         lines += [f"## {table.title}", ""]
         if table.note:
             lines += [table.note, ""]
-        lines.append("| " + " | ".join(_md_cell(h) for h in table.header) + " |")
-        lines.append("|" + "---|" * len(table.header))
-        lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in table.rows]
+        lines += markdown_table(table.header, table.rows)
         lines.append("")
     if plots:
         lines += ["## Plots", ""]
@@ -564,10 +563,6 @@ def render_markdown(
         "",
     ]
     return "\n".join(lines)
-
-
-def _md_cell(text: str) -> str:
-    return str(text).replace("|", "\\|").replace("\n", " ")
 
 
 HTML_STYLE = """
