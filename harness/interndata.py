@@ -690,7 +690,7 @@ class _TaskMapper:
         file_notes = self.notes
         for order, pick in enumerate(picks, start=first_order):
             self.notes = list(file_notes)
-            config = self.task_config(task, pick, robots, objects, regions, len(picks), order)
+            config = self.task_config(task, pick, objects, regions, len(picks), order)
             out.append(
                 InternDataPick(
                     task=config,
@@ -1000,7 +1000,6 @@ class _TaskMapper:
         self,
         task: dict[str, Any],
         pick: _PickSkill,
-        robots: dict[str, _Robot],
         objects: dict[str, _Object],
         regions: dict[str, tuple[dict[str, Any], KeyPath]],
         pick_count: int,

@@ -193,9 +193,7 @@ class WholeBodyIK:
 
     # -- solving --------------------------------------------------------------------------------
 
-    def _iterate(
-        self, T_target: np.ndarray, settings: IKSettings, polish: bool
-    ) -> tuple[int, bool]:
+    def _iterate(self, settings: IKSettings, polish: bool) -> tuple[int, bool]:
         """Gauss-Newton steps until converged, stalled or capped; returns (iterations, ok)."""
         pos_task = self.task.position()
         rot_task = self.task.orientation()
@@ -232,10 +230,10 @@ class WholeBodyIK:
             lift_index = self.joint_names.index(self.lift_joint)  # type: ignore[arg-type]
             self._lift_task.set_joints({self.lift_joint: float(seed[lift_index])})
             self._lift_task.configure("lift_posture", "soft", self._lift_weight)
-            used, _ = self._iterate(T_target, settings, polish=False)
+            used, _ = self._iterate(settings, polish=False)
             iterations += used
             self._lift_task.configure("lift_posture", "soft", 0.0)
-        used, _ = self._iterate(T_target, settings, polish=free_lift)
+        used, _ = self._iterate(settings, polish=free_lift)
         iterations += used
         T_now = np.array(self.robot.get_T_world_frame(self.ee_frame))
         err_p, err_r = pose_errors(T_now, T_target)

@@ -339,10 +339,6 @@ class ChainPlan:
     T_world_lift: np.ndarray | None
     used_rrt: bool = False
 
-    @property
-    def q_grasp(self) -> np.ndarray:
-        return self.approach[-1]
-
 
 @dataclass
 class CandidateVerdict:
@@ -425,11 +421,6 @@ class PickPlanner:
             if name in scene.robot.movable_joints
         }
         self.ik.set_posture(posture)
-
-    def solve_ik(
-        self, T_world_target: np.ndarray, seed: np.ndarray, rng: np.random.Generator | None
-    ) -> IKResult:
-        return self.ik.solve(T_world_target, seed, rng, self.settings.ik)
 
     def collision_free_ik(
         self,
