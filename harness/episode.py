@@ -85,14 +85,14 @@ TOPPRA_GRIDPOINTS = 30
 # reference rule fails 3 of 10 Split ALOHA right-arm seeds on lift poses out of the Piper's
 # reach, which the calibrated end-to-end test does not allow (docs/semantics.md).
 FORWARD_TEST_PLANS_CARRY = True
-PLAN_RETRIES = 2
+PLAN_RETRIES = 2  # extra attempts for a randomised (RRT / restart) plan failure
 # The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the
 # joint limits: time-optimal at full limits, the small arms' soft servos (kp 80, wrists 10)
 # overshoot the grasp by up to a centimetre.
 CARTESIAN_SPEED_SCALE = 0.5
 # Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
 # small arms' wrists have kp 10) does not dip a finger into it during execution.
-STRICT_TABLE_CLEARANCE = 0.005  # extra attempts for a randomised (RRT / restart) plan failure
+STRICT_TABLE_CLEARANCE = 0.005
 
 # Candidate verdict labels (also used by the Rerun recorder's colours).
 REJECTED, PASSED, INFEASIBLE, FEASIBLE, CHOSEN = (
