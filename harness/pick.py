@@ -446,8 +446,7 @@ class PickExecutor:
         self.forces = forces
         self.step += 1
         out.max_joint_vel = max(out.max_joint_vel, self.scene.robot_joint_speed())
-        speed = float(np.linalg.norm(d.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]))
-        out.max_object_vel = max(out.max_object_vel, speed)
+        out.max_object_vel = max(out.max_object_vel, self._object_speed())
         if arm_plan is not None:
             self.arm_row += 1
             if self.arm_row >= len(arm_plan):
