@@ -1,7 +1,7 @@
 """One pick episode: scene reset, candidate selection, feasibility, plan, execution, verdict.
 
 ``run_episode(spec, scene_cache)`` never raises for episode-level problems: every outcome is one
-flat row (``EpisodeResult.row``, the columns of ``harness.results``) with ``success`` and a
+flat row (``EpisodeResult.row``, the columns of ``harness.runs.store``) with ``success`` and a
 ``failure_reason`` from the taxonomy (ARCHITECTURE.md):
 
 ``filter_empty`` (no candidate at all), ``no_feasible_candidate`` (strict: none passed the
@@ -47,7 +47,7 @@ import mujoco
 import numpy as np
 
 from harness import __version__
-from harness.config import PickConfig, TaskConfig
+from harness.config.models import PickConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.grasps import (
     EEPoses,
@@ -56,7 +56,7 @@ from harness.grasps import (
     post_process,
     select_candidates,
 )
-from harness.pick import FailureReason, PickExecutor, PickOutcome, PickTargets
+from harness.pick.executor import FailureReason, PickExecutor, PickOutcome, PickTargets
 from harness.planning.ik import WholeBodyIK
 from harness.planning.motion import CandidateVerdict, ChainPlan, PickPlanner
 from harness.planning.timing import (
@@ -66,7 +66,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
-from harness.scene import Scene, scene_key
+from harness.sim.scene import Scene, scene_key
 from harness.transforms import invert_T, quat_to_matrix
 
 # The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,
@@ -241,7 +241,7 @@ def get_scene(task: TaskConfig, scene_cache: dict[Any, Any] | None) -> SceneBund
 
 def grasp_file_for(task: TaskConfig, scene: Scene) -> str:
     """The target object's grasp file: ``grasps`` if given, else the naming rule."""
-    from harness.assets import find_grasp_file
+    from harness.objects.assets import find_grasp_file
 
     obj = task.target_object
     asset = scene.objects[obj.name].asset
@@ -265,7 +265,7 @@ def grasp_file_for(task: TaskConfig, scene: Scene) -> str:
 
 def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     """The identity and configuration columns of an episode's row."""
-    from harness.sweep import episode_id
+    from harness.runs.sweep import episode_id
 
     task = spec.task
     pick = task.pick

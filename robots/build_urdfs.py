@@ -764,7 +764,7 @@ def candidate_pairs(robot: Robot) -> list[tuple[str, str]]:
 def home_configuration(name: str) -> dict[str, float]:
     """Home joint values from robots/<name>/robot.yaml (fingers open)."""
     sys.path.insert(0, str(ROBOTS_DIR.parent))
-    from harness.robot import RobotModel
+    from harness.robots.model import RobotModel
 
     return RobotModel.load(name).home_configuration()
 

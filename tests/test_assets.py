@@ -11,8 +11,10 @@ import pytest
 import trimesh
 import yaml
 
-from harness import assets, shapes
-from harness.assets import (
+from harness.cli import main as cli_main
+from harness.errors import InputFileError
+from harness.objects import assets, shapes
+from harness.objects.assets import (
     CoacdParams,
     ObjectAsset,
     find_grasp_file,
@@ -20,8 +22,6 @@ from harness.assets import (
     resolve_mesh,
     triangulate,
 )
-from harness.cli import main as cli_main
-from harness.errors import InputFileError
 
 
 @pytest.fixture(autouse=True)

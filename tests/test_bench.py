@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from harness import bench
-from harness.bench import (
+from harness.benchmarks import framework as bench
+from harness.benchmarks import grasps as grasps_bench
+from harness.benchmarks.framework import (
     PERCENTILES,
     WILSON_95,
     Figure,
@@ -27,7 +28,6 @@ from harness.bench import (
     summarize,
     time_call,
 )
-from harness.benchmarks import grasps as grasps_bench
 from harness.benchmarks.machine import (
     CpuSnapshot,
     ScalingCalibration,

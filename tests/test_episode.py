@@ -11,7 +11,7 @@ import pytest
 from test_scene import make_task, write_box
 
 from harness import episode as episode_module
-from harness.config import apply_overrides, load_task
+from harness.config.models import apply_overrides, load_task
 from harness.episode import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,
@@ -24,9 +24,9 @@ from harness.episode import (
 )
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
-from harness.pick import SERVO_CHUNK_S
-from harness.results import SCHEMA
-from harness.robot import RobotModel
+from harness.pick.executor import SERVO_CHUNK_S
+from harness.robots.model import RobotModel
+from harness.runs.store import SCHEMA
 from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"

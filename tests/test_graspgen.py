@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from harness import shapes
-from harness.assets import load_mesh
 from harness.cli import main as cli_main
-from harness.graspgen import (
+from harness.objects import shapes
+from harness.objects.assets import load_mesh
+from harness.objects.graspgen import (
     DEPTHS,
     FRICTION_LEVELS,
     GraspGenParams,

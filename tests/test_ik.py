@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from harness.planning.ik import IKSettings, WholeBodyIK, pose_errors
-from harness.robot import RobotModel
-from harness.robot_mujoco import build_robot_spec, robot_addresses
+from harness.robots.model import RobotModel
+from harness.robots.mujoco_spec import build_robot_spec, robot_addresses
 
 ARMS = [("fr3", "left"), ("split_aloha", "left"), ("split_aloha", "right"), ("lift2", "right")]
 

@@ -7,8 +7,8 @@ import numpy as np
 import placo
 import pytest
 
-from harness.robot import RobotModel, available_robots
-from harness.robot_mujoco import (
+from harness.robots.model import RobotModel, available_robots
+from harness.robots.mujoco_spec import (
     ArmAddresses,
     build_robot_spec,
     configure_contact_options,

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.config import ConfigError, SweepConfig
-from harness.sweep import episode_id, episode_seed, expand, select_samples, sweep_points
+from harness.config.models import ConfigError, SweepConfig
+from harness.runs.sweep import episode_id, episode_seed, expand, select_samples, sweep_points
 
 TASK = {
     "name": "t",

@@ -23,9 +23,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.bench import Figure, figure
+from harness.benchmarks.framework import Figure, figure
 from harness.benchmarks.machine import one_core
-from harness.config import load_task
+from harness.config.models import load_task
 from harness.episode import SETTLE_TIME_S, EpisodeSpec, run_episode
 
 SECTION = "episodes"

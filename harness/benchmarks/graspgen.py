@@ -14,11 +14,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from harness import shapes
-from harness.assets import ObjectAsset, load_mesh
-from harness.bench import Figure, figure, time_call
+from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
-from harness.graspgen import generate_grasps
+from harness.objects import shapes
+from harness.objects.assets import ObjectAsset, load_mesh
+from harness.objects.graspgen import generate_grasps
 
 SECTION = "graspgen"
 EXAMPLE_BOTTLE = (

@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from harness.bench import Figure, figure, rate_figure
+from harness.benchmarks.framework import Figure, figure, rate_figure
 from harness.benchmarks.machine import one_core
 from harness.planning.ik import IKSettings, WholeBodyIK
-from harness.robot import RobotModel
+from harness.robots.model import RobotModel
 
 SECTION = "ik"
 ARMS = (("fr3", "left"), ("split_aloha", "left"), ("lift2", "left"))

@@ -1,6 +1,7 @@
 """The machine under a benchmark: who else uses its CPUs, and what scaling it can deliver.
 
-Not a section (``harness bench`` runs the modules listed in ``harness.bench.SECTIONS``): helpers
+Not a section (``harness bench`` runs the modules listed in
+``harness.benchmarks.framework.SECTIONS``): helpers
 the sections use to make their numbers interpretable on a shared machine.
 
 - ``load_average()``: the kernel's 1/5/15-minute run-queue averages.

@@ -1,9 +1,9 @@
 """Benchmark section ``sweeps``: steady-state episodes/s with 1 and 2 workers, and worker memory.
 
 Each round runs the same FR3 episodes (cube, ik mode, TOPP-RA) through the sweep's own
-process pool (``harness.sweep.run_process_pool``) with 1 and with 2 workers, back to back in one
-``harness bench`` invocation (the order alternates between rounds, so a drift in the machine's
-load does not always favour the same side).
+process pool (``harness.runs.sweep.run_process_pool``) with 1 and with 2 workers, back to back
+in one ``harness bench`` invocation (the order alternates between rounds, so a drift in the
+machine's load does not always favour the same side).
 
 Steady state, not start-up: a worker pays spawn + imports + scene build (seconds) before its
 first result, which on a short sweep would swamp the 2-worker run. Worker *i* is handed episode
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from harness.bench import Figure, figure
+from harness.benchmarks.framework import Figure, figure
 from harness.benchmarks.machine import (
     CpuUse,
     ScalingCalibration,
@@ -40,8 +40,8 @@ from harness.benchmarks.machine import (
     load_average,
     spawned_children_peak_mb,
 )
-from harness.config import TaskConfig, load_task
-from harness.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
+from harness.config.models import TaskConfig, load_task
+from harness.runs.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
 
 SECTION = "sweeps"
 ROOT = Path(__file__).resolve().parents[2]

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.bench import Figure, figure, time_call
+from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
 from harness.planning.timing import (
     ruckig_through,

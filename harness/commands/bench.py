@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from harness.bench import SECTIONS, main_bench
+from harness.benchmarks.framework import SECTIONS, main_bench
 from harness.errors import HarnessError
 
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.assets import load_mesh, resolve_mesh
 from harness.errors import HarnessError
-from harness.graspgen import GraspGenParams, generate_grasps
+from harness.objects.assets import load_mesh, resolve_mesh
+from harness.objects.graspgen import GraspGenParams, generate_grasps
 
 
 def summary(grasps: np.ndarray) -> str:

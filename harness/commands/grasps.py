@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from harness.config import PickConfig, validate_model
+from harness.config.models import PickConfig, validate_model
 from harness.errors import HarnessError
 from harness.grasps import (
     AXES,
@@ -25,7 +25,7 @@ from harness.grasps import (
     load_grasp_file,
     select_candidates,
 )
-from harness.robot import RobotModel
+from harness.robots.model import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
 
 

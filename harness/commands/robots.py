@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import HarnessError
-from harness.robot import RobotModel, available_robots
+from harness.robots.model import RobotModel, available_robots
 
 TABLE_HEIGHT = 0.75  # m, for the render context of robots that stand on the table (fr3)
 REGION_COLOURS = {"left": (0.15, 0.55, 0.95, 0.35), "right": (0.95, 0.45, 0.1, 0.35)}
@@ -60,7 +60,7 @@ class ArmAtHome:
 def arms_at_home(robot: RobotModel) -> list[ArmAtHome]:
     import mujoco
 
-    from harness.robot_mujoco import robot_addresses, set_configuration
+    from harness.robots.mujoco_spec import robot_addresses, set_configuration
 
     model, _ = _placed_model(robot, with_context=False)
     data = mujoco.MjData(model)
@@ -91,7 +91,7 @@ def _placed_model(robot: RobotModel, with_context: bool, size: tuple[int, int] =
     """Compile the robot at its nominal placement; with a floor, table and lights if asked."""
     import mujoco
 
-    from harness.robot_mujoco import build_robot_spec, configure_contact_options
+    from harness.robots.mujoco_spec import build_robot_spec, configure_contact_options
 
     position, yaw = robot.nominal_placement()
     scene = mujoco.MjSpec()
@@ -179,7 +179,7 @@ def render(robot: RobotModel, path: str | Path, size: tuple[int, int] = (960, 72
     import mujoco
     from PIL import Image
 
-    from harness.robot_mujoco import robot_addresses, set_configuration
+    from harness.robots.mujoco_spec import robot_addresses, set_configuration
 
     model, _ = _placed_model(robot, with_context=True, size=size)
     data = mujoco.MjData(model)

@@ -23,7 +23,7 @@ from rich.live import Live
 from rich.table import Table
 
 from harness.commands.console import make_console
-from harness.config import (
+from harness.config.models import (
     ConfigError,
     SweepConfig,
     TaskConfig,
@@ -34,7 +34,7 @@ from harness.config import (
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
-    from harness.interndata import InternDataPick
+    from harness.config.interndata.mapper import InternDataPick
 
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
@@ -54,7 +54,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
     if args.task:
         raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-    from harness.interndata import load_interndata_tasks, parse_object_substitutions
+    from harness.config.interndata.mapper import load_interndata_tasks, parse_object_substitutions
 
     picks = load_interndata_tasks(
         args.interndata,
@@ -69,7 +69,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
 
 def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
     """The task(s) of this run, with paths made absolute."""
-    from harness.sweep import absolute_paths
+    from harness.runs.sweep import absolute_paths
 
     if args.interndata:
         return [absolute_paths(pick.task) for pick in load_interndata_picks(args)]
@@ -115,8 +115,8 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from harness.results import ResultStore
-    from harness.sweep import absolute_paths, execute, expand, finalize_run, write_sweep_yaml
+    from harness.runs.store import ResultStore
+    from harness.runs.sweep import absolute_paths, execute, expand, finalize_run, write_sweep_yaml
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
@@ -144,7 +144,7 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
     write_sweep_yaml(run_dir, sweep, tasks)
     if picks:
-        from harness.interndata import note_lines, summary_lines, write_notes
+        from harness.config.interndata.mapper import note_lines, summary_lines, write_notes
 
         for line in summary_lines(args.interndata, picks):
             console.print(line, highlight=False, markup=False, soft_wrap=True)
@@ -171,7 +171,7 @@ def main(args: argparse.Namespace) -> int:
     finalize_run(run_dir)
     successes = sum(bool(row.get("success")) for row in rows)
     n = len(rows)
-    from harness.stats import wilson_interval  # scipy: imported only when there is a result
+    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
 
     lo, hi = wilson_interval(successes, n)
     rate = successes / n if n else 0.0

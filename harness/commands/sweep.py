@@ -8,7 +8,7 @@ from pathlib import Path
 from rich.console import Console
 
 from harness.commands.console import make_console
-from harness.sweep import run_sweep
+from harness.runs.sweep import run_sweep
 
 
 def main(args: argparse.Namespace) -> int:

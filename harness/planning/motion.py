@@ -46,7 +46,7 @@ import mujoco
 import numpy as np
 
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
-from harness.scene import TABLE_BIT, Scene, refresh_body_masks
+from harness.sim.scene import TABLE_BIT, Scene, refresh_body_masks
 
 Phase = Literal["transport", "approach", "carry"]
 COLLISION_FREE_IK_ATTEMPTS = 3  # fresh IK restarts when a solution is in collision

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LinearSegmentedColormap
 
-from harness.report import (
+from harness.report.summary import (
     FAIL_PREFIX,
     format_value,
     point_label,

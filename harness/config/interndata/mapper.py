@@ -2,8 +2,8 @@
 
 People who generate data with InternDataEngine already have task files (robots, objects, regions,
 a tree of skills). ``load_interndata_tasks`` reads such a file as it is and turns every ``pick``
-skill into a :class:`~harness.config.TaskConfig` for its robot arm, so filters can be tuned here
-and the numbers carried back. The mapping, key by key, is in ``docs/interndata.md``; in short:
+skill into a :class:`~harness.config.models.TaskConfig` for its robot arm, so filters can be tuned
+here and the numbers carried back. The mapping, key by key, is in ``docs/interndata.md``; in short:
 
 - OmegaConf interpolations (``${tasks.0.robots.0.name}``, relative ``${.x}``, nested
   ``${a.${b}}``) are resolved first, over the whole file, as the reference's
@@ -37,8 +37,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from harness.config import ConfigError, TaskConfig, describe_validation_error, read_yaml
-from harness.yamlio import KeyPath, YamlDocument, format_key_path
+from harness.config.models import ConfigError, TaskConfig, describe_validation_error, read_yaml
+from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 
 log = logging.getLogger(__name__)
 
@@ -1161,8 +1161,8 @@ class _TaskMapper:
         (the reference's rule; the harness also takes ``<mesh>_grasps.npy`` or ``grasps.npy``
         for the default name). Checked here so a missing one is one located line up front, not
         an ``error`` row per episode."""
-        from harness.assets import DEFAULT_NPY_NAME, find_grasp_file
         from harness.errors import InputFileError
+        from harness.objects.assets import DEFAULT_NPY_NAME, find_grasp_file
 
         npy_name = block.get("npy_name", DEFAULT_NPY_NAME)
         if not isinstance(npy_name, str) or not npy_name:

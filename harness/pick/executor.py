@@ -50,11 +50,11 @@ from typing import Literal
 
 import numpy as np
 
-from harness.config import PickConfig, TaskConfig
+from harness.config.models import PickConfig, TaskConfig
 from harness.failures import FailureReason
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
-from harness.scene import Scene
+from harness.sim.scene import Scene
 from harness.transforms import invert_T, matrix_to_quat, quat_angle_between
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps

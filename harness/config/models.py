@@ -28,8 +28,8 @@ from pydantic import (
     model_validator,
 )
 
+from harness.config.yamlio import KeyPath, YamlDocument, format_key_path, parse_yaml
 from harness.errors import HarnessError
-from harness.yamlio import KeyPath, YamlDocument, format_key_path, parse_yaml
 
 # --------------------------------------------------------------------------------------------
 # Errors
@@ -600,7 +600,7 @@ def describe_validation_error(
     """The first pydantic error as ``(key path, message, path to take the line from)``.
 
     Key paths are relative to ``model``. Used by ``error_from_validation`` and by loaders whose
-    model keys come from other places in a file (``harness.interndata``).
+    model keys come from other places in a file (``harness.config.interndata.mapper``).
     """
     errors = exc.errors(include_url=False)
     err = errors[0]

@@ -39,7 +39,7 @@ SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "
 PERCENTILES = "p10-p90"  # 10th and 90th percentile of the repetitions
 WILSON_95 = "95% Wilson"  # a success rate's 95% Wilson score interval
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 VERSIONED_PACKAGES = (
     "pick-harness",
     "mujoco",
@@ -150,7 +150,7 @@ def figure(
 
 def rate_figure(section: str, name: str, successes: int, n: int, **kwargs: Any) -> Figure:
     """A success rate in percent over ``n`` trials, its spread the 95% Wilson interval."""
-    from harness.stats import wilson_interval
+    from harness.report.stats import wilson_interval
 
     low, high = wilson_interval(successes, n)
     rate = successes / n if n else float("nan")

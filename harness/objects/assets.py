@@ -389,7 +389,7 @@ def find_grasp_file(mesh_path: Path, npy_name: str = DEFAULT_NPY_NAME) -> Path |
 
 def repo_root() -> Path:
     """The project checkout this package lives in (the folder holding ``harness/``)."""
-    return Path(__file__).resolve().parents[1]
+    return Path(__file__).resolve().parents[2]
 
 
 def default_objects_dir() -> Path:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from harness.config import (
+from harness.config.models import (
     ConfigError,
     SweepConfig,
     TaskConfig,
@@ -114,7 +114,7 @@ def load_sweep_tasks(
                     ) from None
                 raise
         elif "interndata" in entry:
-            from harness.interndata import load_interndata_tasks, note_lines
+            from harness.config.interndata.mapper import load_interndata_tasks, note_lines
 
             unknown = [k for k in entry if k not in INTERNDATA_ENTRY_KEYS]
             if unknown:
@@ -189,7 +189,7 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     ]
     if not swept:
         return point
-    from harness.robot import RobotModel
+    from harness.robots.model import RobotModel
 
     convention = RobotModel.load(task.robot).convention
     axis_of = {"approach_filter": convention.approach_axis, "facing_filter": convention.facing_axis}
@@ -237,7 +237,7 @@ def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
 def check_filters(task: TaskConfig) -> None:
     """Resolve the task's filters for its robot now, so clashes fail at expansion."""
     from harness.grasps import resolve_filters
-    from harness.robot import RobotModel
+    from harness.robots.model import RobotModel
 
     try:
         resolve_filters(task.pick, RobotModel.load(task.robot).convention)
@@ -336,7 +336,7 @@ def execute(episode: SweepEpisode, run_dir: str, record_policy: str) -> dict[str
     wants = episode.record or (record_policy == "failures" and failed)
     if wants and result is not None and getattr(result, "trace", None) is not None:
         try:
-            from harness.recording import record_episode
+            from harness.viz.recording import record_episode
 
             path = Path(run_dir) / "episodes" / f"{episode.episode_id}.rrd"
             record_episode(result, path, episode.task)
@@ -694,7 +694,7 @@ def run_sweep(
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     """
-    from harness.results import ResultStore
+    from harness.runs.store import ResultStore
 
     sweep, source, run_dir = prepare_run(sweep_path, resume_dir, out)
     updates: dict[str, Any] = {}
@@ -714,7 +714,7 @@ def run_sweep(
             )
         write_sweep_yaml(run_dir, sweep, tasks)
         if notes:
-            from harness.interndata import write_notes
+            from harness.config.interndata.mapper import write_notes
 
             write_notes(run_dir, notes)
     store = ResultStore(run_dir)
@@ -745,14 +745,14 @@ def run_sweep(
 
 def finalize_run(run_dir: Path) -> None:
     """Export the store, rebuild the report and the sweep overview recording."""
-    from harness.report import build_report
-    from harness.results import ResultStore
+    from harness.report.summary import build_report
+    from harness.runs.store import ResultStore
 
     store = ResultStore(run_dir)
     store.export()
     build_report(run_dir)
     try:
-        from harness.recording import record_sweep
+        from harness.viz.recording import record_sweep
 
         record_sweep(run_dir)
     except ImportError:

@@ -26,12 +26,12 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from harness.config import ConfigError, FiniteFloat, Placement, read_yaml, validate_model
+from harness.config.models import ConfigError, FiniteFloat, Placement, read_yaml, validate_model
+from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
-from harness.yamlio import KeyPath, YamlDocument, format_key_path
 
-ROBOTS_DIR = Path(__file__).resolve().parents[1] / "robots"
+ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
 """Folder of the bundled robots: ``robots/<name>/robot.yaml``."""
 
 Axis = Literal["x", "y", "z"]

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from harness.robot import ArmSpec, RobotModel
+from harness.robots.model import ArmSpec, RobotModel
 
 PAD_FRICTION = (1.5, 0.01, 0.0001)
 PAD_CONDIM = 4

@@ -1,6 +1,6 @@
 """Run reports: per-point success with Wilson intervals, failure breakdown, best settings, plots.
 
-``build_report(run_dir)`` reads the run's episodes (``harness.results.ResultStore``) and writes
+``build_report(run_dir)`` reads the run's episodes (``harness.runs.store.ResultStore``) and writes
 
 - ``summary.csv``: one row per sweep point and task (task, robot, arm, object, point, the
   ``param.*`` values): n, successes, rate, 95% Wilson interval, ``fail.<reason>`` counts for
@@ -30,8 +30,8 @@ import pandas as pd
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
 from harness.markdown import markdown_table
-from harness.results import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
-from harness.stats import compare_proportions, wilson_interval
+from harness.report.stats import compare_proportions, wilson_interval
+from harness.runs.store import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
 
 POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")
 FAIL_PREFIX = "fail."
@@ -652,7 +652,7 @@ def build_report(run_dir: str | Path, export: bool = False) -> ReportPaths:
     With ``export`` the store is also re-exported to episodes.csv / episodes.parquet (only when
     it has an ``episodes.jsonl``; a hand-made episodes.csv is never overwritten).
     """
-    from harness.report_plots import plot_failures, plot_funnel, plot_success
+    from harness.report.plots import plot_failures, plot_funnel, plot_success
 
     run_dir = Path(run_dir)
     frame = load_episodes(run_dir)

@@ -3,8 +3,8 @@
 World frame: origin at the table-top centre, z up; the table top is the plane z = 0.
 
 Composition (``Scene.build``, once per (robot, objects, physics)): the robot's MjSpec from
-``harness.robot_mujoco.build_robot_spec`` is the base; the table (a box whose top is z = 0) and
-one free body per object (its convex collision pieces as mesh geoms, its own mass, inertia and
+``harness.robots.mujoco_spec.build_robot_spec`` is the base; the table (a box whose top is z = 0)
+and one free body per object (its convex collision pieces as mesh geoms, its own mass, inertia and
 friction) are added, and the physics options set (timestep, integrator, elliptic cones, impratio,
 noslip). The robot root body is made a **mocap** body: an episode moves the whole robot by
 writing ``data.mocap_pos / mocap_quat`` -- the model is never recompiled between episodes, and a
@@ -35,10 +35,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from harness.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
-from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
+from harness.config.models import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
-from harness.robot import RobotModel
+from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
+from harness.robots.model import RobotModel
 from harness.transforms import (
     euler_xyz_deg_to_matrix,
     invert_T,
@@ -182,7 +182,7 @@ class Scene:
         base_dir: Path | str = ".",
     ) -> Scene:
         """Compose and compile the scene (robot, table, objects) with the physics options."""
-        from harness.robot_mujoco import build_robot_spec
+        from harness.robots.mujoco_spec import build_robot_spec
 
         robot_model = robot if isinstance(robot, RobotModel) else RobotModel.load(robot)
         spec = build_robot_spec(robot_model)
