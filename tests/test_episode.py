@@ -25,7 +25,7 @@ from harness.episode import (
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
 from harness.pick.executor import SERVO_CHUNK_S
-from harness.robots.model import RobotModel
+from harness.robots import RobotModel
 from harness.runs.store import SCHEMA
 from harness.transforms import invert_T
 

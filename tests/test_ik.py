@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from harness.planning.ik import IKSettings, WholeBodyIK, pose_errors
-from harness.robots.model import RobotModel
+from harness.robots import RobotModel
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses
 
 ARMS = [("fr3", "left"), ("split_aloha", "left"), ("split_aloha", "right"), ("lift2", "right")]

@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 from harness.config.models import AxisFilter, ConfigError
 from harness.errors import HarnessError
 from harness.grasps import REFERENCE_CONVENTIONS, filter_ee_poses, load_grasp_file, post_process
-from harness.robots.model import ROBOTS_DIR, RobotModel, available_robots
+from harness.robots import ROBOTS_DIR, RobotModel, available_robots
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses, set_configuration
 
 ROBOTS = ["fr3", "lift2", "split_aloha"]

@@ -7,7 +7,7 @@ import numpy as np
 import placo
 import pytest
 
-from harness.robots.model import RobotModel, available_robots
+from harness.robots import RobotModel, available_robots
 from harness.robots.mujoco_spec import (
     ArmAddresses,
     build_robot_spec,

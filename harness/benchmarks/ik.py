@@ -16,7 +16,7 @@ import numpy as np
 from harness.benchmarks.framework import Figure, figure, rate_figure
 from harness.benchmarks.machine import one_core
 from harness.planning.ik import IKSettings, WholeBodyIK
-from harness.robots.model import RobotModel
+from harness.robots import RobotModel
 
 SECTION = "ik"
 ARMS = (("fr3", "left"), ("split_aloha", "left"), ("lift2", "left"))

@@ -25,7 +25,7 @@ from harness.grasps import (
     load_grasp_file,
     select_candidates,
 )
-from harness.robots.model import RobotModel
+from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import HarnessError
-from harness.robots.model import RobotModel, available_robots
+from harness.robots import RobotModel, available_robots
 
 TABLE_HEIGHT = 0.75  # m, for the render context of robots that stand on the table (fr3)
 REGION_COLOURS = {"left": (0.15, 0.55, 0.95, 0.35), "right": (0.95, 0.45, 0.1, 0.35)}

@@ -44,7 +44,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from harness.robots.model import ArmSpec, RobotModel
+from harness.robots.model import RobotModel
+from harness.robots.spec import ArmSpec
 
 PAD_FRICTION = (1.5, 0.01, 0.0001)
 PAD_CONDIM = 4

@@ -189,7 +189,7 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     ]
     if not swept:
         return point
-    from harness.robots.model import RobotModel
+    from harness.robots import RobotModel
 
     convention = RobotModel.load(task.robot).convention
     axis_of = {"approach_filter": convention.approach_axis, "facing_filter": convention.facing_axis}
@@ -237,7 +237,7 @@ def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
 def check_filters(task: TaskConfig) -> None:
     """Resolve the task's filters for its robot now, so clashes fail at expansion."""
     from harness.grasps import resolve_filters
-    from harness.robots.model import RobotModel
+    from harness.robots import RobotModel
 
     try:
         resolve_filters(task.pick, RobotModel.load(task.robot).convention)

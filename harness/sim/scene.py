@@ -38,7 +38,7 @@ import numpy as np
 from harness.config.models import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
-from harness.robots.model import RobotModel
+from harness.robots import RobotModel
 from harness.transforms import (
     euler_xyz_deg_to_matrix,
     invert_T,

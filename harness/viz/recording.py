@@ -337,7 +337,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model)."""
     import mujoco
 
-    from harness.robots.model import RobotModel
+    from harness.robots import RobotModel
 
     rr = _rr()
     trace = result.trace

@@ -1,0 +1,40 @@
+"""Finding robots: the bundled robots folder, their names, and resolving a name or path.
+
+``robots/`` at the repository root is data (robot.yaml + URDF per robot); this module maps a
+robot name (``fr3``), a robot.yaml path or its folder to the robot.yaml file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from harness.errors import HarnessError
+
+ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
+"""Folder of the bundled robots: ``robots/<name>/robot.yaml``."""
+
+
+def available_robots() -> list[str]:
+    """Names of the bundled robots (folders of ``robots/`` holding a robot.yaml)."""
+    if not ROBOTS_DIR.is_dir():
+        return []
+    return sorted(p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml"))
+
+
+def resolve_robot_yaml(name_or_path: str | Path) -> Path:
+    """A bundled robot name, a robot.yaml path or its folder -> the robot.yaml path."""
+    text = str(name_or_path)
+    candidate = Path(text).expanduser()
+    looks_like_path = isinstance(name_or_path, Path) or "/" in text or text.endswith(".yaml")
+    if candidate.is_dir() and (candidate / "robot.yaml").is_file():
+        return (candidate / "robot.yaml").resolve()
+    if candidate.is_file():
+        return candidate.resolve()
+    if looks_like_path:
+        raise HarnessError(f"{text}: robot file not found (expected a robot.yaml or its folder)")
+    bundled = ROBOTS_DIR / text / "robot.yaml"
+    if bundled.is_file():
+        return bundled
+    raise HarnessError(
+        f"unknown robot {text!r}; available robots: {', '.join(available_robots()) or 'none'}"
+    )

@@ -1,0 +1,162 @@
+"""The robot.yaml schema: pydantic models of ``robots/<name>/robot.yaml``, unknown keys rejected.
+
+Validating a yaml file against these models catches typos and shape errors (list lengths per
+joint, proper rotation of the grasp convention) before anything touches the URDF; the checks
+against the URDF itself live in ``harness.robots.validation``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from harness.config.models import FiniteFloat, Placement
+
+Axis = Literal["x", "y", "z"]
+NonNegative = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    """Base of the robot.yaml models: unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+class ActuatorGains(_Strict):
+    """MuJoCo position servo and joint dynamics, one list entry per joint (SI units)."""
+
+    kp: list[Positive]
+    kv: list[NonNegative]
+    force_limit: list[Positive]
+    damping: list[NonNegative]
+    armature: list[NonNegative]
+    frictionloss: list[NonNegative]
+
+
+class TimingLimits(_Strict):
+    """Limits used to time trajectories (rad or m per s, s^2, s^3), one entry per joint."""
+
+    velocity: list[Positive]
+    acceleration: list[Positive]
+    jerk: list[Positive]
+
+
+class GripperActuator(_Strict):
+    """The one position servo driving both fingers (ctrl = per-finger opening in m)."""
+
+    kp: Positive
+    kv: NonNegative
+    force_limit: Positive
+    damping: NonNegative = 0.0
+    armature: NonNegative = 0.0
+    speed: Positive = Field(description="Finger speed used to time open / close (m/s).")
+
+
+class ArmSpec(_Strict):
+    """One arm: its joints, frames, gripper and defaults."""
+
+    name: str = ""
+    joints: list[str] = Field(min_length=1)
+    base_frame: str
+    ee_frame: str
+    tcp_frame: str
+    finger_joints: tuple[str, str]
+    finger_bodies: tuple[str, str]
+    open_width: Positive
+    closed_width: NonNegative
+    home: list[FiniteFloat]
+    home_noise_std: list[NonNegative]
+    object_region: Placement
+    limits: TimingLimits
+    actuators: ActuatorGains
+    gripper: GripperActuator
+
+    @model_validator(mode="after")
+    def _lengths(self) -> ArmSpec:
+        n = len(self.joints)
+        lists = {
+            "home": self.home,
+            "home_noise_std": self.home_noise_std,
+            **{f"limits.{k}": v for k, v in self.limits.model_dump().items()},
+            **{f"actuators.{k}": v for k, v in self.actuators.model_dump().items()},
+        }
+        for key, values in lists.items():
+            if len(values) != n:
+                raise ValueError(f"{key} has {len(values)} entries for {n} joints")
+        if len(set(self.joints)) != n:
+            raise ValueError("joints must be distinct")
+        if self.closed_width >= self.open_width:
+            raise ValueError("closed_width must be below open_width")
+        return self
+
+    @property
+    def finger_open_position(self) -> float:
+        """Per-finger joint value of the open gripper (m)."""
+        return self.open_width / 2.0
+
+    @property
+    def finger_closed_position(self) -> float:
+        """Per-finger joint value of the closed gripper (m)."""
+        return self.closed_width / 2.0
+
+
+class LiftSpec(_Strict):
+    """A prismatic lift carrying the arms (Lift-2)."""
+
+    joint: str
+    home: FiniteFloat
+    velocity: Positive
+    acceleration: Positive
+    jerk: Positive
+    kp: Positive
+    kv: NonNegative
+    force_limit: Positive
+    damping: NonNegative = 0.0
+    armature: NonNegative = 0.0
+
+
+class ConventionSpec(_Strict):
+    """Grasp convention: how GraspNet grasp axes map to the EE frame (reference robot yaml)."""
+
+    R_ee_graspnet: tuple[
+        tuple[FiniteFloat, FiniteFloat, FiniteFloat],
+        tuple[FiniteFloat, FiniteFloat, FiniteFloat],
+        tuple[FiniteFloat, FiniteFloat, FiniteFloat],
+    ]
+    ee_axis: Axis
+    approach_axis: Axis
+    facing_axis: Axis
+    tcp_offset: Positive
+    gripper_min_width: NonNegative
+    gripper_max_width: Positive
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ConventionSpec:
+        if self.approach_axis != self.ee_axis:
+            raise ValueError(
+                f"approach_axis {self.approach_axis} must equal ee_axis {self.ee_axis}"
+            )
+        R = np.asarray(self.R_ee_graspnet, dtype=float)
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+            raise ValueError("R_ee_graspnet must be a proper rotation")
+        if self.facing_axis == self.ee_axis:
+            raise ValueError("facing_axis must differ from ee_axis")
+        if self.gripper_min_width >= self.gripper_max_width:
+            raise ValueError("gripper_min_width must be below gripper_max_width")
+        return self
+
+
+class RobotFile(_Strict):
+    """Top level of robot.yaml."""
+
+    name: str = Field(min_length=1)
+    description: str = ""
+    urdf: str = Field(min_length=1, description="URDF path relative to this file.")
+    root_frame: str
+    placement: Placement = Field(description="Root pose in the world (table-top centre origin).")
+    convention: ConventionSpec
+    arms: dict[Literal["left", "right"], ArmSpec] = Field(min_length=1)
+    lift: LiftSpec | None = None
