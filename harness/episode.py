@@ -66,7 +66,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
-from harness.sim.scene import Scene, scene_key
+from harness.sim import Scene, scene_key
 from harness.transforms import invert_T, quat_to_matrix
 
 # The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,

@@ -18,7 +18,7 @@ from harness.planning.motion import (
     rrt_connect,
     shortcut,
 )
-from harness.sim.scene import Scene
+from harness.sim import Scene
 from harness.transforms import invert_T
 
 

@@ -15,7 +15,7 @@ import pytest
 import trimesh
 
 from harness.config.models import PhysicsConfig, TaskConfig
-from harness.sim.scene import TABLE_NAME, Scene
+from harness.sim import TABLE_NAME, Scene
 from harness.transforms import invert_T
 
 CANONICAL = {

@@ -54,7 +54,7 @@ from harness.config.models import PickConfig, TaskConfig
 from harness.failures import FailureReason
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
-from harness.sim.scene import Scene
+from harness.sim import Scene
 from harness.transforms import invert_T, matrix_to_quat, quat_angle_between
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps

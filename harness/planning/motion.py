@@ -46,7 +46,8 @@ import mujoco
 import numpy as np
 
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
-from harness.sim.scene import TABLE_BIT, Scene, refresh_body_masks
+from harness.sim.masks import TABLE_BIT, refresh_body_masks
+from harness.sim.scene import Scene
 
 Phase = Literal["transport", "approach", "carry"]
 COLLISION_FREE_IK_ATTEMPTS = 3  # fresh IK restarts when a solution is in collision
