@@ -58,7 +58,8 @@ from harness.grasps import (
 )
 from harness.pick.executor import FailureReason, PickExecutor, PickOutcome, PickTargets
 from harness.planning.ik import WholeBodyIK
-from harness.planning.motion import CandidateVerdict, ChainPlan, PickPlanner
+from harness.planning.planner import PickPlanner
+from harness.planning.plans import CandidateVerdict, ChainPlan
 from harness.planning.timing import (
     TimingError,
     TimingLimits,
@@ -66,6 +67,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
+from harness.planning.world import PlanningWorld
 from harness.sim import Scene, scene_key
 from harness.transforms import invert_T, quat_to_matrix
 
@@ -444,12 +446,14 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     # ignore_substring names them (the reference planner's ignore list); strict ignores nothing.
     strict = pick.semantics == "strict"
     planner.sync(
-        obj_name,
-        check_table=task.physics.table_contact or strict,
-        check_target=True,
-        table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-        ignore_substring=() if strict else tuple(pick.ignore_substring),
-        hold_lift=True,  # the reference plans the arm alone, the lift held at its home
+        PlanningWorld(
+            target=obj_name,
+            check_table=task.physics.table_contact or strict,
+            check_target=True,
+            table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
+            ignore_substring=() if strict else tuple(pick.ignore_substring),
+            hold_lift=True,  # the reference plans the arm alone, the lift held at its home
+        )
     )
     q_now = scene.active_q(arm)
     approach = scene.robot.convention.approach_index

@@ -11,13 +11,10 @@ import pytest
 from test_scene import make_task, write_box
 
 from harness.episode import get_scene
-from harness.planning.motion import (
-    CollisionChecker,
-    PickPlanner,
-    interpolate_pose,
-    rrt_connect,
-    shortcut,
-)
+from harness.planning.collision import CollisionChecker
+from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
+from harness.planning.planner import PickPlanner
+from harness.planning.world import PlanningWorld
 from harness.sim import Scene
 from harness.transforms import invert_T
 
@@ -138,7 +135,7 @@ def test_checker_phases(fr3) -> None:
     """Home is free; the hand at the grasp touches the cube with its fingers only, which the
     approach allows and the transport does not; carrying ignores the held object."""
     _task, scene, planner = fr3
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
     checker = planner.checker
     q_home = scene.active_q("left")
     assert checker.contacts(q_home, "transport") == []
@@ -163,11 +160,11 @@ def test_checker_table_switch(fr3) -> None:
     T[:3, 3] += [0.15, 0.0, -0.07]  # beside the cube, TCP 3 cm below the table top
     result = planner.ik.solve(T, q_home, np.random.default_rng(0))
     assert result.success
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
     assert planner.checker.collides(result.q, "transport")
-    planner.sync("target", check_table=False)
+    planner.sync(PlanningWorld("target", check_table=False))
     assert not planner.checker.collides(result.q, "transport")
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
 
 
 def test_checker_ignore_substring(tmp_path: Path) -> None:
@@ -189,7 +186,7 @@ def test_checker_ignore_substring(tmp_path: Path) -> None:
         ],
     )
     scene, planner = _planner(task)
-    planner.sync("target", check_table=False)  # also the IK's base pose and posture
+    planner.sync(PlanningWorld("target", check_table=False))  # also the IK's base pose and posture
     q_home = scene.active_q("left")
     hits = {}
     for name in ("gso_box_left", "target"):
@@ -198,12 +195,14 @@ def test_checker_ignore_substring(tmp_path: Path) -> None:
         result = planner.ik.solve(T, q_home, np.random.default_rng(0))
         assert result.success
         hits[name] = result.q
-    planner.sync("target", check_table=False)
+    planner.sync(PlanningWorld("target", check_table=False))
     assert planner.checker.collides(hits["gso_box_left"], "transport")
-    planner.sync("target", check_table=False, ignore_substring=["material", "gso_box"])
+    planner.sync(
+        PlanningWorld("target", check_table=False, ignore_substring=("material", "gso_box"))
+    )
     assert not planner.checker.collides(hits["gso_box_left"], "transport")
     assert planner.checker.collides(hits["target"], "transport")
-    planner.sync("target", check_table=False, ignore_substring=["target"])
+    planner.sync(PlanningWorld("target", check_table=False, ignore_substring=("target",)))
     assert planner.checker.collides(hits["target"], "transport")
 
 
@@ -212,7 +211,7 @@ def test_self_contacts_of_the_physics_model_are_collisions(fr3) -> None:
     e.g. link1 against link3 when the elbow folds back, which would stop the arm in simulation.
     """
     _task, scene, planner = fr3
-    planner.sync("target", check_table=False)
+    planner.sync(PlanningWorld("target", check_table=False))
     rng = np.random.default_rng(0)
     checker = planner.checker
     found = None
@@ -237,7 +236,7 @@ def test_arm_vs_arm_is_a_collision(tmp_path: Path) -> None:
     scene = Scene.build(task.robot, task.objects, task.physics)
     scene.reset(task, np.random.default_rng(0))
     checker = CollisionChecker(scene, "left")
-    checker.sync("target", check_table=False)
+    checker.sync(PlanningWorld("target", check_table=False))
     q = scene.active_q("left")
     assert not checker.collides(q, "transport")
     rng = np.random.default_rng(1)
@@ -262,7 +261,7 @@ def test_chain_plan_is_straight_where_it_must_be(fr3) -> None:
     """Forward plan of a top-down grasp: transport from the current state, a straight
     approach, a vertical lift; every waypoint collision-free for its phase."""
     _task, scene, planner = fr3
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
     q_now = scene.active_q("left")
     T_grasp = top_down_grasp(scene, "left")
     T_pre = T_grasp.copy()
@@ -308,7 +307,7 @@ def test_rrt_is_used_when_the_direct_path_collides(tmp_path: Path) -> None:
         ],
     )
     scene, planner = _planner(task)
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
     q_now = scene.active_q("left")
     T_grasp = top_down_grasp(scene, "left")
     T_pre = T_grasp.copy()
@@ -325,7 +324,7 @@ def test_rrt_is_used_when_the_direct_path_collides(tmp_path: Path) -> None:
 
 def test_ik_test_checks_pregrasp_and_grasp_independently(fr3) -> None:
     _task, scene, planner = fr3
-    planner.sync("target", check_table=True)
+    planner.sync(PlanningWorld("target", check_table=True))
     q_now = scene.active_q("left")
     T_grasp = top_down_grasp(scene, "left")
     T_pre = T_grasp.copy()

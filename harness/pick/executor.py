@@ -52,7 +52,7 @@ import numpy as np
 
 from harness.config.models import PickConfig, TaskConfig
 from harness.failures import FailureReason
-from harness.planning.motion import CollisionChecker, Phase
+from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.sim import Scene
 from harness.transforms import invert_T, matrix_to_quat, quat_angle_between

@@ -1,0 +1,320 @@
+"""PickPlanner: feasibility tests and chained plans for one arm of a scene.
+
+The planning world is set per episode with ``sync`` (a
+:class:`harness.planning.world.PlanningWorld`); what it holds and the collision rules per phase
+are described in ``harness.planning.collision``.
+
+Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
+
+- ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
+  current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the
+  reference's cuRobo IK checks collisions too). No path is checked, as in the reference.
+- ``forward``: the chained plan: a collision-free joint path from the current state to the
+  pre-grasp (direct interpolation first, RRT-Connect within a sample budget otherwise), the
+  straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
+  asked). The plan found is the one executed. The reference plans the pre-grasp and the grasp,
+  each from the current state, and never the lift; the episode can test without the carry and
+  plan it (``plan_carry``) for the chosen candidate alone
+  (``harness.episode.FORWARD_TEST_PLANS_CARRY``, docs/semantics.md).
+
+Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
+with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from harness.planning.collision import CollisionChecker, Phase
+from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
+from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
+from harness.planning.plans import CandidateVerdict, ChainPlan
+from harness.planning.world import PlanningWorld
+from harness.sim.scene import Scene
+
+COLLISION_FREE_IK_ATTEMPTS = 3  # fresh IK restarts when a solution is in collision
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Resolutions, budgets and tolerances of the planner (SI units, joint space in rad / m)."""
+
+    ik: IKSettings = field(default_factory=IKSettings)
+    collision_resolution: float = 0.03  # max joint step between collision checks
+    cartesian_step: float = 0.01  # m between Cartesian IK waypoints
+    max_joint_jump: float = 0.3  # largest joint change allowed between Cartesian waypoints
+    penetration_tolerance: float = 1e-4  # contacts shallower than this are not collisions
+    # Budgets are counts, not seconds: a plan must not depend on machine load (same seed, same row).
+    rrt_max_iterations: int = 1000  # samples per RRT-Connect query
+    rrt_step: float = 0.2  # joint-space extension step
+    rrt_max_nodes: int = 4000
+    shortcut_iterations: int = 40
+
+
+class PickPlanner:
+    """Feasibility tests and chained plans for one arm of a scene."""
+
+    def __init__(
+        self, scene: Scene, arm: str, ik: WholeBodyIK, settings: PlannerSettings | None = None
+    ) -> None:
+        self.scene = scene
+        self.arm = arm
+        self.ik = ik
+        self.settings = settings or PlannerSettings()
+        self.checker = CollisionChecker(scene, arm, self.settings.penetration_tolerance)
+        self.lower = ik.lower
+        self.upper = ik.upper
+
+    # -- helpers --------------------------------------------------------------------------------
+
+    def sync(self, world: PlanningWorld) -> None:
+        """Take the scene's current state and ``world`` as the planning world and IK posture.
+
+        ``hold_lift`` keeps a lift joint where it is for every IK solve and joint path (the
+        reference's pick plans the arm alone with the lift at its home)."""
+        scene = self.scene
+        self.checker.sync(world)
+        self.ik.hold_lift(world.hold_lift)
+        self.lower, self.upper = self.ik.lower.copy(), self.ik.upper.copy()
+        if world.hold_lift and self.ik.lift_joint is not None:
+            index = self.ik.joint_names.index(self.ik.lift_joint)
+            value = float(scene.data.qpos[scene.arms[self.arm].active_qpos[index]])
+            self.lower[index] = self.upper[index] = value
+        self.ik.set_base_pose(scene.T_world_root())
+        posture = {
+            name: float(scene.data.qpos[adr])
+            for name, adr in scene.joint_qpos.items()
+            if name in scene.robot.movable_joints
+        }
+        self.ik.set_posture(posture)
+
+    def collision_free_ik(
+        self,
+        T_world_target: np.ndarray,
+        seeds: list[np.ndarray],
+        phase: Phase,
+        rng: np.random.Generator | None,
+        attempts: int = COLLISION_FREE_IK_ATTEMPTS,
+    ) -> tuple[IKResult, str]:
+        """An IK solution that is also collision-free for ``phase``: from the seeds first, then
+        from random restarts while the solutions collide. Returns the result and "" -- or, when
+        every solution found collides, the last one and why."""
+        result = self.ik.solve(T_world_target, seeds[0], rng, self.settings.ik, seeds[1:])
+        colliding: tuple[IKResult, str] | None = None
+        for attempt in range(attempts + 1):
+            if result.success:
+                pairs = self.checker.contacts(result.q, phase)
+                if not pairs:
+                    return result, ""
+                colliding = (result, f"IK solution in collision ({self.checker.describe(pairs)})")
+            elif attempt == 0:
+                return result, ""  # not reachable at all: restarts were already spent
+            if rng is None or attempt == attempts:
+                break
+            restart = rng.uniform(self.lower, self.upper)  # a held lift stays where it is
+            result = self.ik.solve(T_world_target, restart, rng, self.settings.ik)
+        return colliding if colliding is not None else (result, "")
+
+    def edge_free(self, phase: Phase) -> Callable[[np.ndarray, np.ndarray], bool]:
+        resolution = self.settings.collision_resolution
+
+        def free(qa: np.ndarray, qb: np.ndarray) -> bool:
+            return not self.checker.segment_collides(qa, qb, phase, resolution)
+
+        return free
+
+    def joint_path(
+        self, q_from: np.ndarray, q_to: np.ndarray, phase: Phase, rng: np.random.Generator
+    ) -> tuple[np.ndarray | None, bool, str]:
+        """Collision-free joint path: direct line, else RRT-Connect. (waypoints, used_rrt, why)."""
+        if self.checker.collides(q_to, phase):
+            pairs = self.checker.contacts(q_to, phase)
+            return None, False, f"goal in collision ({self.checker.describe(pairs)})"
+        if self.checker.collides(q_from, phase):
+            pairs = self.checker.contacts(q_from, phase)
+            return None, False, f"start in collision ({self.checker.describe(pairs)})"
+        edge_free = self.edge_free(phase)
+        if edge_free(q_from, q_to):
+            return np.stack([q_from, q_to]), False, ""
+        s = self.settings
+        path = rrt_connect(
+            q_from,
+            q_to,
+            self.lower,
+            self.upper,
+            lambda q: not self.checker.collides(q, phase),
+            edge_free,
+            rng,
+            s.rrt_step,
+            s.rrt_max_iterations,
+            s.rrt_max_nodes,
+        )
+        if path is None:
+            return None, True, "RRT-Connect found no path within its budget"
+        path = shortcut(path, edge_free, rng, s.shortcut_iterations)
+        return np.stack(path), True, ""
+
+    def cartesian_path(
+        self, q_start: np.ndarray, T_from: np.ndarray, T_to: np.ndarray, phase: Phase
+    ) -> tuple[np.ndarray | None, str]:
+        """Joint waypoints following the straight line ``T_from -> T_to`` (fixed orientation
+        interpolated by slerp), each an IK solution seeded by the previous one."""
+        s = self.settings
+        distance = float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3]))
+        count = max(1, int(np.ceil(distance / s.cartesian_step)))
+        waypoints = [q_start]
+        q = q_start
+        for k in range(1, count + 1):
+            T = interpolate_pose(T_from, T_to, k / count)
+            result = self.ik.solve(T, q, None, s.ik)
+            if not result.success:
+                return None, (
+                    f"IK failed at {k}/{count} of the line ({result.position_error * 1e3:.1f} mm, "
+                    f"{result.orientation_error:.3f} rad)"
+                )
+            if float(np.max(np.abs(result.q - q))) > s.max_joint_jump:
+                return None, f"joint jump at {k}/{count} of the line (IK branch change)"
+            if self.checker.segment_collides(q, result.q, phase, s.collision_resolution):
+                pairs = self.checker.contacts(result.q, phase)
+                return None, f"collision at {k}/{count} ({self.checker.describe(pairs)})"
+            waypoints.append(result.q)
+            q = result.q
+        return np.stack(waypoints), ""
+
+    # -- feasibility ----------------------------------------------------------------------------
+
+    def test_ik(
+        self,
+        position: int,
+        pose_index: int,
+        score: float,
+        q_current: np.ndarray,
+        T_world_pregrasp: np.ndarray,
+        T_world_grasp: np.ndarray,
+        test_grasp: bool,
+        rng: np.random.Generator,
+    ) -> CandidateVerdict:
+        """``ik`` mode: the pre-grasp and the grasp, each from the current state, each solution
+        checked for collisions (as the reference's collision-aware IK does; the grasp with the
+        approach rules, so the fingers may touch the object)."""
+        start = time.perf_counter()
+        pre, why = self.collision_free_ik(T_world_pregrasp, [q_current], "transport", rng)
+        verdict = CandidateVerdict(position, pose_index, score, False, "", ik_pregrasp=pre)
+        if not pre.success or why:
+            verdict.stage = "ik_pregrasp"
+            verdict.detail = why or _ik_detail(pre)
+        elif test_grasp:
+            grasp, why = self.collision_free_ik(T_world_grasp, [q_current], "approach", rng)
+            verdict.ik_grasp = grasp
+            if not grasp.success or why:
+                verdict.stage = "ik_grasp"
+                verdict.detail = why or _ik_detail(grasp)
+        verdict.feasible = verdict.stage == ""
+        verdict.time_s = time.perf_counter() - start
+        return verdict
+
+    def plan_chain(
+        self,
+        position: int,
+        pose_index: int,
+        score: float,
+        q_current: np.ndarray,
+        T_world_pregrasp: np.ndarray,
+        T_world_grasp: np.ndarray,
+        T_world_lift: np.ndarray | None,
+        return_to_pregrasp: bool,
+        rng: np.random.Generator,
+        pregrasp_seed: np.ndarray | None = None,
+    ) -> CandidateVerdict:
+        """``forward`` mode (and execution planning): the whole chained, checked motion.
+
+        ``pregrasp_seed`` (e.g. the solution an ``ik`` test found) is tried before the current
+        state as the pre-grasp IK seed."""
+        start = time.perf_counter()
+        verdict = CandidateVerdict(position, pose_index, score, False, "")
+
+        def fail(stage: str, detail: str) -> CandidateVerdict:
+            verdict.stage, verdict.detail = stage, detail
+            verdict.time_s = time.perf_counter() - start
+            return verdict
+
+        seeds = [q_current] if pregrasp_seed is None else [pregrasp_seed, q_current]
+        pre, why = self.collision_free_ik(T_world_pregrasp, seeds, "transport", rng)
+        verdict.ik_pregrasp = pre
+        if not pre.success:
+            return fail("ik_pregrasp", _ik_detail(pre))
+        if why:
+            return fail("ik_pregrasp", why)
+        transport, used_rrt, why = self.joint_path(q_current, pre.q, "transport", rng)
+        if transport is None:
+            return fail("transport", why)
+        # The approach starts from the exact pre-grasp pose the transport ends at.
+        T_pre_exact = self.ik.fk(pre.q)
+        approach, why = self.cartesian_path(pre.q, T_pre_exact, T_world_grasp, "approach")
+        if approach is None:
+            return fail("approach", why)
+        verdict.ik_grasp = IKResult(approach[-1], True, 0.0, 0.0, 0, 0)
+        plan = ChainPlan(
+            transport=transport,
+            approach=approach,
+            lift=None,
+            retreat=None,
+            T_world_pregrasp=T_world_pregrasp,
+            T_world_grasp=T_world_grasp,
+            T_world_lift=None,
+            used_rrt=used_rrt,
+        )
+        carried, stage, why = self.plan_carry(plan, T_world_lift, return_to_pregrasp)
+        if carried is None:
+            return fail(stage, why)
+        verdict.plan = carried
+        verdict.feasible = True
+        verdict.time_s = time.perf_counter() - start
+        return verdict
+
+    def plan_carry(
+        self, plan: ChainPlan, T_world_lift: np.ndarray | None, return_to_pregrasp: bool
+    ) -> tuple[ChainPlan | None, str, str]:
+        """Extend a plan that ends at the grasp with the carry: the Cartesian lift to
+        ``T_world_lift`` (if any) and, with ``return_to_pregrasp``, the line back to the
+        pre-grasp the transport reached. Returns (the extended plan, "", "") or (None, stage,
+        why) with stage ``lift`` or ``return``. Deterministic (no random restarts)."""
+        lift = None
+        retreat = None
+        q_end = plan.approach[-1]
+        if T_world_lift is not None:
+            T_grasp_exact = self.ik.fk(q_end)
+            lift, why = self.cartesian_path(q_end, T_grasp_exact, T_world_lift, "carry")
+            if lift is None:
+                return None, "lift", why
+            q_end = lift[-1]
+        if return_to_pregrasp:
+            T_pre_exact = self.ik.fk(plan.approach[0])
+            retreat, why = self.cartesian_path(q_end, self.ik.fk(q_end), T_pre_exact, "carry")
+            if retreat is None:
+                return None, "return", why
+        return (
+            ChainPlan(
+                transport=plan.transport,
+                approach=plan.approach,
+                lift=lift,
+                retreat=retreat,
+                T_world_pregrasp=plan.T_world_pregrasp,
+                T_world_grasp=plan.T_world_grasp,
+                T_world_lift=T_world_lift,
+                used_rrt=plan.used_rrt,
+            ),
+            "",
+            "",
+        )
+
+
+def _ik_detail(result: IKResult) -> str:
+    return (
+        f"IK residual {result.position_error * 1e3:.1f} mm / {result.orientation_error:.3f} rad "
+        f"after {result.iterations} iterations, {result.restarts} restarts"
+    )

@@ -1,0 +1,59 @@
+"""Plans and verdicts: what testing and planning one grasp candidate produce.
+
+``ChainPlan`` is the executed motion (transport, approach, lift, return) in joint waypoints,
+``CandidateVerdict`` the outcome of testing one candidate, ``Selection`` the chosen candidate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from harness.planning.ik import IKResult
+
+
+@dataclass
+class ChainPlan:
+    """Joint waypoints (active joints) of one candidate's executed motion, and its targets."""
+
+    transport: np.ndarray  # (K, n) current -> pre-grasp
+    approach: np.ndarray  # (K, n) pre-grasp -> grasp (Cartesian straight line)
+    lift: np.ndarray | None  # (K, n) grasp -> lifted (Cartesian), None without a lift
+    retreat: np.ndarray | None  # (K, n) lifted -> pre-grasp, with return_to_pregrasp
+    T_world_pregrasp: np.ndarray
+    T_world_grasp: np.ndarray
+    T_world_lift: np.ndarray | None
+    used_rrt: bool = False
+
+
+@dataclass
+class CandidateVerdict:
+    """Outcome of testing one candidate (one entry of the ordered candidate list)."""
+
+    position: int  # position in the candidate list
+    pose_index: int  # index into the 2N EE poses
+    score: float
+    feasible: bool
+    stage: str  # "" when feasible, else where it failed (ik_pregrasp, transport, ...)
+    detail: str = ""
+    ik_pregrasp: IKResult | None = None
+    ik_grasp: IKResult | None = None
+    plan: ChainPlan | None = None
+    time_s: float = 0.0
+
+
+@dataclass
+class Selection:
+    """The candidate chosen for execution and how the choice was made."""
+
+    chosen: CandidateVerdict | None
+    verdicts: list[CandidateVerdict]
+    outcome: Literal["feasible", "fallback_last", "none"]
+    ik_time_s: float
+    plan_time_s: float
+
+    @property
+    def n_feasible(self) -> int:
+        return sum(v.feasible for v in self.verdicts)
