@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import placo
+import placo  # pyright: ignore[reportMissingImports]  # a cmeel .pth path pyright cannot see
 
 from harness.errors import InputFileError
 
@@ -225,8 +225,9 @@ class WholeBodyIK:
     ) -> tuple[np.ndarray, float, float, int]:
         self._set_active(self.clip(seed))
         iterations = 0
-        free_lift = self._lift_task is not None and not self._lift_held
-        if free_lift:
+        free_lift = False
+        if self._lift_task is not None and not self._lift_held:
+            free_lift = True
             lift_index = self.joint_names.index(self.lift_joint)  # type: ignore[arg-type]
             self._lift_task.set_joints({self.lift_joint: float(seed[lift_index])})
             self._lift_task.configure("lift_posture", "soft", self._lift_weight)
