@@ -10,7 +10,8 @@ feasibility test), ``plan_failed`` (the executed motion could not be planned or 
 ``velocity_invalid``, ``sim_unstable`` (NaN or MuJoCo warnings), ``timeout`` (the episode
 length limit), ``error`` (an exception, with its message).
 
-Timeline (the reference's, section 7 and quirks 6 and 7): reset and place; one reference step
+Timeline (the reference's, docs/reference-pick-skill.md section 7 and quirks 6 and 7): reset and
+place; one reference step
 (1/30 s) of physics; record the target's ``obj_init_trans`` (the lift reference); settle 20
 steps; choose and test the grasp from the object pose at that moment; plan; 10 warm-up steps
 with the robot holding still; execute. ``max_episode_length`` counts the execution's control
@@ -439,7 +440,8 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     # table contact is on (and always under strict semantics; the reference's planning ignores
     # the table even where it is physical, quirk 21, planning fingers into it), and the target
     # object under both semantics (the fingers may touch it on the approach; the reference
-    # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
+    # removes it while planning the pre-grasp and the grasp,
+    # docs/reference-pick-skill.md section 6 step 2, which lets a
     # transport sweep through it and knock it over). Other objects are in it unless the pick's
     # ignore_substring names them (the reference planner's ignore list); strict ignores nothing.
     strict = pick.semantics == "strict"
@@ -474,7 +476,8 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
 
     def test_targets(position: int) -> tuple[np.ndarray, ...]:
         """The poses a candidate is tested at. Reference: fixed_orientation is applied after the
-        test (quirk 13); the lift only with ``test_carry``. Strict tests what it executes."""
+        test (docs/reference-pick-skill.md quirk 13); the lift only with ``test_carry``.
+        Strict tests what it executes."""
         T_pre, T_grasp, T_lift = targets_for(T_base_candidates[position], strict)
         return T_pre, T_grasp, (T_lift if test_carry else None)
 
@@ -585,7 +588,8 @@ def command_targets(
     fixed_rotation: np.ndarray | None = None,
     semantics: str = "reference",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate (section 6).
+    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate
+    (docs/reference-pick-skill.md section 6).
 
     The pre-grasp is the grasp moved ``pre_grasp_offset`` back along EE column
     ``approach_index`` (the reference picks column 0 when "r5a" is in the planner file name and

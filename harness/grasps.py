@@ -1,7 +1,7 @@
 """Grasp core: GraspNet-style annotations -> end-effector poses -> direction filters -> order.
 
 Implements the reference Pick skill's pose post-processing and candidate selection
-(../shared/reference/pick-skill.md sections 2-4, 11, 12) as vectorised numpy, with no Python
+(docs/reference-pick-skill.md sections 2-4, 11, 12) as vectorised numpy, with no Python
 loop over grasps:
 
 - :class:`GraspSet` / :func:`load_grasp_file`: a validated N x 17 grasp file;
@@ -77,7 +77,8 @@ class GripperConvention:
         return AXES.index(self.ee_axis)
 
 
-# Reference values (pick-skill.md section 3) for the three project robots. robots/<name>/robot.yaml
+# Reference values (docs/reference-pick-skill.md section 3) for the three project robots.
+# robots/<name>/robot.yaml
 # is the source of truth at run time; these serve tests and tools that run without a robot model.
 REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
     "fr3": GripperConvention(
@@ -108,7 +109,7 @@ REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
 
 
 # --------------------------------------------------------------------------------------------
-# Grasp files (pick-skill.md section 2)
+# Grasp files (docs/reference-pick-skill.md section 2)
 
 GRASP_COLUMNS = 17
 ROTATION_TOLERANCE = 1e-3
@@ -242,7 +243,7 @@ def load_grasp_file(path: str | Path) -> GraspSet:
 
 
 # --------------------------------------------------------------------------------------------
-# End-effector poses (pick-skill.md section 3)
+# End-effector poses (docs/reference-pick-skill.md section 3)
 
 # Right-multiplied onto R_obj_ee: a 180-degree turn about the approach axis (step 7).
 FLIP_DIAGONALS: dict[str, FloatArray] = {
@@ -387,7 +388,8 @@ def post_process(
     tcp_offset: float | None = None,
     constraints: Constraints | None = None,
 ) -> EEPoses:
-    """End-effector poses of ``grasps`` for a robot convention: exactly reference section 3.
+    """End-effector poses of ``grasps`` for a robot convention: exactly
+    docs/reference-pick-skill.md section 3.
 
     1. ``R_obj_ee = R_g @ R_ee_graspnet.T``; 2. ``t_tcp = point * grasp_scale`` (depth unscaled);
     3. width clipped to the gripper range; 5. ``p = t_tcp + a * (depth - tcp_offset)`` with ``a``
@@ -437,12 +439,13 @@ def ee_poses_for_pick(grasps: GraspSet, convention: GripperConvention, pick: Pic
 
 
 def base_frame_poses(ee_poses: EEPoses, T_base_obj: ArrayLike) -> FloatArray:
-    """``T_base_ee = T_base_obj @ T_obj_ee`` for all 2N poses, ``(2N, 4, 4)`` (section 4.1)."""
+    """``T_base_ee = T_base_obj @ T_obj_ee`` for all 2N poses, ``(2N, 4, 4)``
+    (docs/reference-pick-skill.md section 4.1)."""
     return np.matmul(np.asarray(T_base_obj, dtype=np.float64), ee_poses.T_obj_ee)
 
 
 # --------------------------------------------------------------------------------------------
-# Direction filters in the arm base frame (pick-skill.md sections 4.2, 4.3)
+# Direction filters in the arm base frame (docs/reference-pick-skill.md sections 4.2, 4.3)
 
 FILTER_KEYS: dict[str, str] = {axis: f"filter_{axis}_dir" for axis in AXES}
 # direction -> (row of T_base_ee: base +X or +Z, sign)
@@ -523,7 +526,8 @@ def filter_poses(
     direction_to_obj: str | None = None,
     T_base_obj: ArrayLike | None = None,
 ) -> FilterResult:
-    """Direction filters on base-frame poses ``T_base_ee`` ``(M, 4, 4)`` (sections 4.2-4.4).
+    """Direction filters on base-frame poses ``T_base_ee`` ``(M, 4, 4)``
+    (docs/reference-pick-skill.md sections 4.2-4.4).
 
     ``filters`` maps ``filter_{x,y,z}_dir`` (or the bare letter) to an :class:`AxisFilter`; the
     letter selects the EE axis (column of the rotation); masks are keyed ``filter_{x,y,z}_dir``.
@@ -645,7 +649,7 @@ def check_strict_filters(filters: Mapping[str, AxisFilter]) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# Candidate order (pick-skill.md sections 4.4, 4.5)
+# Candidate order (docs/reference-pick-skill.md sections 4.4, 4.5)
 
 CANDIDATE_BATCH = 20  # the reference's CUROBO_BATCH_SIZE (sample_ee_pose max_length)
 SCORE_EPSILON = 1e-8  # weights are 1 / (score + 1e-8)

@@ -1,7 +1,7 @@
 """Configuration models: the Pick block, a task, a sweep; YAML loading with located errors.
 
 ``PickConfig`` carries every key of the InternDataEngine Pick skill with the reference defaults
-(../shared/reference/pick-skill.md section 8), so a reference pick block pastes in unchanged,
+(docs/reference-pick-skill.md section 8), so a reference pick block pastes in unchanged,
 plus the harness keys (``semantics``, ``approach_filter``, ``facing_filter``, ``timing``, the
 strict-verdict thresholds). ``TaskConfig`` is one robot arm picking one object; ``SweepConfig``
 expands tasks over dotted-key axes. All models forbid unknown keys and suggest the closest one.
@@ -93,7 +93,7 @@ class AxisFilter(BaseModel):
     """A reference direction filter: ``[direction, angle]`` or ``[direction, angle1, angle2]``.
 
     Angles are degrees measured from base +X (forward/backward) or base +Z (upward/downward),
-    never from the named direction (reference section 4.2).
+    never from the named direction (docs/reference-pick-skill.md section 4.2).
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -186,7 +186,7 @@ class _Strict(BaseModel):
 class PickConfig(_Strict):
     """Every key of the reference Pick skill (reference defaults), plus the harness keys."""
 
-    # Reference keys (pick-skill.md section 8).
+    # Reference keys (docs/reference-pick-skill.md section 8).
     objects: list[str] | None = Field(
         default=None,
         min_length=1,

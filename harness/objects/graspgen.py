@@ -1,6 +1,7 @@
 """Antipodal grasp annotations for any mesh, in the GraspNet / InternDataEngine N x 17 layout.
 
-Row layout (pick-skill.md section 2): score, width, height, depth, R_g (3x3, row-major),
+Row layout (docs/reference-pick-skill.md section 2): score, width, height, depth,
+R_g (3x3, row-major),
 translation, object id. GraspNet axes: g_x approach, g_y closing (width) direction, g_z = g_x x g_y.
 
 Convention, measured on the shared InternDataEngine example files (tests/test_graspgen.py checks

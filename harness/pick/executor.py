@@ -1,6 +1,7 @@
 """The Pick skill executed in MuJoCo: the reference command list, progress, and the verdict.
 
-Commands (pick-skill.md section 6), each a target pose plus a gripper action, in order:
+Commands (docs/reference-pick-skill.md section 6), each a target pose plus a gripper action,
+in order:
 
 1. current EE, ``update_pose_cost_metric``    2. current EE, ``update_specific``
 3. pre-grasp, ``open_gripper``                 4. pre-grasp, ``update_pose_cost_metric`` (if set)
@@ -77,7 +78,7 @@ EXECUTION_PENETRATION = 0.002
 class PickCommand:
     """One reference command: a target (by name), the function, the gripper action."""
 
-    number: int  # the row of pick-skill.md section 6
+    number: int  # the row of docs/reference-pick-skill.md section 6
     function: str
     target: Literal["current", "pregrasp", "grasp", "lift"]
     gripper: Literal["open", "close"] | None = None
@@ -592,7 +593,8 @@ class PickExecutor:
         )
 
     def _reference_verdict(self) -> None:
-        """The reference ``is_success``, evaluated at this instant (section 7)."""
+        """The reference ``is_success``, evaluated at this instant
+        (docs/reference-pick-skill.md section 7)."""
         out, pick = self.out, self.pick
         forces = self._measure()
         if pick.final_gripper_state == -1 and not max(forces) > 0.0:

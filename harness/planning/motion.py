@@ -16,9 +16,10 @@ contacts. What counts as a collision depends on the phase of the motion:
 What the planning world holds is set per episode (``sync``): the table (the episode puts it in
 only where the robot physically collides with it, or under strict semantics: the reference's
 planning always ignores it, quirk 21) and the target object (the episode always puts it in; the
-reference removes it while planning the pre-grasp and the grasp, pick-skill.md section 6).
+reference removes it while planning the pre-grasp and the grasp,
+docs/reference-pick-skill.md section 6).
 
-Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
+Feasibility of one candidate (``test_mode``, docs/reference-pick-skill.md section 5):
 
 - ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
   current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the
@@ -118,7 +119,8 @@ class CollisionChecker:
         ``check_table`` False leaves the table out of the planning world (the reference's
         planning ignore list always holds it); ``check_target`` False leaves the target object
         out (the reference removes it before testing and planning the pre-grasp and the grasp,
-        pick-skill.md section 6 step 2). Contacts present in the current state (a first
+        docs/reference-pick-skill.md section 6 step 2).
+        Contacts present in the current state (a first
         link standing in the table top, two links of a noisy home posture touching) are where
         the robot already is, not planning failures: those pairs are allowed for the queries
         that follow.

@@ -61,7 +61,8 @@ ROBOT_ARMS: dict[str, tuple[str, ...]] = {
     "lift2": ("left", "right"),
     "split_aloha": ("left", "right"),
 }
-# Home of each arm in the reference robot config files (robots_*.yaml, pick-skill.md section 3),
+# Home of each arm in the reference robot config files (robots_*.yaml,
+# docs/reference-pick-skill.md section 3),
 # used when a task file does not override it. Their home noise std is zero.
 REFERENCE_ROBOT_HOMES: dict[str, list[float]] = {
     "fr3": [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785],
