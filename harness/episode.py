@@ -48,7 +48,7 @@ import mujoco
 import numpy as np
 
 from harness import __version__
-from harness.config.models import PickConfig, TaskConfig
+from harness.config import PickConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.grasps import (
     EEPoses,

@@ -26,7 +26,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from harness.config.models import AxisFilter, ConfigError, PickConfig, reversed_band_message
+from harness.config import AxisFilter, ConfigError, PickConfig, reversed_band_message
 from harness.errors import InputFileError
 from harness.transforms import make_T
 

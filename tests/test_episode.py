@@ -11,7 +11,7 @@ import pytest
 from test_scene import make_task, write_box
 
 from harness import episode as episode_module
-from harness.config.models import apply_overrides, load_task
+from harness.config import apply_overrides, load_task
 from harness.episode import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,

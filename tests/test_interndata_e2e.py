@@ -19,8 +19,8 @@ import pandas as pd
 import pytest
 
 from harness.cli import main as cli_main
-from harness.config.interndata.mapper import load_interndata_tasks
-from harness.config.models import ConfigError, load_sweep
+from harness.config import ConfigError, load_sweep
+from harness.config.interndata import load_interndata_tasks
 from harness.failures import FailureReason
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.episode import EpisodeSpec, run_episode
 from harness.pick.executor import IDLE_POP_STEPS, SERVO_CHUNK_S, build_commands, pose_reached
 from harness.transforms import quat_to_matrix

@@ -50,7 +50,7 @@ def test_schema_has_every_documented_column_with_its_type() -> None:
 
 
 def test_schema_matches_the_episode_row_and_the_failure_taxonomy() -> None:
-    from harness.config.models import TaskConfig
+    from harness.config import TaskConfig
     from harness.episode import EpisodeSpec, base_row
     from harness.failures import FailureReason
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.config.models import ConfigError, SweepConfig
+from harness.config import ConfigError, SweepConfig
 from harness.runs.sweep import episode_id, episode_seed, expand, select_samples, sweep_points
 
 TASK = {

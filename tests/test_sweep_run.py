@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from harness.config.models import load_sweep
+from harness.config import load_sweep
 from harness.runs.sweep import FAULT_ENV, expand, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -40,7 +40,7 @@ from harness.benchmarks.machine import (
     load_average,
     spawned_children_peak_mb,
 )
-from harness.config.models import TaskConfig, load_task
+from harness.config import TaskConfig, load_task
 from harness.runs.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
 
 SECTION = "sweeps"

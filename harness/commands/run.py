@@ -23,7 +23,7 @@ from rich.live import Live
 from rich.table import Table
 
 from harness.commands.console import make_console
-from harness.config.models import (
+from harness.config import (
     ConfigError,
     SweepConfig,
     TaskConfig,
@@ -34,7 +34,7 @@ from harness.config.models import (
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
-    from harness.config.interndata.mapper import InternDataPick
+    from harness.config.interndata import InternDataPick
 
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
@@ -54,7 +54,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
     if args.task:
         raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-    from harness.config.interndata.mapper import load_interndata_tasks, parse_object_substitutions
+    from harness.config.interndata import load_interndata_tasks, parse_object_substitutions
 
     picks = load_interndata_tasks(
         args.interndata,
@@ -144,7 +144,7 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
     write_sweep_yaml(run_dir, sweep, tasks)
     if picks:
-        from harness.config.interndata.mapper import note_lines, summary_lines, write_notes
+        from harness.config.interndata import note_lines, summary_lines, write_notes
 
         for line in summary_lines(args.interndata, picks):
             console.print(line, highlight=False, markup=False, soft_wrap=True)

@@ -51,7 +51,7 @@ from typing import Literal
 
 import numpy as np
 
-from harness.config.models import PickConfig, TaskConfig
+from harness.config import PickConfig, TaskConfig
 from harness.failures import FailureReason
 from harness.planning.motion import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory

@@ -26,7 +26,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from harness.config.models import ConfigError, FiniteFloat, Placement, read_yaml, validate_model
+from harness.config import ConfigError, FiniteFloat, Placement, read_yaml, validate_model
 from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from harness.config.models import (
+from harness.config import (
     ConfigError,
     SweepConfig,
     TaskConfig,
@@ -114,7 +114,7 @@ def load_sweep_tasks(
                     ) from None
                 raise
         elif "interndata" in entry:
-            from harness.config.interndata.mapper import load_interndata_tasks, note_lines
+            from harness.config.interndata import load_interndata_tasks, note_lines
 
             unknown = [k for k in entry if k not in INTERNDATA_ENTRY_KEYS]
             if unknown:
@@ -714,7 +714,7 @@ def run_sweep(
             )
         write_sweep_yaml(run_dir, sweep, tasks)
         if notes:
-            from harness.config.interndata.mapper import write_notes
+            from harness.config.interndata import write_notes
 
             write_notes(run_dir, notes)
     store = ResultStore(run_dir)
