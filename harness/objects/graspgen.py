@@ -190,7 +190,8 @@ class ContactNormals:
     the hit face's own normal, so flat faces of coarse meshes keep their exact normal."""
 
     def __init__(self, mesh: trimesh.Trimesh, radius: float = 0.003) -> None:
-        from scipy.spatial import cKDTree
+        # cKDTree comes from a compiled scipy module without type information.
+        from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]
 
         self.radius = radius
         self.tree = cKDTree(np.asarray(mesh.triangles_center))
@@ -412,7 +413,13 @@ def generate_grasps(
     kept_rows: list[np.ndarray] = []
     kept_contacts: list[np.ndarray] = []
     kept_normals: list[np.ndarray] = []
-    stats = {"pairs_sampled": 0, "pairs_valid": 0, "candidates": 0, "checked": 0, "rounds": 0}
+    stats: dict[str, Any] = {
+        "pairs_sampled": 0,
+        "pairs_valid": 0,
+        "candidates": 0,
+        "checked": 0,
+        "rounds": 0,
+    }
     for _ in range(p.max_rounds):
         if len(kept_rows) >= n:
             break
