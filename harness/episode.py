@@ -48,6 +48,7 @@ import numpy as np
 
 from harness import __version__
 from harness.config.models import PickConfig, TaskConfig
+from harness.episode_ids import episode_id
 from harness.errors import HarnessError
 from harness.grasps import (
     EEPoses,
@@ -66,6 +67,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
+from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.sim.scene import Scene, scene_key
 from harness.transforms import invert_T, quat_to_matrix
 
@@ -122,6 +124,19 @@ class EpisodeSpec:
     record: bool = False
     episode_id: str | None = None
     log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
+    task_name: str | None = None  # the sweep's name of the task (the task's own when None)
+
+    @property
+    def resolved_task_name(self) -> str:
+        """The task name the row reports: ``task_name``, else the task's own."""
+        return self.task_name or self.task.name
+
+    @property
+    def resolved_id(self) -> str:
+        """``episode_id``, else the id a sweep gives (task name, point, episode index)."""
+        return self.episode_id or episode_id(
+            self.resolved_task_name, self.point, self.episode_index
+        )
 
 
 @dataclass
@@ -265,71 +280,28 @@ def grasp_file_for(task: TaskConfig, scene: Scene) -> str:
 
 def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     """The identity and configuration columns of an episode's row."""
-    from harness.runs.sweep import episode_id
-
-    task = spec.task
-    pick = task.pick
-    row: dict[str, Any] = {
-        "episode_id": spec.episode_id or episode_id(task.name, spec.point, spec.episode_index),
-        "run": spec.run,
-        "point_id": spec.point_id,
-        "point": json.dumps(spec.point, sort_keys=True, default=str),
-    }
-    for key, value in spec.point.items():
-        row[f"param.{key}"] = (
-            value if isinstance(value, (int, float, str, bool)) else json.dumps(value)
-        )
+    pick = spec.task.pick
 
     def filt(value: Any) -> str:
         return "" if value is None else json.dumps(value.as_list())
 
-    row.update(
-        {
-            "task": task.name,
-            "robot": task.robot,
-            "arm": task.arm,
-            "object": task.target_object.name,
-            "seed": spec.seed,
-            "episode_index": spec.episode_index,
-            "semantics": pick.semantics,
-            "test_mode": pick.test_mode,
-            "timing": pick.timing,
-            "filter_x_dir": filt(pick.filter_x_dir),
-            "filter_y_dir": filt(pick.filter_y_dir),
-            "filter_z_dir": filt(pick.filter_z_dir),
-            "approach_filter": filt(pick.approach_filter),
-            "facing_filter": filt(pick.facing_filter),
-            "direction_to_obj": pick.direction_to_obj or "",
-            "pre_grasp_offset": pick.pre_grasp_offset,
-            "post_grasp_offset": float("nan"),
-            "n_total": 0,
-            "n_passed_filter": 0,
-            "n_feasible": 0,
-            "n_tested": 0,
-            "filter_outcome": "",
-            "chosen_index": -1,
-            "chosen_score": float("nan"),
-            "approach_angle_deg": float("nan"),
-            "ik_time_s": 0.0,
-            "plan_time_s": 0.0,
-            "traj_duration_s": 0.0,
-            "sim_time_s": 0.0,
-            "sim_steps": 0,
-            "wall_time_s": 0.0,
-            "finger_force_left_n": float("nan"),
-            "finger_force_right_n": float("nan"),
-            "lift_height_m": float("nan"),
-            "slip_m": float("nan"),
-            "max_joint_vel": float("nan"),
-            "max_object_vel": float("nan"),
-            "tcp_grasp_error_m": float("nan"),
-            "success": False,
-            "failure_reason": "",
-            "error_message": "",
-            "harness_version": __version__,
-            "mujoco_version": mujoco.__version__,
-        }
-    )
+    identity = identity_columns(spec)
+    row = EpisodeRow(
+        **{name: identity[name] for name in IDENTITY_COLUMNS},
+        semantics=pick.semantics,
+        test_mode=pick.test_mode,
+        timing=pick.timing,
+        filter_x_dir=filt(pick.filter_x_dir),
+        filter_y_dir=filt(pick.filter_y_dir),
+        filter_z_dir=filt(pick.filter_z_dir),
+        approach_filter=filt(pick.approach_filter),
+        facing_filter=filt(pick.facing_filter),
+        direction_to_obj=pick.direction_to_obj or "",
+        pre_grasp_offset=pick.pre_grasp_offset,
+        harness_version=__version__,
+        mujoco_version=mujoco.__version__,
+    ).as_dict()
+    row.update(identity)  # the param.* columns follow the fixed ones
     return row
 
 

@@ -13,10 +13,10 @@ import pytest
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
+from harness.row import empty_row
 from harness.runs.store import (
     SCHEMA,
     ResultStore,
-    empty_row,
     read_episodes_csv,
     typed_frame,
 )
