@@ -10,8 +10,7 @@ feasibility test), ``plan_failed`` (the executed motion could not be planned or 
 ``velocity_invalid``, ``sim_unstable`` (NaN or MuJoCo warnings), ``timeout`` (the episode
 length limit), ``error`` (an exception, with its message).
 
-Timeline (the reference's, docs/reference-pick-skill.md section 7 and quirks 6 and 7): reset and
-place; one reference step
+Timeline (the reference's, section 7 and quirks 6 and 7): reset and place; one reference step
 (1/30 s) of physics; record the target's ``obj_init_trans`` (the lift reference); settle 20
 steps; choose and test the grasp from the object pose at that moment; plan; 10 warm-up steps
 with the robot holding still; execute. ``max_episode_length`` counts the execution's control
@@ -49,6 +48,7 @@ import numpy as np
 
 from harness import __version__
 from harness.config import PickConfig, TaskConfig
+from harness.episode_ids import episode_id
 from harness.errors import HarnessError
 from harness.grasps import (
     EEPoses,
@@ -67,6 +67,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
+from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.sim.scene import Scene, scene_key
 from harness.transforms import invert_T, quat_to_matrix
 
@@ -123,6 +124,19 @@ class EpisodeSpec:
     record: bool = False
     episode_id: str | None = None
     log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
+    task_name: str | None = None  # the sweep's name of the task (the task's own when None)
+
+    @property
+    def resolved_task_name(self) -> str:
+        """The task name the row reports: ``task_name``, else the task's own."""
+        return self.task_name or self.task.name
+
+    @property
+    def resolved_id(self) -> str:
+        """``episode_id``, else the id a sweep gives (task name, point, episode index)."""
+        return self.episode_id or episode_id(
+            self.resolved_task_name, self.point, self.episode_index
+        )
 
 
 @dataclass
@@ -266,71 +280,28 @@ def grasp_file_for(task: TaskConfig, scene: Scene) -> str:
 
 def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     """The identity and configuration columns of an episode's row."""
-    from harness.runs.sweep import episode_id
-
-    task = spec.task
-    pick = task.pick
-    row: dict[str, Any] = {
-        "episode_id": spec.episode_id or episode_id(task.name, spec.point, spec.episode_index),
-        "run": spec.run,
-        "point_id": spec.point_id,
-        "point": json.dumps(spec.point, sort_keys=True, default=str),
-    }
-    for key, value in spec.point.items():
-        row[f"param.{key}"] = (
-            value if isinstance(value, (int, float, str, bool)) else json.dumps(value)
-        )
+    pick = spec.task.pick
 
     def filt(value: Any) -> str:
         return "" if value is None else json.dumps(value.as_list())
 
-    row.update(
-        {
-            "task": task.name,
-            "robot": task.robot,
-            "arm": task.arm,
-            "object": task.target_object.name,
-            "seed": spec.seed,
-            "episode_index": spec.episode_index,
-            "semantics": pick.semantics,
-            "test_mode": pick.test_mode,
-            "timing": pick.timing,
-            "filter_x_dir": filt(pick.filter_x_dir),
-            "filter_y_dir": filt(pick.filter_y_dir),
-            "filter_z_dir": filt(pick.filter_z_dir),
-            "approach_filter": filt(pick.approach_filter),
-            "facing_filter": filt(pick.facing_filter),
-            "direction_to_obj": pick.direction_to_obj or "",
-            "pre_grasp_offset": pick.pre_grasp_offset,
-            "post_grasp_offset": float("nan"),
-            "n_total": 0,
-            "n_passed_filter": 0,
-            "n_feasible": 0,
-            "n_tested": 0,
-            "filter_outcome": "",
-            "chosen_index": -1,
-            "chosen_score": float("nan"),
-            "approach_angle_deg": float("nan"),
-            "ik_time_s": 0.0,
-            "plan_time_s": 0.0,
-            "traj_duration_s": 0.0,
-            "sim_time_s": 0.0,
-            "sim_steps": 0,
-            "wall_time_s": 0.0,
-            "finger_force_left_n": float("nan"),
-            "finger_force_right_n": float("nan"),
-            "lift_height_m": float("nan"),
-            "slip_m": float("nan"),
-            "max_joint_vel": float("nan"),
-            "max_object_vel": float("nan"),
-            "tcp_grasp_error_m": float("nan"),
-            "success": False,
-            "failure_reason": "",
-            "error_message": "",
-            "harness_version": __version__,
-            "mujoco_version": mujoco.__version__,
-        }
-    )
+    identity = identity_columns(spec)
+    row = EpisodeRow(
+        **{name: identity[name] for name in IDENTITY_COLUMNS},
+        semantics=pick.semantics,
+        test_mode=pick.test_mode,
+        timing=pick.timing,
+        filter_x_dir=filt(pick.filter_x_dir),
+        filter_y_dir=filt(pick.filter_y_dir),
+        filter_z_dir=filt(pick.filter_z_dir),
+        approach_filter=filt(pick.approach_filter),
+        facing_filter=filt(pick.facing_filter),
+        direction_to_obj=pick.direction_to_obj or "",
+        pre_grasp_offset=pick.pre_grasp_offset,
+        harness_version=__version__,
+        mujoco_version=mujoco.__version__,
+    ).as_dict()
+    row.update(identity)  # the param.* columns follow the fixed ones
     return row
 
 
@@ -440,8 +411,7 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     # table contact is on (and always under strict semantics; the reference's planning ignores
     # the table even where it is physical, quirk 21, planning fingers into it), and the target
     # object under both semantics (the fingers may touch it on the approach; the reference
-    # removes it while planning the pre-grasp and the grasp,
-    # docs/reference-pick-skill.md section 6 step 2, which lets a
+    # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
     # transport sweep through it and knock it over). Other objects are in it unless the pick's
     # ignore_substring names them (the reference planner's ignore list); strict ignores nothing.
     strict = pick.semantics == "strict"
@@ -476,8 +446,7 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
 
     def test_targets(position: int) -> tuple[np.ndarray, ...]:
         """The poses a candidate is tested at. Reference: fixed_orientation is applied after the
-        test (docs/reference-pick-skill.md quirk 13); the lift only with ``test_carry``.
-        Strict tests what it executes."""
+        test (quirk 13); the lift only with ``test_carry``. Strict tests what it executes."""
         T_pre, T_grasp, T_lift = targets_for(T_base_candidates[position], strict)
         return T_pre, T_grasp, (T_lift if test_carry else None)
 
@@ -588,8 +557,7 @@ def command_targets(
     fixed_rotation: np.ndarray | None = None,
     semantics: str = "reference",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate
-    (docs/reference-pick-skill.md section 6).
+    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate (section 6).
 
     The pre-grasp is the grasp moved ``pre_grasp_offset`` back along EE column
     ``approach_index`` (the reference picks column 0 when "r5a" is in the planner file name and

@@ -88,7 +88,7 @@ def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.nd
     scene reset with each episode's seed (its first draws; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
     from harness.episode import SETTLE_TIME_S, get_scene
-    from harness.runs.sweep import episode_seed
+    from harness.episode_ids import episode_seed
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene
@@ -226,7 +226,8 @@ def test_sort_the_rubbish_runs_both_picks_and_reports_skipped_skills(
 
 @pytest.mark.slow
 def test_example_sweep_expands_and_runs(examples_dir: Path, bottle: Path, tmp_path: Path) -> None:
-    from harness.runs.sweep import expand, run_sweep
+    from harness.runs.expansion import expand
+    from harness.runs.sweep import run_sweep
 
     sweep = load_sweep(EXAMPLE_SWEEP)
     episodes = expand(sweep, EXAMPLE_SWEEP)

@@ -146,4 +146,6 @@ def test_module_and_function_sizes(name: str) -> None:
         and node.end_lineno is not None
         and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES
     ]
-    assert not long_functions, f"{path}: functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
+    assert not long_functions, (
+        f"{path}: functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
+    )

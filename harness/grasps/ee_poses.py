@@ -12,7 +12,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.grasps.arrays import FloatArray, read_only
 from harness.grasps.conventions import AXES, GripperConvention
 from harness.grasps.grasp_set import GraspSet

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from harness.config.models import AxisFilter, ConfigError, PickConfig, reversed_band_message
+from harness.config import AxisFilter, ConfigError, PickConfig, reversed_band_message
 from harness.grasps.conventions import AXES, GripperConvention
 from harness.grasps.ee_poses import EEPoses
 

@@ -12,7 +12,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from harness.config.models import AxisFilter, PickConfig
+from harness.config import AxisFilter, PickConfig
 from harness.grasps.arrays import FloatArray
 from harness.grasps.candidates import CANDIDATE_BATCH, CandidateOrder, order_candidates
 from harness.grasps.conventions import GripperConvention
