@@ -87,8 +87,9 @@ def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.nd
     """Horizontal distance (m) from the picking arm's base to the object, per row, from the real
     scene reset with each episode's seed (its first draws; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
-    from harness.episode import SETTLE_TIME_S, get_scene
+    from harness.episode import SETTLE_TIME_S
     from harness.episode_ids import episode_seed
+    from harness.scene_cache import get_scene
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene

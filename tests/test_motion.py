@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
-from harness.episode import get_scene
 from harness.planning.motion import (
     CollisionChecker,
     PickPlanner,
@@ -18,6 +17,7 @@ from harness.planning.motion import (
     rrt_connect,
     shortcut,
 )
+from harness.scene_cache import get_scene
 from harness.sim.scene import Scene
 from harness.transforms import invert_T
 
