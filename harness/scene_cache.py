@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from harness.config.models import TaskConfig
+from harness.config import TaskConfig
 from harness.errors import HarnessError
 from harness.grasps import EEPoses, GraspSet, load_grasp_file, post_process
 from harness.objects.assets import find_grasp_file

@@ -36,7 +36,7 @@ from typing import Literal
 
 import numpy as np
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.transforms import matrix_to_quat, quat_angle_between
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.pick.semantics import Semantics
 from harness.pick.targets import CandidatePoses
 from harness.planning.motion import CandidateVerdict, ChainPlan, PickPlanner

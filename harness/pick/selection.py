@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.planning.motion import CandidateVerdict, PickPlanner
 
 

@@ -8,7 +8,7 @@ comparing the name: a difference between the two is a field here, and a test can
 without running an episode.
 
 The candidate order (``harness.grasps``) and the strict filter validation
-(``harness.config.models``) still read ``pick.semantics`` themselves.
+(``harness.config``) still read ``pick.semantics`` themselves.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from harness.config.models import PickConfig, TaskConfig
+from harness.config import PickConfig, TaskConfig
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_hold_terms
 from harness.planning.world import PlanningWorld

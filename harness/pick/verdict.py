@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.failures import FailureReason
 from harness.pick.outcome import PickOutcome
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.config.models import TaskConfig
+from harness.config import TaskConfig
 from harness.planning.motion import ChainPlan
 from harness.planning.timing import (
     TimingLimits,
