@@ -39,7 +39,6 @@ import json
 import math
 import time
 import traceback
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,28 +46,25 @@ import mujoco
 import numpy as np
 
 from harness import __version__
-from harness.config.models import PickConfig, TaskConfig
+from harness.config import PickConfig, TaskConfig
+from harness.episode_ids import episode_id
+from harness.episode_trace import EpisodeTrace, make_trace, planned_tcp
 from harness.errors import HarnessError
-from harness.grasps import (
-    EEPoses,
-    GraspSet,
-    load_grasp_file,
-    post_process,
-    select_candidates,
-)
-from harness.pick.executor import FailureReason, PickExecutor, PickOutcome, PickTargets
-from harness.planning.ik import WholeBodyIK
+from harness.failures import FailureReason
+from harness.grasps import CandidateSelection, select_candidates
+from harness.pick.execution_plan import PlanFailedError, plan_chosen
+from harness.pick.executor import PickExecutor
+from harness.pick.outcome import PickOutcome
+from harness.pick.selection import walk_candidates
+from harness.pick.semantics import Semantics
+from harness.pick.targets import CandidatePoses, PickTargets
+from harness.planning.chain_timing import time_plan
 from harness.planning.planner import PickPlanner
-from harness.planning.plans import CandidateVerdict, ChainPlan
-from harness.planning.timing import (
-    TimingError,
-    TimingLimits,
-    Trajectory,
-    plan_timing,
-    time_parameterize_toppra,
-)
-from harness.planning.world import PlanningWorld
-from harness.sim import Scene, scene_key
+from harness.planning.plans import CandidateVerdict
+from harness.planning.timing import TimingError
+from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
+from harness.scene_cache import SceneBundle, get_scene, grasp_file_for
+from harness.sim import ResetState, Scene
 from harness.transforms import invert_T, quat_to_matrix
 
 # The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,
@@ -79,36 +75,10 @@ from harness.transforms import invert_T, quat_to_matrix
 INIT_RECORD_TIME_S = 1 / 30
 SETTLE_TIME_S = 20 / 30
 WARMUP_TIME_S = 10 / 30
-TOPPRA_GRIDPOINTS = 30
-# A forward test plans the carry (lift, return) too, under both semantics, so a candidate whose
-# lift cannot be planned is skipped. The reference tests only the pre-grasp and the grasp, and
-# would execute that candidate and fail (is_feasible). False reproduces that: the carry is then
-# planned for the chosen candidate alone. Kept True for now: on the canonical cube the
-# reference rule fails 3 of 10 Split ALOHA right-arm seeds on lift poses out of the Piper's
-# reach, which the calibrated end-to-end test does not allow (docs/semantics.md).
-FORWARD_TEST_PLANS_CARRY = True
-PLAN_RETRIES = 2  # extra attempts for a randomised (RRT / restart) plan failure
-# The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the
-# joint limits: time-optimal at full limits, the small arms' soft servos (kp 80, wrists 10)
-# overshoot the grasp by up to a centimetre.
-CARTESIAN_SPEED_SCALE = 0.5
-# Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
-# small arms' wrists have kp 10) does not dip a finger into it during execution.
-STRICT_TABLE_CLEARANCE = 0.005
-
-# Candidate verdict labels (also used by the Rerun recorder's colours).
-REJECTED, PASSED, INFEASIBLE, FEASIBLE, CHOSEN = (
-    "rejected",
-    "passed",
-    "infeasible",
-    "feasible",
-    "chosen",
-)
-MAX_TRACE_CANDIDATES = 600
 
 
 # --------------------------------------------------------------------------------------------
-# Spec, trace, result
+# Spec, result
 
 
 @dataclass(frozen=True)
@@ -124,37 +94,19 @@ class EpisodeSpec:
     record: bool = False
     episode_id: str | None = None
     log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
+    task_name: str | None = None  # the sweep's name of the task (the task's own when None)
 
+    @property
+    def resolved_task_name(self) -> str:
+        """The task name the row reports: ``task_name``, else the task's own."""
+        return self.task_name or self.task.name
 
-@dataclass
-class EpisodeTrace:
-    """Per-servo-chunk (~10 ms) arrays of an episode for viewers (times in s of simulated time)."""
-
-    time: np.ndarray  # (T,)
-    qpos: np.ndarray  # (T, nq) full MuJoCo qpos (replay with mj_kinematics)
-    mocap_pos: np.ndarray  # (nmocap, 3) robot root pose (mocap) during the episode
-    mocap_quat: np.ndarray  # (nmocap, 4)
-    joint_names: tuple[str, ...]  # the arm's active joints (lift first)
-    q: np.ndarray  # (T, n) those joints
-    tcp_pose: np.ndarray  # (T, 7) world position + wxyz
-    ee_pose: np.ndarray  # (T, 7)
-    gripper_width: np.ndarray  # (T,) m
-    finger_forces: np.ndarray  # (T, 2) N, left / right finger on the target object
-    object_pose: np.ndarray  # (T, 7)
-    phase: np.ndarray  # (T,) str
-    events: list[tuple[float, str]]
-    candidate_index: np.ndarray  # (M,) pose index into the 2N EE poses
-    candidate_T_world_ee: np.ndarray  # (M, 4, 4)
-    candidate_score: np.ndarray  # (M,)
-    candidate_status: np.ndarray  # (M,) str: rejected/passed/infeasible/feasible/chosen
-    candidate_detail: list[str]  # (M,) why infeasible ("" otherwise)
-    planned_time: np.ndarray  # (K,) s from the start of execution
-    planned_tcp: np.ndarray  # (K, 3) world TCP points of the planned motion
-    planned_segment: np.ndarray  # (K,) str
-    T_world_object_start: np.ndarray  # (4, 4) target object at selection time
-    T_world_grasp: np.ndarray | None = None  # planned EE pose at the grasp
-    T_world_pregrasp: np.ndarray | None = None
-    T_world_lift: np.ndarray | None = None
+    @property
+    def resolved_id(self) -> str:
+        """``episode_id``, else the id a sweep gives (task name, point, episode index)."""
+        return self.episode_id or episode_id(
+            self.resolved_task_name, self.point, self.episode_index
+        )
 
 
 @dataclass
@@ -184,154 +136,33 @@ class EpisodeResult:
 
 
 # --------------------------------------------------------------------------------------------
-# Cached per-scene state
-
-
-@dataclass
-class SceneBundle:
-    """A scene with its per-arm IK solvers and planners and the grasp poses it has used."""
-
-    scene: Scene
-    iks: dict[str, WholeBodyIK] = field(default_factory=dict)
-    planners: dict[str, PickPlanner] = field(default_factory=dict)
-    grasp_sets: dict[str, GraspSet] = field(default_factory=dict)
-    ee_poses: dict[tuple[Any, ...], EEPoses] = field(default_factory=dict)
-
-    def planner(self, arm: str) -> PickPlanner:
-        if arm not in self.planners:
-            robot = self.scene.robot
-            handles = self.scene.arms[arm]
-            limits = {j: robot.joint_limits(j) for j in handles.active_names}
-            ik = WholeBodyIK(
-                robot.urdf_path,
-                handles.active_names,
-                robot.arm(arm).ee_frame,
-                robot.lift_joint,
-                limits,
-            )
-            self.iks[arm] = ik
-            self.planners[arm] = PickPlanner(self.scene, arm, ik)
-        return self.planners[arm]
-
-    def poses(self, task: TaskConfig, grasp_path: str) -> EEPoses:
-        pick = task.pick
-        key = (grasp_path, pick.grasp_scale, pick.tcp_offset, pick.constraints)
-        if key not in self.ee_poses:
-            if grasp_path not in self.grasp_sets:
-                self.grasp_sets[grasp_path] = load_grasp_file(grasp_path)
-            self.ee_poses[key] = post_process(
-                self.grasp_sets[grasp_path],
-                self.scene.robot.convention,
-                pick.grasp_scale,
-                pick.tcp_offset,
-                pick.constraints,
-            )
-        return self.ee_poses[key]
-
-
-def get_scene(task: TaskConfig, scene_cache: dict[Any, Any] | None) -> SceneBundle:
-    """The scene for ``task``, built once per (robot, objects, physics) in ``scene_cache``."""
-    key = scene_key(task)
-    if scene_cache is not None and key in scene_cache:
-        return scene_cache[key]
-    scene = Scene.build(task.robot, task.objects, task.physics, task.base_dir())
-    bundle = SceneBundle(scene)
-    if scene_cache is not None:
-        scene_cache[key] = bundle
-    return bundle
-
-
-def grasp_file_for(task: TaskConfig, scene: Scene) -> str:
-    """The target object's grasp file: ``grasps`` if given, else the naming rule."""
-    from harness.objects.assets import find_grasp_file
-
-    obj = task.target_object
-    asset = scene.objects[obj.name].asset
-    if obj.grasps:
-        path = asset.grasp_path
-    elif task.pick.npy_name != "Aligned_grasp_sparse.npy":
-        path = find_grasp_file(asset.path, task.pick.npy_name)
-    else:
-        path = asset.grasp_path
-    if path is None:
-        raise HarnessError(
-            f"object {obj.name!r} ({asset.path}) has no grasp file "
-            f"({task.pick.npy_name} or <mesh>_grasps.npy or grasps.npy next to the mesh)"
-        )
-    return str(path)
-
-
-# --------------------------------------------------------------------------------------------
 # Row
 
 
 def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     """The identity and configuration columns of an episode's row."""
-    from harness.runs.sweep import episode_id
-
-    task = spec.task
-    pick = task.pick
-    row: dict[str, Any] = {
-        "episode_id": spec.episode_id or episode_id(task.name, spec.point, spec.episode_index),
-        "run": spec.run,
-        "point_id": spec.point_id,
-        "point": json.dumps(spec.point, sort_keys=True, default=str),
-    }
-    for key, value in spec.point.items():
-        row[f"param.{key}"] = (
-            value if isinstance(value, (int, float, str, bool)) else json.dumps(value)
-        )
+    pick = spec.task.pick
 
     def filt(value: Any) -> str:
         return "" if value is None else json.dumps(value.as_list())
 
-    row.update(
-        {
-            "task": task.name,
-            "robot": task.robot,
-            "arm": task.arm,
-            "object": task.target_object.name,
-            "seed": spec.seed,
-            "episode_index": spec.episode_index,
-            "semantics": pick.semantics,
-            "test_mode": pick.test_mode,
-            "timing": pick.timing,
-            "filter_x_dir": filt(pick.filter_x_dir),
-            "filter_y_dir": filt(pick.filter_y_dir),
-            "filter_z_dir": filt(pick.filter_z_dir),
-            "approach_filter": filt(pick.approach_filter),
-            "facing_filter": filt(pick.facing_filter),
-            "direction_to_obj": pick.direction_to_obj or "",
-            "pre_grasp_offset": pick.pre_grasp_offset,
-            "post_grasp_offset": float("nan"),
-            "n_total": 0,
-            "n_passed_filter": 0,
-            "n_feasible": 0,
-            "n_tested": 0,
-            "filter_outcome": "",
-            "chosen_index": -1,
-            "chosen_score": float("nan"),
-            "approach_angle_deg": float("nan"),
-            "ik_time_s": 0.0,
-            "plan_time_s": 0.0,
-            "traj_duration_s": 0.0,
-            "sim_time_s": 0.0,
-            "sim_steps": 0,
-            "wall_time_s": 0.0,
-            "finger_force_left_n": float("nan"),
-            "finger_force_right_n": float("nan"),
-            "lift_height_m": float("nan"),
-            "slip_m": float("nan"),
-            "max_joint_vel": float("nan"),
-            "max_object_vel": float("nan"),
-            "tcp_grasp_error_m": float("nan"),
-            "success": False,
-            "failure_reason": "",
-            "error_message": "",
-            "harness_version": __version__,
-            "mujoco_version": mujoco.__version__,
-        }
-    )
+    identity = identity_columns(spec)
+    row = EpisodeRow(
+        **{name: identity[name] for name in IDENTITY_COLUMNS},
+        semantics=pick.semantics,
+        test_mode=pick.test_mode,
+        timing=pick.timing,
+        filter_x_dir=filt(pick.filter_x_dir),
+        filter_y_dir=filt(pick.filter_y_dir),
+        filter_z_dir=filt(pick.filter_z_dir),
+        approach_filter=filt(pick.approach_filter),
+        facing_filter=filt(pick.facing_filter),
+        direction_to_obj=pick.direction_to_obj or "",
+        pre_grasp_offset=pick.pre_grasp_offset,
+        harness_version=__version__,
+        mujoco_version=mujoco.__version__,
+    ).as_dict()
+    row.update(identity)  # the param.* columns follow the fixed ones
     return row
 
 
@@ -372,10 +203,97 @@ def run_episode(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None = None) ->
     return result
 
 
+# --------------------------------------------------------------------------------------------
+# The stages of ``_run``: reset, candidates, feasibility, execution plan, execute
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The episode after its reset: the scene, the arm's planner, the episode's generator."""
+
+    spec: EpisodeSpec
+    result: EpisodeResult
+    semantics: Semantics
+    bundle: SceneBundle
+    scene: Scene
+    rng: np.random.Generator
+    reset: ResetState
+    planner: PickPlanner
+
+    @property
+    def task(self) -> TaskConfig:
+        return self.spec.task
+
+    @property
+    def pick(self) -> PickConfig:
+        return self.spec.task.pick
+
+    @property
+    def arm(self) -> str:
+        return self.spec.task.arm
+
+    @property
+    def row(self) -> dict[str, Any]:
+        return self.result.row
+
+
+@dataclass
+class _Planning:
+    """What the planning stages share: the candidates, the clock, and the verdicts so far."""
+
+    setup: _Setup
+    selection: CandidateSelection
+    poses: CandidatePoses
+    T_world_object_start: np.ndarray
+    t0: float  # the planning clock starts at the candidate selection
+    ik_time_before: float = 0.0
+    verdicts: list[CandidateVerdict] = field(default_factory=list)
+    chosen: CandidateVerdict | None = None
+
+    def finish_trace(
+        self,
+        outcome: PickOutcome | None,
+        targets: PickTargets | None,
+        planned: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    ) -> None:
+        setup = self.setup
+        setup.result.trace = make_trace(
+            setup.scene, setup.arm, self.selection, self.poses.T_world_base, self.verdicts,
+            self.chosen, outcome, targets, planned, self.T_world_object_start,
+        )  # fmt: skip
+
+    def record_plan_time(self) -> None:
+        row = self.setup.row
+        row["plan_time_s"] = time.perf_counter() - self.t0
+        row["ik_time_s"] = self.setup.planner.ik.total_time - self.ik_time_before
+
+    def stop(self, reason: FailureReason, message: str) -> _EpisodeStopError:
+        """Record the planning time and the trace so far, and end the episode."""
+        self.record_plan_time()
+        self.finish_trace(None, None, None)
+        return _EpisodeStopError(reason, message)
+
+
+@dataclass(frozen=True)
+class _Choice:
+    """The candidate chosen by the feasibility stage, its base-frame pose, the start state."""
+
+    chosen: CandidateVerdict
+    T_base_grasp: np.ndarray
+    q_now: np.ndarray
+
+
 def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeResult) -> None:
+    setup = _reset(spec, scene_cache, result)
+    planning = _candidates(setup)
+    choice = _feasibility(planning)
+    targets, planned = _execution_plan(planning, choice)
+    _execute(planning, targets, planned)
+
+
+def _reset(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeResult) -> _Setup:
+    """1. Reset: placement, home + noise, obj_init_trans after one reference step, settle."""
     task = spec.task
-    pick = task.pick
-    row = result.row
     clock = time.perf_counter()
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
@@ -384,169 +302,130 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     scene.robot.arm(arm)  # a clear error for an unknown arm
     rng = np.random.default_rng(spec.seed)
 
-    # 1. Reset: placement, home + noise, obj_init_trans after one reference step, settle.
     reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S)
     result.timings["settle_steps"] = float(reset.settle_steps)
     result.timings["setup_s"] = time.perf_counter() - clock
     if (reason := scene.unstable()) is not None:
         raise _EpisodeStopError("sim_unstable", f"while settling: {reason}")
+    semantics = Semantics.from_pick(task.pick)
     planner = bundle.planner(arm)
-    ik = planner.ik
-    obj_name = task.target_object.name
+    return _Setup(spec, result, semantics, bundle, scene, rng, reset, planner)
 
-    # 2. Candidates in the arm base frame.
-    poses = bundle.poses(task, grasp_file_for(task, scene))
+
+def _candidates(setup: _Setup) -> _Planning:
+    """2. Candidates in the arm base frame, and the lift offset (drawn after them)."""
+    task, pick, scene, arm, row, rng = (
+        setup.task, setup.pick, setup.scene, setup.arm, setup.row, setup.rng
+    )  # fmt: skip
+    obj_name = task.target_object.name
+    ee_poses = setup.bundle.poses(task, grasp_file_for(task, scene))
     T_world_base = scene.T_world_base(arm)
     T_world_obj = scene.T_world_object(obj_name)
     T_base_obj = invert_T(T_world_base) @ T_world_obj
     t0 = time.perf_counter()
-    selection = select_candidates(poses, scene.robot.convention, pick, T_base_obj, rng)
+    selection = select_candidates(ee_poses, scene.robot.convention, pick, T_base_obj, rng)
     counts = selection.counts()
     row["n_total"] = counts["total"]
     row["n_passed_filter"] = counts["passed"]
     row["filter_outcome"] = selection.order.outcome
     lift_offset = float(rng.uniform(pick.post_grasp_offset_min, pick.post_grasp_offset_max))
     row["post_grasp_offset"] = lift_offset
-    trace_parts: dict[str, Any] = {"T_world_object_start": T_world_obj}
-    result.trace = None
-
-    def finish_trace(
-        outcome: PickOutcome | None,
-        verdicts: list[CandidateVerdict],
-        chosen: CandidateVerdict | None,
-        targets: PickTargets | None,
-        planned: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
-    ) -> None:
-        result.trace = _make_trace(
-            scene,
-            arm,
-            selection,
-            T_world_base,
-            verdicts,
-            chosen,
-            outcome,
-            targets,
-            planned,
-            trace_parts,
-        )
-
-    if selection.order.outcome == "filter_empty":
-        finish_trace(None, [], None, None, None)
-        raise _EpisodeStopError(
-            "filter_empty", selection.order.note or "no pose passed the filters"
-        )
-
-    # 3. Feasibility, candidate by candidate.
-    # The planning world holds what the robot physically collides with: the table when robot-
-    # table contact is on (and always under strict semantics; the reference's planning ignores
-    # the table even where it is physical, quirk 21, planning fingers into it), and the target
-    # object under both semantics (the fingers may touch it on the approach; the reference
-    # removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
-    # transport sweep through it and knock it over). Other objects are in it unless the pick's
-    # ignore_substring names them (the reference planner's ignore list); strict ignores nothing.
-    strict = pick.semantics == "strict"
-    planner.sync(
-        PlanningWorld(
-            target=obj_name,
-            check_table=task.physics.table_contact or strict,
-            check_target=True,
-            table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-            ignore_substring=() if strict else tuple(pick.ignore_substring),
-            hold_lift=True,  # the reference plans the arm alone, the lift held at its home
-        )
-    )
-    q_now = scene.active_q(arm)
-    approach = scene.robot.convention.approach_index
-    order = selection.order
-    T_base_candidates = selection.T_base_ee_at(order.indices)
+    setup.result.trace = None
     fixed = None
     if pick.fixed_orientation is not None:
         fixed = quat_to_matrix(np.asarray(pick.fixed_orientation, dtype=float))
-
-    def targets_for(T_base_grasp: np.ndarray, apply_fixed: bool) -> tuple[np.ndarray, ...]:
-        base = command_targets(
-            T_base_grasp,
-            pick.pre_grasp_offset,
-            approach,
-            lift_offset,
-            fixed if apply_fixed else None,
-            pick.semantics,
+    poses = CandidatePoses(
+        T_world_base, pick.pre_grasp_offset, scene.robot.convention.approach_index, lift_offset,
+        fixed, setup.semantics.pregrasp_along_fixed_axis,
+    )  # fmt: skip
+    planning = _Planning(setup, selection, poses, T_world_obj, t0)
+    if selection.order.outcome == "filter_empty":
+        planning.finish_trace(None, None, None)
+        raise _EpisodeStopError(
+            "filter_empty", selection.order.note or "no pose passed the filters"
         )
-        return tuple(T_world_base @ T if T is not None else None for T in base)
+    return planning
 
-    test_carry = strict or FORWARD_TEST_PLANS_CARRY
 
-    def test_targets(position: int) -> tuple[np.ndarray, ...]:
+def _feasibility(planning: _Planning) -> _Choice:
+    """3. Feasibility, candidate by candidate, in the planning world of the semantics."""
+    setup = planning.setup
+    task, pick, semantics, planner, row = (
+        setup.task, setup.pick, setup.semantics, setup.planner, setup.row
+    )  # fmt: skip
+    world = semantics.planning_world(task, task.target_object.name)
+    planner.sync(world)
+    q_now = setup.scene.active_q(setup.arm)
+    order = planning.selection.order
+    T_base_candidates = planning.selection.T_base_ee_at(order.indices)
+    test_carry = semantics.test_carry
+
+    def test_targets(position: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The poses a candidate is tested at. Reference: fixed_orientation is applied after the
         test (quirk 13); the lift only with ``test_carry``. Strict tests what it executes."""
-        T_pre, T_grasp, T_lift = targets_for(T_base_candidates[position], strict)
+        T_pre, T_grasp, T_lift = planning.poses.world(
+            T_base_candidates[position], semantics.fixed_orientation_in_test
+        )
         return T_pre, T_grasp, (T_lift if test_carry else None)
 
-    ik_time_before = ik.total_time
-    verdicts, chosen = _test_candidates(
+    planning.ik_time_before = planner.ik.total_time
+    verdicts, chosen = walk_candidates(
         planner, pick, order.indices.tolist(), order.scores.tolist(),
-        test_targets, q_now, rng,
+        test_targets, q_now, setup.rng,
         return_to_pregrasp=pick.return_to_pregrasp and test_carry,
     )  # fmt: skip
+    planning.verdicts, planning.chosen = verdicts, chosen
     row["n_tested"] = len(verdicts)
     row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
-
-    def stop_planning(reason: FailureReason, message: str) -> _EpisodeStopError:
-        """Record the planning time and the trace so far, and end the episode."""
-        row["plan_time_s"] = time.perf_counter() - t0
-        row["ik_time_s"] = ik.total_time - ik_time_before
-        finish_trace(None, verdicts, chosen, None, None)
-        return _EpisodeStopError(reason, message)
-
     if chosen is None:
-        if strict or not verdicts:
-            raise stop_planning(
+        if not semantics.fall_back_to_last_tested or not verdicts:
+            raise planning.stop(
                 "no_feasible_candidate",
                 f"none of the {len(verdicts)} candidates passed the {pick.test_mode} test"
                 + (f"; last: {verdicts[-1].stage}: {verdicts[-1].detail}" if verdicts else ""),
             )
         chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
+        planning.chosen = chosen
     row["chosen_index"] = chosen.pose_index
     row["chosen_score"] = chosen.score
     T_base_chosen = T_base_candidates[chosen.position]
-    axis = T_base_chosen[:3, approach]
+    axis = T_base_chosen[:3, planning.poses.approach_index]
     row["approach_angle_deg"] = math.degrees(math.acos(float(np.clip(-axis[2], -1.0, 1.0))))
+    return _Choice(chosen, T_base_chosen, q_now)
 
-    # 4. The executed plan: reuse a feasible forward plan, else plan now (fixed_orientation is
-    #    applied after the test in the reference, so the executed motion is re-planned).
-    T_pre, T_grasp, T_lift = targets_for(T_base_chosen, True)
-    plan: ChainPlan | None = chosen.plan if (fixed is None or strict) else None
-    attempts = 0
-    failure = chosen
-    if plan is not None and not test_carry and (T_lift is not None or pick.return_to_pregrasp):
-        # A forward test without the carry: the chosen plan ends at the grasp; plan it now.
-        plan, stage, why = planner.plan_carry(plan, T_lift, pick.return_to_pregrasp)
-        if plan is None:
-            raise stop_planning("plan_failed", f"{stage}: {why}")
-    while plan is None and attempts <= PLAN_RETRIES:
-        attempts += 1
-        tested = chosen.ik_pregrasp
-        failure = planner.plan_chain(
-            chosen.position, chosen.pose_index, chosen.score, q_now, T_pre, T_grasp, T_lift,
-            pick.return_to_pregrasp, rng,
-            pregrasp_seed=tested.q if tested is not None and tested.success else None,
+
+def _execution_plan(
+    planning: _Planning, choice: _Choice
+) -> tuple[PickTargets, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """4. The executed plan, timed: its targets and the planned TCP path (for the trace)."""
+    setup = planning.setup
+    task, scene, arm, row = setup.task, setup.scene, setup.arm, setup.row
+    try:
+        plan = plan_chosen(
+            setup.planner, setup.pick, setup.semantics, planning.poses,
+            choice.chosen, choice.T_base_grasp, choice.q_now, setup.rng,
         )  # fmt: skip
-        plan = failure.plan
-        if failure.stage not in ("transport", "ik_pregrasp"):
-            break  # deterministic failures do not change on a retry
-    if plan is None:
-        raise stop_planning("plan_failed", f"{failure.stage}: {failure.detail}")
+    except PlanFailedError as exc:
+        raise planning.stop("plan_failed", str(exc)) from None
     try:
         segments = time_plan(plan, scene, arm, task)
     except TimingError as exc:
-        raise stop_planning("plan_failed", f"timing: {exc}") from None
-    row["plan_time_s"] = time.perf_counter() - t0
-    row["ik_time_s"] = ik.total_time - ik_time_before
+        raise planning.stop("plan_failed", f"timing: {exc}") from None
+    planning.record_plan_time()
     row["traj_duration_s"] = sum(s.duration for s in segments.values())
     targets = PickTargets(plan.T_world_pregrasp, plan.T_world_grasp, plan.T_world_lift, segments)
-    planned = _planned_tcp(ik, scene, arm, segments, task.control_dt)
+    planned = planned_tcp(setup.planner.ik, scene, arm, segments, task.control_dt)
+    return targets, planned
 
-    # 5. The reference's 10 warm-up steps (robot holding its home), then execute and judge.
+
+def _execute(
+    planning: _Planning,
+    targets: PickTargets,
+    planned: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> None:
+    """5. The reference's 10 warm-up steps (robot holding its home), then execute and judge."""
+    setup = planning.setup
+    scene, result, row = setup.scene, setup.result, setup.row
     result.timings["plan_s"] = row["plan_time_s"]
     clock = time.perf_counter()
     warmup_steps = max(1, round(WARMUP_TIME_S / scene.model.opt.timestep))
@@ -556,14 +435,15 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     if (reason := scene.unstable()) is not None:
         raise _EpisodeStopError("sim_unstable", f"during the warm-up steps: {reason}")
     executor = PickExecutor(
-        scene, task, targets, reset.object_init_position, lift_offset, planner.checker,
-        record=True, log_ctrl=spec.log_ctrl,
+        scene, setup.task, targets, setup.reset.object_init_position,
+        planning.poses.lift_offset, setup.planner.checker,
+        record=True, log_ctrl=setup.spec.log_ctrl, semantics=setup.semantics,
     )  # fmt: skip
     outcome = executor.run()
     result.timings["sim_s"] = time.perf_counter() - clock
     if executor.ctrl_log is not None:
         result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
-    finish_trace(outcome, verdicts, chosen, targets, planned)
+    planning.finish_trace(outcome, targets, planned)
     row.update(
         {
             "sim_time_s": outcome.sim_time_s,
@@ -579,209 +459,3 @@ def _run(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: EpisodeR
     )
     if outcome.failure_reason:
         raise _EpisodeStopError(outcome.failure_reason, outcome.message)
-
-
-def command_targets(
-    T_base_grasp: np.ndarray,
-    pre_grasp_offset: float,
-    approach_index: int,
-    lift_offset: float,
-    fixed_rotation: np.ndarray | None = None,
-    semantics: str = "reference",
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Arm-base-frame pre-grasp, grasp and lift poses of one candidate (section 6).
-
-    The pre-grasp is the grasp moved ``pre_grasp_offset`` back along EE column
-    ``approach_index`` (the reference picks column 0 when "r5a" is in the planner file name and
-    column 2 otherwise, quirk 14: the same column as ``ee_axis`` on all three robots); the lift
-    is the grasp moved ``lift_offset`` up along base z, in the grasp's orientation (quirk 12).
-    ``fixed_rotation`` replaces the orientation of all three. Under ``reference`` semantics the
-    positions stay those of the candidate (the reference overwrites only the quaternions, after
-    computing the pre-grasp from the candidate's own approach axis, quirk 13); under
-    ``strict`` the pre-grasp backs off along the fixed orientation's approach axis, so the
-    approach is straight along the executed hand axis.
-    """
-    T_grasp = np.array(T_base_grasp, dtype=float)
-    if fixed_rotation is not None and semantics == "strict":
-        T_grasp[:3, :3] = fixed_rotation
-    T_pre = T_grasp.copy()
-    T_pre[:3, 3] -= pre_grasp_offset * T_grasp[:3, approach_index]
-    if fixed_rotation is not None:
-        T_grasp[:3, :3] = fixed_rotation
-        T_pre[:3, :3] = fixed_rotation
-    T_lift = None
-    if lift_offset != 0.0:
-        T_lift = T_grasp.copy()
-        T_lift[2, 3] += lift_offset
-    return T_pre, T_grasp, T_lift
-
-
-def _test_candidates(
-    planner: PickPlanner,
-    pick: PickConfig,
-    indices: list[int],
-    scores: list[float],
-    targets_of: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
-    q_now: np.ndarray,
-    rng: np.random.Generator,
-    return_to_pregrasp: bool = False,
-) -> tuple[list[CandidateVerdict], CandidateVerdict | None]:
-    """Walk the ordered candidates until one passes ``pick.test_mode``; (verdicts, chosen).
-
-    ``targets_of(position)`` gives the world pre-grasp, grasp and lift poses of a candidate
-    (the lift None when the test plans none); a ``forward`` test plans the return to the
-    pre-grasp only with ``return_to_pregrasp``.
-    A duplicate (the reference draws with replacement) reuses the first answer: the reference
-    re-tests it and gets the same one.
-    """
-    tested: dict[int, CandidateVerdict] = {}
-    verdicts: list[CandidateVerdict] = []
-    for position, pose_index in enumerate(indices):
-        score = float(scores[position])
-        if pose_index in tested:
-            previous = tested[pose_index]
-            verdict = CandidateVerdict(
-                position, pose_index, score, previous.feasible, previous.stage, previous.detail,
-                previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
-            )  # fmt: skip
-        else:
-            T_pre, T_grasp, T_lift = targets_of(position)
-            if pick.test_mode == "ik":
-                verdict = planner.test_ik(
-                    position, pose_index, score, q_now, T_pre, T_grasp,
-                    pick.pre_grasp_offset > 0, rng,
-                )  # fmt: skip
-            else:
-                verdict = planner.plan_chain(
-                    position, pose_index, score, q_now, T_pre, T_grasp, T_lift,
-                    return_to_pregrasp, rng,
-                )  # fmt: skip
-            tested[pose_index] = verdict
-        verdicts.append(verdict)
-        if verdict.feasible:
-            return verdicts, verdict
-    return verdicts, None
-
-
-def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict[str, Trajectory]:
-    """Timed segments of a chain plan. ``pick.timing`` times the joint-space transport; the
-    Cartesian approach, lift and retreat always use TOPP-RA through their dense IK waypoints
-    (offline Ruckig would stop at every waypoint), at ``CARTESIAN_SPEED_SCALE``."""
-    robot = scene.robot
-    names = scene.arms[arm].active_names
-    limits = TimingLimits(
-        robot.velocity_limits(names),
-        robot.acceleration_limits(names),
-        robot.jerk_limits(names),
-        task.pick.speed_scale,
-    )
-    segments: dict[str, Trajectory] = {
-        "transport": plan_timing(
-            plan.transport, limits, task.pick.timing, names, "transport", TOPPRA_GRIDPOINTS
-        )
-    }
-
-    def cartesian(waypoints: np.ndarray, label: str) -> Trajectory:
-        return time_parameterize_toppra(
-            waypoints,
-            limits.velocity,
-            limits.acceleration,
-            limits.speed_scale * CARTESIAN_SPEED_SCALE,
-            gridpoints=TOPPRA_GRIDPOINTS,
-            joint_names=names,
-            label=label,
-        )
-
-    segments["approach"] = cartesian(plan.approach, "approach")
-    if plan.lift is not None:
-        segments["lift"] = cartesian(plan.lift, "lift")
-    if plan.retreat is not None:
-        segments["retreat"] = cartesian(plan.retreat, "retreat")
-    return segments
-
-
-def _planned_tcp(
-    ik: WholeBodyIK, scene: Scene, arm: str, segments: dict[str, Trajectory], dt: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """TCP points of the planned segments (played back to back) every ``dt`` seconds."""
-    tcp_frame = scene.robot.arm(arm).tcp_frame
-    times, points, labels = [], [], []
-    offset = 0.0
-    for label, trajectory in segments.items():
-        ts = trajectory.time_grid(dt)
-        qs, _, _ = trajectory.sample_many(ts)
-        for t, q in zip(ts, qs, strict=True):
-            times.append(offset + t)
-            points.append(ik.fk(q, tcp_frame)[:3, 3])
-            labels.append(label)
-        offset += trajectory.duration
-    return np.asarray(times), np.asarray(points).reshape(-1, 3), np.asarray(labels)
-
-
-def _make_trace(
-    scene: Scene,
-    arm: str,
-    selection: Any,
-    T_world_base: np.ndarray,
-    verdicts: list[CandidateVerdict],
-    chosen: CandidateVerdict | None,
-    outcome: PickOutcome | None,
-    targets: PickTargets | None,
-    planned: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
-    parts: dict[str, Any],
-) -> EpisodeTrace:
-    d = scene.data
-    # Candidates: every tested pose, then passing and rejected poses, each up to a cap.
-    status: dict[int, str] = {}
-    detail: dict[int, str] = {}
-    for v in verdicts:
-        status[v.pose_index] = FEASIBLE if v.feasible else INFEASIBLE
-        detail[v.pose_index] = "" if v.feasible else f"{v.stage}: {v.detail}"
-    if chosen is not None:
-        status[chosen.pose_index] = CHOSEN
-    passing = selection.filter_result.passing_indices
-    for index in passing[:MAX_TRACE_CANDIDATES].tolist():
-        status.setdefault(int(index), PASSED)
-    # What the filters threw away, evenly thinned to the same cap so the viewer stays light.
-    rejected = np.flatnonzero(~selection.filter_result.combined)
-    if len(rejected) > MAX_TRACE_CANDIDATES:
-        rejected = rejected[np.linspace(0, len(rejected) - 1, MAX_TRACE_CANDIDATES).astype(int)]
-    for index in rejected.tolist():
-        status.setdefault(int(index), REJECTED)
-    indices = np.array(sorted(status), dtype=np.int64)
-    T_world_ee = (
-        T_world_base @ selection.T_base_ee_at(indices) if len(indices) else np.zeros((0, 4, 4))
-    )
-    handles = scene.arms[arm]
-    empty7 = np.zeros((0, 7))
-    ex = outcome.trace if outcome is not None else None
-    times, points, labels = (
-        planned if planned is not None else (np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=str))
-    )
-    return EpisodeTrace(
-        time=ex.time if ex else np.zeros(0),
-        qpos=ex.qpos if ex else np.zeros((0, scene.model.nq)),
-        mocap_pos=d.mocap_pos.copy(),
-        mocap_quat=d.mocap_quat.copy(),
-        joint_names=handles.active_names,
-        q=ex.q_active if ex else np.zeros((0, len(handles.active_names))),
-        tcp_pose=ex.tcp_pose if ex else empty7,
-        ee_pose=ex.ee_pose if ex else empty7,
-        gripper_width=ex.gripper_width if ex else np.zeros(0),
-        finger_forces=ex.finger_forces if ex else np.zeros((0, 2)),
-        object_pose=ex.object_pose if ex else empty7,
-        phase=ex.phase if ex else np.zeros(0, dtype=str),
-        events=ex.events if ex else [],
-        candidate_index=indices,
-        candidate_T_world_ee=T_world_ee,
-        candidate_score=selection.ee_poses.scores[indices] if len(indices) else np.zeros(0),
-        candidate_status=np.array([status[int(i)] for i in indices], dtype=str),
-        candidate_detail=[detail.get(int(i), "") for i in indices],
-        planned_time=times,
-        planned_tcp=points,
-        planned_segment=labels,
-        T_world_object_start=parts["T_world_object_start"],
-        T_world_grasp=targets.T_world_grasp if targets else None,
-        T_world_pregrasp=targets.T_world_pregrasp if targets else None,
-        T_world_lift=targets.T_world_lift if targets else None,
-    )

@@ -13,15 +13,10 @@ import yaml
 
 from harness.cli import main as cli_main
 from harness.errors import InputFileError
-from harness.objects import assets, shapes
-from harness.objects.assets import (
-    CoacdParams,
-    ObjectAsset,
-    find_grasp_file,
-    load_mesh,
-    resolve_mesh,
-    triangulate,
-)
+from harness.objects import assets, decomposition, mass, shapes
+from harness.objects.assets import ObjectAsset, find_grasp_file, resolve_mesh
+from harness.objects.decomposition import CoacdParams
+from harness.objects.meshes import load_mesh, triangulate
 
 
 @pytest.fixture(autouse=True)
@@ -150,7 +145,7 @@ def test_open_mesh_uses_hull_for_inertia_with_warning(tmp_path: Path) -> None:
     path = tmp_path / "open.obj"
     open_box.export(path)
     with pytest.warns(RuntimeWarning, match="not a closed solid"):
-        com, inertia = assets.mass_properties(load_mesh(path), 0.1, path)
+        com, inertia = mass.mass_properties(load_mesh(path), 0.1, path)
     np.testing.assert_allclose(inertia, np.eye(3) * 0.1 / 6 * 0.04**2, atol=1e-12)
     np.testing.assert_allclose(com, 0.0, atol=1e-12)
 
@@ -215,15 +210,15 @@ def _bottle(tmp_path: Path) -> Path:
 
 def test_coacd_result_is_cached_on_disk(tmp_path: Path, isolated_cache: Path) -> None:
     path = _bottle(tmp_path)
-    runs = assets.DECOMPOSITION_RUNS
+    runs = decomposition.DECOMPOSITION_RUNS
     first = ObjectAsset.load(path)
     assert first.collision_source == "coacd"
-    assert runs + 1 == assets.DECOMPOSITION_RUNS
+    assert runs + 1 == decomposition.DECOMPOSITION_RUNS
     cached = sorted(isolated_cache.glob("*.npz"))
     assert len(cached) == 1
     second = ObjectAsset.load(path)
     assert second.collision_source == "cache"
-    assert runs + 1 == assets.DECOMPOSITION_RUNS  # not decomposed again
+    assert runs + 1 == decomposition.DECOMPOSITION_RUNS  # not decomposed again
     assert len(second.collision_pieces) == len(first.collision_pieces) >= 2
     for (v1, f1), (v2, f2) in zip(first.collision_pieces, second.collision_pieces, strict=True):
         np.testing.assert_array_equal(v1, v2)
@@ -231,17 +226,17 @@ def test_coacd_result_is_cached_on_disk(tmp_path: Path, isolated_cache: Path) ->
     # scale and CoACD parameters are part of the key
     ObjectAsset.load(path, scale=(2.0, 2.0, 2.0))
     ObjectAsset.load(path, coacd_params=CoacdParams(max_convex_hull=4))
-    assert runs + 3 == assets.DECOMPOSITION_RUNS
+    assert runs + 3 == decomposition.DECOMPOSITION_RUNS
     assert len(list(isolated_cache.glob("*.npz"))) == 3
 
 
 def test_convex_meshes_skip_coacd(tmp_path: Path, isolated_cache: Path) -> None:
     path = tmp_path / "ball.obj"
     path.write_text(shapes.obj_text(shapes.ball(0.03, subdivisions=2)))
-    runs = assets.DECOMPOSITION_RUNS
+    runs = decomposition.DECOMPOSITION_RUNS
     asset = ObjectAsset.load(path)
     assert asset.collision_source == "convex" and len(asset.collision_pieces) == 1
-    assert runs == assets.DECOMPOSITION_RUNS
+    assert runs == decomposition.DECOMPOSITION_RUNS
     assert not isolated_cache.exists()
 
 
@@ -249,7 +244,7 @@ def test_coacd_failure_falls_back_to_hull(tmp_path: Path, monkeypatch: pytest.Mo
     def failing(mesh: trimesh.Trimesh, params: CoacdParams) -> list:
         raise RuntimeError("simulated CoACD crash")
 
-    monkeypatch.setattr(assets, "run_coacd", failing)
+    monkeypatch.setattr(decomposition, "run_coacd", failing)
     path = _bottle(tmp_path)
     with pytest.warns(RuntimeWarning, match="convex decomposition failed"):
         asset = ObjectAsset.load(path)

@@ -1,6 +1,6 @@
 """Config models: every validation rule, located one-line errors, and a loader that never crashes.
 
-Each rule of ``harness/config/models.py`` has a test that shows it accepting good input and
+Each rule of the ``harness.config`` models has a test that shows it accepting good input and
 rejecting bad input with a message that explains the fix. Errors are checked in their final form,
 ``file:line key.path: message``. A hypothesis section feeds random documents and random values
 for every key through the loaders: they either accept or raise ``ConfigError``, nothing else.
@@ -22,7 +22,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from harness.config.models import (
+from harness.config import (
     DIRECTIONS,
     AxisFilter,
     ConfigError,

@@ -10,23 +10,23 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
-from harness import episode as episode_module
-from harness.config.models import apply_overrides, load_task
+from harness.config import PickConfig, apply_overrides, load_task
 from harness.episode import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,
     WARMUP_TIME_S,
     EpisodeSpec,
-    command_targets,
-    get_scene,
-    grasp_file_for,
     run_episode,
 )
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
+from harness.pick import semantics as semantics_module
 from harness.pick.executor import SERVO_CHUNK_S
+from harness.pick.semantics import Semantics
+from harness.pick.targets import command_targets
 from harness.robots import RobotModel
 from harness.runs.store import SCHEMA
+from harness.scene_cache import get_scene, grasp_file_for
 from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
@@ -298,13 +298,17 @@ def test_command_targets_fixed_orientation_reference_and_strict() -> None:
     T_grasp[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]  # approach z tilted
     T_grasp[:3, 3] = [0.4, 0.1, 0.05]
     fixed = np.diag([1.0, -1.0, -1.0])  # straight down
-    pre, grasp, lift = command_targets(T_grasp, 0.05, 2, 0.1, fixed, "reference")
+    reference = Semantics.from_pick(PickConfig(semantics="reference"))
+    strict = Semantics.from_pick(PickConfig(semantics="strict"))
+    pre, grasp, lift = command_targets(
+        T_grasp, 0.05, 2, 0.1, fixed, reference.pregrasp_along_fixed_axis
+    )
     assert np.allclose(pre[:3, 3], T_grasp[:3, 3] - 0.05 * T_grasp[:3, 2])
     assert np.allclose(grasp[:3, 3], T_grasp[:3, 3])
     for T in (pre, grasp, lift):
         assert np.allclose(T[:3, :3], fixed)
     assert np.allclose(lift[:3, 3], T_grasp[:3, 3] + [0.0, 0.0, 0.1])
-    pre, grasp, _ = command_targets(T_grasp, 0.05, 2, 0.1, fixed, "strict")
+    pre, grasp, _ = command_targets(T_grasp, 0.05, 2, 0.1, fixed, strict.pregrasp_along_fixed_axis)
     assert np.allclose(pre[:3, 3], T_grasp[:3, 3] + [0.0, 0.0, 0.05])
     _, _, lift = command_targets(T_grasp, 0.05, 2, 0.0)
     assert lift is None
@@ -352,7 +356,7 @@ def test_forward_test_and_the_lift(
     candidate fails there; reference proceeds with the last (plan_failed), strict stops
     (no_feasible_candidate). Without the carry in the test (the reference's rule,
     FORWARD_TEST_PLANS_CARRY False) the first candidate passes and its lift fails the episode."""
-    monkeypatch.setattr(episode_module, "FORWARD_TEST_PLANS_CARRY", test_carry)
+    monkeypatch.setattr(semantics_module, "FORWARD_TEST_PLANS_CARRY", test_carry)
     lift = {"post_grasp_offset_min": 1.0, "post_grasp_offset_max": 1.0}
     pick = {"test_mode": "forward", "semantics": semantics, **lift}
     task = make_task("fr3", "left", cube, object=CENTRE, pick=pick)

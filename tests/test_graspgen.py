@@ -11,7 +11,6 @@ import trimesh
 
 from harness.cli import main as cli_main
 from harness.objects import shapes
-from harness.objects.assets import load_mesh
 from harness.objects.graspgen import (
     DEPTHS,
     FRICTION_LEVELS,
@@ -19,6 +18,7 @@ from harness.objects.graspgen import (
     force_closure_score,
     generate_grasps,
 )
+from harness.objects.meshes import load_mesh
 
 FINGER_LENGTH, FINGER_THICKNESS, HEIGHT, PALM = 0.06, 0.01, 0.02, 0.01
 

@@ -14,7 +14,7 @@ from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
 from scipy.stats import chisquare
 
-from harness.config.models import AxisFilter, ConfigError, PickConfig
+from harness.config import AxisFilter, ConfigError, PickConfig
 from harness.errors import InputFileError
 from harness.grasps import (
     REFERENCE_CONVENTIONS,

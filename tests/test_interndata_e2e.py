@@ -19,8 +19,8 @@ import pandas as pd
 import pytest
 
 from harness.cli import main as cli_main
-from harness.config.interndata.mapper import load_interndata_tasks
-from harness.config.models import ConfigError, load_sweep
+from harness.config import ConfigError, load_sweep
+from harness.config.interndata import load_interndata_tasks
 from harness.failures import FailureReason
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
@@ -87,8 +87,9 @@ def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.nd
     """Horizontal distance (m) from the picking arm's base to the object, per row, from the real
     scene reset with each episode's seed (its first draws; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
-    from harness.episode import SETTLE_TIME_S, get_scene
-    from harness.runs.sweep import episode_seed
+    from harness.episode import SETTLE_TIME_S
+    from harness.episode_ids import episode_seed
+    from harness.scene_cache import get_scene
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene
@@ -226,7 +227,8 @@ def test_sort_the_rubbish_runs_both_picks_and_reports_skipped_skills(
 
 @pytest.mark.slow
 def test_example_sweep_expands_and_runs(examples_dir: Path, bottle: Path, tmp_path: Path) -> None:
-    from harness.runs.sweep import expand, run_sweep
+    from harness.runs.expansion import expand
+    from harness.runs.sweep import run_sweep
 
     sweep = load_sweep(EXAMPLE_SWEEP)
     episodes = expand(sweep, EXAMPLE_SWEEP)

@@ -9,9 +9,13 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.episode import EpisodeSpec, run_episode
-from harness.pick.executor import IDLE_POP_STEPS, SERVO_CHUNK_S, build_commands, pose_reached
+from harness.pick.commands import IDLE_POP_STEPS, build_commands, pose_reached
+from harness.pick.executor import SERVO_CHUNK_S
+from harness.pick.outcome import PickOutcome
+from harness.pick.semantics import STRICT_TABLE_CLEARANCE, Semantics
+from harness.pick.verdict import closing_terms, first_failure, reference_terms
 from harness.transforms import quat_to_matrix
 
 CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
@@ -29,6 +33,52 @@ def cache() -> dict:
 
 def run(task, seed: int = 0, cache: dict | None = None):
     return run_episode(EpisodeSpec(task=task, seed=seed), cache)
+
+
+# --------------------------------------------------------------------------------------------
+# Semantics and verdict terms (no simulation)
+
+
+def test_semantics_policy_reference_and_strict(cube: Path) -> None:
+    """Every reference-vs-strict decision resolved once from the pick (docs/semantics.md)."""
+    task = make_task("fr3", "left", cube, pick={"ignore_substring": ["shelf"]})
+    reference = Semantics.from_pick(task.pick)
+    assert reference.test_carry and reference.fall_back_to_last_tested
+    assert not (reference.fixed_orientation_in_test or reference.pregrasp_along_fixed_axis)
+    assert not (reference.check_collisions or reference.check_closing_forces)
+    assert not reference.hold_after_list
+    world = reference.planning_world(task, "cube")
+    assert world.target == "cube" and world.check_target and world.hold_lift
+    assert world.check_table == task.physics.table_contact  # the table only where it is physical
+    assert world.table_clearance == 0.0 and world.ignore_substring == ("shelf",)
+    strict = Semantics.from_pick(PickConfig(semantics="strict", ignore_substring=["shelf"]))
+    assert strict.test_carry and not strict.fall_back_to_last_tested
+    assert strict.fixed_orientation_in_test and strict.pregrasp_along_fixed_axis
+    assert strict.check_collisions and strict.check_closing_forces and strict.hold_after_list
+    world = strict.planning_world(task, "cube")
+    assert world.check_table and world.table_clearance == STRICT_TABLE_CLEARANCE
+    assert world.ignore_substring == ()
+
+
+def test_verdict_terms_first_failure_wins() -> None:
+    """Named terms in pipeline order; the first one that did not pass decides the reason."""
+    pick = PickConfig(lift_th=0.02)
+    out = PickOutcome(
+        verdict_forces=(0.0, 0.0), verdict_joint_speed=9.0, verdict_object_speed=0.0,
+        lift_height_m=0.0, contact_during_close=True,
+    )  # fmt: skip
+    terms = reference_terms(pick, out)
+    assert [t.name for t in terms] == ["finger_touches_object", "velocity_valid", "lifted"]
+    assert [t.passed for t in terms] == [False, False, False]
+    failed = first_failure(terms)
+    assert failed is not None and failed.reason == "dropped"
+    out.verdict_forces, out.lift_height_m = (1.0, 0.0), 0.05
+    failed = first_failure(reference_terms(pick, out))
+    assert failed is not None and failed.reason == "velocity_invalid"
+    out.verdict_joint_speed = 1.0
+    assert first_failure(reference_terms(pick, out)) is None
+    (closing,) = closing_terms(PickConfig(min_finger_force=0.5), (0.6, 0.4))
+    assert closing.reason == "no_contact" and not closing.passed
 
 
 # --------------------------------------------------------------------------------------------

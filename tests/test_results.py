@@ -13,10 +13,10 @@ import pytest
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
+from harness.row import empty_row
 from harness.runs.store import (
     SCHEMA,
     ResultStore,
-    empty_row,
     read_episodes_csv,
     typed_frame,
 )
@@ -50,7 +50,7 @@ def test_schema_has_every_documented_column_with_its_type() -> None:
 
 
 def test_schema_matches_the_episode_row_and_the_failure_taxonomy() -> None:
-    from harness.config.models import TaskConfig
+    from harness.config import TaskConfig
     from harness.episode import EpisodeSpec, base_row
     from harness.failures import FailureReason
 
@@ -58,6 +58,26 @@ def test_schema_matches_the_episode_row_and_the_failure_taxonomy() -> None:
     produced = base_row(EpisodeSpec(task=task, point={"pick.pre_grasp_offset": 0.08}))
     assert set(produced) - set(SCHEMA) == {"param.pick.pre_grasp_offset"}
     assert set(typing.get_args(FailureReason)) - {""} == set(FAILURE_REASONS)
+
+
+def test_episode_row_and_error_row_share_one_identity() -> None:
+    from dataclasses import fields
+
+    from harness.config import TaskConfig
+    from harness.episode import EpisodeSpec, base_row
+    from harness.row import IDENTITY_COLUMNS, EpisodeRow
+    from harness.runs.worker import error_row
+
+    assert [f.name for f in fields(EpisodeRow)] == list(SCHEMA)
+    task = TaskConfig(robot="fr3", objects=[{"name": "cube", "mesh": "cube"}])
+    spec = EpisodeSpec(task=task, seed=7, point={"pick.approach_filter": ["downward", 140]})
+    produced = base_row(spec)
+    lost = error_row(spec, "worker crashed")
+    identity = [*IDENTITY_COLUMNS, "param.pick.approach_filter"]
+    assert {k: produced[k] for k in identity} == {k: lost[k] for k in identity}
+    assert produced["param.pick.approach_filter"] == '["downward", 140]'
+    assert produced["episode_id"] == spec.resolved_id and produced["seed"] == 7
+    assert list(produced)[: len(SCHEMA) - 3] == list(SCHEMA)[:-3]  # executor columns unset
 
 
 def test_append_and_load_round_trip_with_types_and_nulls(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ import placo
 import pytest
 from scipy.spatial.transform import Rotation
 
-from harness.config.models import AxisFilter, ConfigError
+from harness.config import AxisFilter, ConfigError
 from harness.errors import HarnessError
 from harness.grasps import REFERENCE_CONVENTIONS, filter_ee_poses, load_grasp_file, post_process
 from harness.robots import ROBOTS_DIR, RobotModel, available_robots

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.grasps import ee_poses_for_pick, load_grasp_file, select_candidates
 from harness.robots import RobotModel
 from harness.transforms import make_T, yaw_matrix

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from harness.config.models import PhysicsConfig, TaskConfig
+from harness.config import PhysicsConfig, TaskConfig
 from harness.sim import TABLE_NAME, Scene
 from harness.transforms import invert_T
 

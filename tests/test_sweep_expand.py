@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.config.models import ConfigError, SweepConfig
-from harness.runs.sweep import episode_id, episode_seed, expand, select_samples, sweep_points
+from harness.config import ConfigError, SweepConfig
+from harness.episode_ids import episode_id, episode_seed
+from harness.runs.expansion import expand, select_samples, sweep_points
 
 TASK = {
     "name": "t",

@@ -9,8 +9,10 @@ import pandas as pd
 import pytest
 import yaml
 
-from harness.config.models import load_sweep
-from harness.runs.sweep import FAULT_ENV, expand, run_sweep
+from harness.config import load_sweep
+from harness.runs.expansion import expand
+from harness.runs.sweep import run_sweep
+from harness.runs.worker import FAULT_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 

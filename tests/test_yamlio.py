@@ -7,7 +7,7 @@ import datetime
 import pytest
 import yaml
 
-from harness.config.models import ConfigError, parse_text, read_yaml
+from harness.config import ConfigError, parse_text, read_yaml
 from harness.config.yamlio import MAX_NODES, format_key_path, parse_yaml
 
 TEXT = """\

@@ -25,7 +25,7 @@ import numpy as np
 
 from harness.benchmarks.framework import Figure, figure
 from harness.benchmarks.machine import one_core
-from harness.config.models import load_task
+from harness.config import load_task
 from harness.episode import SETTLE_TIME_S, EpisodeSpec, run_episode
 
 SECTION = "episodes"

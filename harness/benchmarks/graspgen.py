@@ -17,8 +17,9 @@ from pathlib import Path
 from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
 from harness.objects import shapes
-from harness.objects.assets import ObjectAsset, load_mesh
+from harness.objects.assets import ObjectAsset
 from harness.objects.graspgen import generate_grasps
+from harness.objects.meshes import load_mesh
 
 SECTION = "graspgen"
 EXAMPLE_BOTTLE = (

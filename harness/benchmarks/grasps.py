@@ -19,7 +19,7 @@ import numpy as np
 
 from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
-from harness.config.models import PickConfig
+from harness.config import PickConfig
 from harness.grasps import (
     REFERENCE_CONVENTIONS,
     GraspSet,

@@ -1,7 +1,7 @@
 """Benchmark section ``sweeps``: steady-state episodes/s with 1 and 2 workers, and worker memory.
 
 Each round runs the same FR3 episodes (cube, ik mode, TOPP-RA) through the sweep's own
-process pool (``harness.runs.sweep.run_process_pool``) with 1 and with 2 workers, back to back
+process pool (``harness.runs.executors.run_process_pool``) with 1 and with 2 workers, back to back
 in one ``harness bench`` invocation (the order alternates between rounds, so a drift in the
 machine's load does not always favour the same side).
 
@@ -40,8 +40,10 @@ from harness.benchmarks.machine import (
     load_average,
     spawned_children_peak_mb,
 )
-from harness.config.models import TaskConfig, load_task
-from harness.runs.sweep import SweepEpisode, episode_id, episode_seed, run_process_pool
+from harness.config import TaskConfig, load_task
+from harness.episode import EpisodeSpec
+from harness.episode_ids import episode_id, episode_seed
+from harness.runs.executors import run_process_pool
 
 SECTION = "sweeps"
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,9 +60,9 @@ def _task() -> TaskConfig:
     )
 
 
-def _episodes(task: TaskConfig, count: int) -> list[SweepEpisode]:
+def _episodes(task: TaskConfig, count: int) -> list[EpisodeSpec]:
     return [
-        SweepEpisode(
+        EpisodeSpec(
             episode_id=episode_id(task.name, {}, index),
             task=task,
             task_name=task.name,

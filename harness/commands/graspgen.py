@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import HarnessError
-from harness.objects.assets import load_mesh, resolve_mesh
+from harness.objects.assets import resolve_mesh
 from harness.objects.graspgen import GraspGenParams, generate_grasps
+from harness.objects.meshes import load_mesh
 
 
 def summary(grasps: np.ndarray) -> str:

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from harness.config.models import PickConfig, validate_model
+from harness.config import PickConfig, validate_model
 from harness.errors import HarnessError
 from harness.grasps import (
     AXES,

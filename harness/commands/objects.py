@@ -20,10 +20,10 @@ from harness.objects.assets import (
     ObjectAsset,
     default_objects_dir,
     list_default_objects,
-    load_mesh,
     load_object_info,
     resolve_mesh,
 )
+from harness.objects.meshes import load_mesh
 
 # --------------------------------------------------------------------------------------------
 # list / show

@@ -23,7 +23,7 @@ from rich.live import Live
 from rich.table import Table
 
 from harness.commands.console import make_console
-from harness.config.models import (
+from harness.config import (
     ConfigError,
     SweepConfig,
     TaskConfig,
@@ -34,7 +34,7 @@ from harness.config.models import (
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
-    from harness.config.interndata.mapper import InternDataPick
+    from harness.config.interndata import InternDataPick
 
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
@@ -54,7 +54,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
     if args.task:
         raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-    from harness.config.interndata.mapper import load_interndata_tasks, parse_object_substitutions
+    from harness.config.interndata import load_interndata_tasks, parse_object_substitutions
 
     picks = load_interndata_tasks(
         args.interndata,
@@ -69,7 +69,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
 
 def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
     """The task(s) of this run, with paths made absolute."""
-    from harness.runs.sweep import absolute_paths
+    from harness.runs.expansion import absolute_paths
 
     if args.interndata:
         return [absolute_paths(pick.task) for pick in load_interndata_picks(args)]
@@ -115,8 +115,9 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from harness.runs.store import ResultStore
-    from harness.runs.sweep import absolute_paths, execute, expand, finalize_run, write_sweep_yaml
+    from harness.runs.expansion import absolute_paths, expand
+    from harness.runs.rundir import RunDir
+    from harness.runs.worker import execute
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
@@ -135,40 +136,33 @@ def main(args: argparse.Namespace) -> int:
         record=args.record,
     )
     episodes = expand(sweep, None)
-    run_dir = (
-        Path(args.out)
-        if args.out
-        else Path("reports") / f"{sweep.name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    )
-    if (run_dir / "sweep.yaml").exists():
-        raise ConfigError("run directory already holds a run; choose another --out", file=run_dir)
-    write_sweep_yaml(run_dir, sweep, tasks)
+    run = RunDir(Path(args.out) if args.out else RunDir.default_path(sweep.name))
+    run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
     if picks:
-        from harness.config.interndata.mapper import note_lines, summary_lines, write_notes
+        from harness.config.interndata import note_lines, summary_lines
 
         for line in summary_lines(args.interndata, picks):
             console.print(line, highlight=False, markup=False, soft_wrap=True)
-        notes = write_notes(run_dir, note_lines(args.interndata, picks))
+        notes = run.write_notes(note_lines(args.interndata, picks))
         console.print(
             f"notes (skipped skills, ignored keys, approximations): {notes}",
             highlight=False,
             markup=False,
             soft_wrap=True,
         )
-    store = ResultStore(run_dir)
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
             for episode in episodes:
-                row = execute(episode, str(run_dir), sweep.record)
-                store.append(row)
+                row = execute(episode, str(run.path), sweep.record)
+                run.append(row)
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
     except KeyboardInterrupt:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
-    finalize_run(run_dir)
+    run.finalize()
     successes = sum(bool(row.get("success")) for row in rows)
     n = len(rows)
     from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
@@ -189,7 +183,7 @@ def main(args: argparse.Namespace) -> int:
             "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
         )
     extra = ", skipped.txt" if picks else ""
-    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
+    console.print(f"run directory: {run.path}  (episodes.csv, summary.csv, report{extra})")
     return 0 if n == len(episodes) else 130
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 
@@ -75,9 +76,10 @@ def print_summary(run_dir: Path, console: Console) -> None:
         for column in ("n", "rate", "95% CI", "top failure"):
             table.add_column(column, justify="right")
         fail_columns = [c for c in summary.columns if c.startswith("fail.")]
-        for _, row in summary.iterrows():
+        for _, cells in summary.iterrows():
+            row: Any = cells  # the pandas stubs type a row's cell as a Series union
             fails = {c.removeprefix("fail."): int(row[c]) for c in fail_columns if row[c] > 0}
-            top = max(fails, key=fails.get) if fails else ""
+            top = max(fails, key=fails.__getitem__) if fails else ""
             table.add_row(
                 *[_cell(row[c]) for c in [*keys, *params]],
                 str(int(row["n"])),

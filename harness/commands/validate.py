@@ -6,10 +6,10 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from harness.config.models import ConfigError, SweepConfig, TaskConfig, load_any
+from harness.config import ConfigError, SweepConfig, TaskConfig, load_any
 
 if TYPE_CHECKING:
-    from harness.config.interndata.mapper import InternDataPick
+    from harness.config.interndata import InternDataPick
 
 
 def describe(kind: str, loaded: object) -> str:
@@ -56,7 +56,7 @@ def main(args: argparse.Namespace) -> int:
         try:
             kind, loaded = load_any(path)
             if kind == "interndata":
-                from harness.config.interndata.mapper import load_interndata_tasks
+                from harness.config.interndata import load_interndata_tasks
 
                 picks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
                 print(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")

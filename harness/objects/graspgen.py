@@ -1,6 +1,7 @@
 """Antipodal grasp annotations for any mesh, in the GraspNet / InternDataEngine N x 17 layout.
 
-Row layout (pick-skill.md section 2): score, width, height, depth, R_g (3x3, row-major),
+Row layout (docs/reference-pick-skill.md section 2): score, width, height, depth,
+R_g (3x3, row-major),
 translation, object id. GraspNet axes: g_x approach, g_y closing (width) direction, g_z = g_x x g_y.
 
 Convention, measured on the shared InternDataEngine example files (tests/test_graspgen.py checks
@@ -189,7 +190,8 @@ class ContactNormals:
     the hit face's own normal, so flat faces of coarse meshes keep their exact normal."""
 
     def __init__(self, mesh: trimesh.Trimesh, radius: float = 0.003) -> None:
-        from scipy.spatial import cKDTree
+        # cKDTree comes from a compiled scipy module without type information.
+        from scipy.spatial import cKDTree  # pyright: ignore[reportAttributeAccessIssue]
 
         self.radius = radius
         self.tree = cKDTree(np.asarray(mesh.triangles_center))
@@ -411,7 +413,13 @@ def generate_grasps(
     kept_rows: list[np.ndarray] = []
     kept_contacts: list[np.ndarray] = []
     kept_normals: list[np.ndarray] = []
-    stats = {"pairs_sampled": 0, "pairs_valid": 0, "candidates": 0, "checked": 0, "rounds": 0}
+    stats: dict[str, Any] = {
+        "pairs_sampled": 0,
+        "pairs_valid": 0,
+        "candidates": 0,
+        "checked": 0,
+        "rounds": 0,
+    }
     for _ in range(p.max_rounds):
         if len(kept_rows) >= n:
             break

@@ -71,7 +71,7 @@ class Revolution:
                 vertices.append(ring)
                 count += sections
         self.vertices = np.vstack(vertices)
-        faces: list[list[int]] = []
+        faces: list[list[int | np.integer]] = []
         j = np.arange(sections)
         jn = (j + 1) % sections
         self.quad_faces: dict[tuple[int, int], tuple[int, int]] = {}
@@ -250,7 +250,7 @@ def banana(
     vertices.append(path[-1:])
     vertices_arr = np.vstack(vertices)
     last = len(vertices_arr) - 1
-    faces: list[list[int]] = []
+    faces: list[list[int | np.integer]] = []
     j = np.arange(sections)
     jn = (j + 1) % sections
 

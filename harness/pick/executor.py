@@ -1,40 +1,9 @@
-"""The Pick skill executed in MuJoCo: the reference command list, progress, and the verdict.
+"""The Pick skill executed in MuJoCo: the control loop that runs the reference command list.
 
-Commands (pick-skill.md section 6), each a target pose plus a gripper action, in order:
-
-1. current EE, ``update_pose_cost_metric``    2. current EE, ``update_specific``
-3. pre-grasp, ``open_gripper``                 4. pre-grasp, ``update_pose_cost_metric`` (if set)
-5. grasp, ``open_gripper``                     6. grasp, final gripper command x
-                                                  ``gripper_change_steps``
-7. grasp, ``update_specific``                  8. grasp, ``attach_obj`` -- an EVENT only: the
-                                                  object is held by friction, never welded
-9. lift (grasp + U(post_min, post_max) along arm-base z), final gripper command (skipped if 0)
-10. pre-grasp, final gripper command (``return_to_pregrasp``)
-
-Progress (section 7): once per control step the head command pops when the EE is within
-``t_eps`` (m) and ``o_eps`` (rad, ``2 acos(min(|q . q*|, 1))``) of its target, or when the idle
-counter (the reference controller's ``num_last_cmd``) exceeds 10. As in the reference, the
-counter counts control steps without an active arm trajectory, except while the head command is
-an ``update_*`` one (the reference holds the arm there without counting), and it is reset only
-when a command with a new target pose (more than 5e-3 away, the controller's re-plan test)
-becomes head -- not on a pop, so once it exceeds 10 every further command with the same target
-pops one per step (the closing commands of a grasp the arm never reached within ``t_eps``).
-A command whose target differs from the previous one starts the next
-planned trajectory segment (transport, approach, lift, retreat) as soon as the previous segment
-has finished -- the harness plays each planned segment to its end rather than re-planning from a
-moving state, so the arm never jumps. The gripper action of the head command is applied while it
-is head; closing ramps the servo target to the closed width.
-
-Verdict:
-
-- ``reference``: evaluated once, at the step the list becomes empty: at least one finger touches
-  the object with force > 0 (when the final command closes), max |joint velocity| < 5 and max
-  |object linear velocity component| < 5 (``process_valid``), and lift > ``lift_th`` measured from
-  the object's position before settling (``obj_init_trans``).
-- ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends; no robot
-  collision with the environment during the motion; after the lift the trajectory finishes, the
-  object comes to rest, then is held for ``hold_time`` s with slip (object motion relative to the
-  TCP) below ``max_slip``; both fingers still carry the force; lift > ``lift_th``.
+The command list and its progress rules are ``harness.pick.commands`` (pick-skill.md sections 6
+and 7); the success checks are ``harness.pick.verdict``; which of them apply, and whether robot
+collisions are checked, is ``harness.pick.semantics``. This module steps the physics and moves
+through the list.
 
 Execution: the control loop runs in Python once per control step (``control_dt``, the
 reference's 1/30 s); inside it the position servos get new setpoints every few physics steps
@@ -45,216 +14,35 @@ the timed trajectory with velocity feed-forward ``ctrl = q + (kv / kp) * qd``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 
-from harness.config.models import PickConfig, TaskConfig
+from harness.config import TaskConfig
 from harness.failures import FailureReason
+from harness.pick.commands import (
+    HOLD_FUNCTIONS,
+    IDLE_POP_STEPS,
+    SEGMENT_OF_TARGET,
+    build_commands,
+    pose_reached,
+    target_moved,
+)
+from harness.pick.outcome import PickOutcome
+from harness.pick.recorder import TraceRecorder
+from harness.pick.semantics import Semantics
+from harness.pick.targets import PickTargets
+from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
 from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.sim import Scene
-from harness.transforms import invert_T, matrix_to_quat, quat_angle_between
+from harness.transforms import invert_T
 
-IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps
-REPLAN_EPS = 5e-3  # the controller re-plans (and resets its idle count) for targets this far
-HOLD_FUNCTIONS = ("update_pose_cost_metric", "update_specific")  # hold the arm, count nothing
-MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the reference)
 SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
 STATIC_SPEED = 0.02  # m/s: the object is "at rest" below this (strict)
 STATIC_WAIT_S = 1.0  # strict: how long to wait for the object to come to rest
 # Strict: a robot-environment contact during execution is a collision beyond this penetration
 # (m). Plans keep 0.1 mm; tracking lag lets a finger planned to graze the table dip a little.
 EXECUTION_PENETRATION = 0.002
-
-
-# --------------------------------------------------------------------------------------------
-# Commands
-
-
-@dataclass(frozen=True)
-class PickCommand:
-    """One reference command: a target (by name), the function, the gripper action."""
-
-    number: int  # the row of pick-skill.md section 6
-    function: str
-    target: Literal["current", "pregrasp", "grasp", "lift"]
-    gripper: Literal["open", "close"] | None = None
-    event: str | None = None
-
-
-def build_commands(pick: PickConfig, lift_offset: float) -> list[PickCommand]:
-    """The reference command list for a pick block (``lift_offset`` already sampled)."""
-    final = "open" if pick.final_gripper_state == 1 else "close"
-    final_name = "open_gripper" if final == "open" else "close_gripper"
-    commands = [
-        PickCommand(1, "update_pose_cost_metric", "current"),
-        PickCommand(2, "update_specific", "current", event="object_out_of_planning_world"),
-        PickCommand(3, "open_gripper", "pregrasp", gripper="open"),
-    ]
-    if pick.pre_grasp_hold_vec_weight is not None:
-        commands.append(PickCommand(4, "update_pose_cost_metric", "pregrasp"))
-    commands.append(PickCommand(5, "open_gripper", "grasp", gripper="open"))
-    commands += [
-        PickCommand(6, final_name, "grasp", gripper=final) for _ in range(pick.gripper_change_steps)
-    ]
-    commands.append(PickCommand(7, "update_specific", "grasp", event="object_in_planning_world"))
-    commands.append(PickCommand(8, "attach_obj", "grasp", gripper=final, event="attach"))
-    if lift_offset != 0.0:
-        commands.append(PickCommand(9, final_name, "lift", gripper=final))
-    if pick.return_to_pregrasp:
-        commands.append(PickCommand(10, final_name, "pregrasp", gripper=final))
-    return commands
-
-
-SEGMENT_OF_TARGET = {"pregrasp": "transport", "grasp": "approach", "lift": "lift"}
-
-
-def pose_reached(T_ee: np.ndarray, T_target: np.ndarray, t_eps: float, o_eps: float) -> bool:
-    """The reference ``is_subtask_done`` test: ``|p - p*| < t_eps`` and
-    ``2 acos(min(|q . q*|, 1)) < o_eps``, both strict."""
-    if float(np.linalg.norm(T_ee[:3, 3] - T_target[:3, 3])) >= t_eps:
-        return False
-    quats = matrix_to_quat(np.stack([T_ee[:3, :3], T_target[:3, :3]]))
-    return float(quat_angle_between(quats[0], quats[1])) < o_eps
-
-
-def _target_moved(T_from: np.ndarray, T_to: np.ndarray) -> bool:
-    """The controller's re-plan test: translation or quaternion difference norm > 5e-3."""
-    if float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3])) > REPLAN_EPS:
-        return True
-    q_from, q_to = matrix_to_quat(np.stack([T_from[:3, :3], T_to[:3, :3]]))
-    if float(np.dot(q_from, q_to)) < 0.0:  # same rotation, opposite sign: compare like for like
-        q_to = -q_to
-    return float(np.linalg.norm(q_to - q_from)) > REPLAN_EPS
-
-
-# --------------------------------------------------------------------------------------------
-# Trace
-
-
-@dataclass
-class ExecutionTrace:
-    """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
-
-    time: np.ndarray  # (T,) s since the start of the execution
-    qpos: np.ndarray  # (T, nq) full MuJoCo qpos
-    q_active: np.ndarray  # (T, n) the arm's active joints
-    tcp_pose: np.ndarray  # (T, 7) world position + wxyz quaternion of the TCP frame
-    ee_pose: np.ndarray  # (T, 7) world pose of the EE frame
-    gripper_width: np.ndarray  # (T,) m (sum of both fingers)
-    finger_forces: np.ndarray  # (T, 2) N, left and right finger on the target object
-    object_pose: np.ndarray  # (T, 7) world pose of the target object
-    phase: np.ndarray  # (T,) str: the head command's function / target
-    events: list[tuple[float, str]] = field(default_factory=list)
-
-
-class TraceRecorder:
-    """Preallocated per-step buffers; ``finish()`` trims them into an ExecutionTrace."""
-
-    def __init__(self, scene: Scene, arm: str, object_name: str, capacity: int) -> None:
-        self.scene = scene
-        self.handles = scene.arms[arm]
-        self.arm = arm
-        self.object_name = object_name
-        self.obj = scene.objects[object_name]
-        n = capacity
-        nq = scene.model.nq
-        self.time = np.zeros(n)
-        self.qpos = np.zeros((n, nq))
-        self.q_active = np.zeros((n, len(self.handles.active_qpos)))
-        self.tcp_pose = np.zeros((n, 7))
-        self.ee_pose = np.zeros((n, 7))
-        self.gripper_width = np.zeros(n)
-        self.finger_forces = np.zeros((n, 2))
-        self.object_pose = np.zeros((n, 7))
-        self.phase = np.empty(n, dtype=object)
-        self.events: list[tuple[float, str]] = []
-        self.count = 0
-
-    def record(self, t: float, phase: str, forces: tuple[float, float]) -> None:
-        k = self.count
-        if k >= len(self.time):
-            return
-        d = self.scene.data
-        h = self.handles
-        self.time[k] = t
-        self.qpos[k] = d.qpos
-        self.q_active[k] = d.qpos[h.active_qpos]
-        self.tcp_pose[k, :3] = d.xpos[h.tcp_body]
-        self.tcp_pose[k, 3:] = d.xquat[h.tcp_body]
-        self.ee_pose[k, :3] = d.xpos[h.ee_body]
-        self.ee_pose[k, 3:] = d.xquat[h.ee_body]
-        self.gripper_width[k] = float(np.sum(d.qpos[h.finger_qpos]))
-        self.finger_forces[k] = forces
-        self.object_pose[k, :3] = d.xpos[self.obj.body_id]
-        self.object_pose[k, 3:] = d.xquat[self.obj.body_id]
-        self.phase[k] = phase
-        self.count = k + 1
-
-    def event(self, t: float, text: str) -> None:
-        self.events.append((t, text))
-
-    def finish(self) -> ExecutionTrace:
-        n = self.count
-        return ExecutionTrace(
-            time=self.time[:n].copy(),
-            qpos=self.qpos[:n].copy(),
-            q_active=self.q_active[:n].copy(),
-            tcp_pose=self.tcp_pose[:n].copy(),
-            ee_pose=self.ee_pose[:n].copy(),
-            gripper_width=self.gripper_width[:n].copy(),
-            finger_forces=self.finger_forces[:n].copy(),
-            object_pose=self.object_pose[:n].copy(),
-            phase=self.phase[:n].astype(str),
-            events=list(self.events),
-        )
-
-
-# --------------------------------------------------------------------------------------------
-# Outcome
-
-
-@dataclass
-class PickOutcome:
-    """What the execution measured and concluded."""
-
-    success: bool = False
-    failure_reason: FailureReason = ""
-    message: str = ""
-    sim_time_s: float = 0.0
-    sim_steps: int = 0
-    control_steps: int = 0
-    finger_force_left_n: float = float("nan")  # after closing
-    finger_force_right_n: float = float("nan")
-    lift_height_m: float = float("nan")
-    slip_m: float = float("nan")
-    max_joint_vel: float = 0.0  # peak over the execution
-    max_object_vel: float = 0.0  # peak object speed over the execution
-    verdict_joint_speed: float = float("nan")  # at the verdict (the reference's check)
-    verdict_object_speed: float = float("nan")
-    verdict_forces: tuple[float, float] = (float("nan"), float("nan"))
-    tcp_grasp_error_m: float = float("nan")
-    object_z_before: float = float("nan")
-    object_z_after: float = float("nan")
-    contact_during_close: bool = False
-    collisions: list[str] = field(default_factory=list)
-    trace: ExecutionTrace | None = None
-
-
-# --------------------------------------------------------------------------------------------
-# Executor
-
-
-@dataclass
-class PickTargets:
-    """World poses of the EE targets, and the timed segments that reach them."""
-
-    T_world_pregrasp: np.ndarray
-    T_world_grasp: np.ndarray
-    T_world_lift: np.ndarray | None
-    segments: dict[str, Trajectory]  # transport, approach, lift, retreat
 
 
 class PickExecutor:
@@ -270,6 +58,7 @@ class PickExecutor:
         checker: CollisionChecker | None = None,
         record: bool = True,
         log_ctrl: bool = False,
+        semantics: Semantics | None = None,
     ) -> None:
         self.scene = scene
         self.data = scene.data
@@ -277,6 +66,7 @@ class PickExecutor:
         self.ctrl_log: list[tuple[int, np.ndarray]] | None = [] if log_ctrl else None
         self.task = task
         self.pick = task.pick
+        self.semantics = semantics if semantics is not None else Semantics.from_pick(task.pick)
         self.arm = task.arm
         self.handles = scene.arms[task.arm]
         self.arm_spec = scene.robot.arm(task.arm)
@@ -285,7 +75,7 @@ class PickExecutor:
         self.obj = scene.objects[self.object_name]
         self.object_init_position = np.asarray(object_init_position, dtype=float)
         self.commands = build_commands(task.pick, lift_offset)
-        self.checker = checker if task.pick.semantics == "strict" else None
+        self.checker = checker if self.semantics.check_collisions else None
         m = scene.model
         self.timestep = float(m.opt.timestep)
         self.substeps = max(1, round(task.control_dt / self.timestep))
@@ -376,7 +166,7 @@ class PickExecutor:
             self._event(f"{command.function}: {command.event}")
         if command.target != "current" and command.function not in HOLD_FUNCTIONS:
             T_target = self._target_pose(command.target, np.eye(4))
-            if self.planned_target is None or _target_moved(self.planned_target, T_target):
+            if self.planned_target is None or target_moved(self.planned_target, T_target):
                 self.planned_target = T_target
                 self.idle = 0  # the reference re-plans here and resets num_last_cmd
         if command.target not in ("current", self.previous_target):
@@ -507,13 +297,9 @@ class PickExecutor:
             self.out.contact_during_close = max(forces) > 0.0
             self.out.finger_force_left_n, self.out.finger_force_right_n = forces
             self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
-            strict = self.pick.semantics == "strict" and self.pick.final_gripper_state == -1
-            if strict and min(forces) < self.pick.min_finger_force:
-                self._fail(
-                    "no_contact",
-                    f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after closing, "
-                    f"below {self.pick.min_finger_force} N",
-                )
+            if self.semantics.check_closing_forces and self._judge(
+                closing_terms(self.pick, forces)
+            ):
                 return False
         self.head += 1  # the idle count carries on: only a new target resets it
         if self.head < len(self.commands):
@@ -548,11 +334,12 @@ class PickExecutor:
                 self._check_collisions()
             if self.head < len(self.commands):
                 if self._progress(forces):
-                    if self.pick.semantics == "reference":
-                        self._reference_verdict()
-                        done = True
-                    else:
+                    if self.semantics.hold_after_list:
                         self.post = "finish"
+                    else:
+                        self._measure()
+                        self._judge(self.semantics.verdict_terms(self.pick, out))
+                        done = True
             else:
                 done = self._strict_post_step()
             if not done and not out.failure_reason and self.step >= self.task.max_episode_length:
@@ -584,31 +371,12 @@ class PickExecutor:
         out.lift_height_m = float(d.xpos[self.obj.body_id][2] - self.object_init_position[2])
         return forces
 
-    def _velocity_valid(self) -> bool:
-        """``process_valid``: max |joint velocity| and max |object velocity component| < 5."""
-        return not self.pick.process_valid or (
-            self.out.verdict_joint_speed < MAX_VELOCITY
-            and self.out.verdict_object_speed < MAX_VELOCITY
-        )
-
-    def _reference_verdict(self) -> None:
-        """The reference ``is_success``, evaluated at this instant (section 7)."""
-        out, pick = self.out, self.pick
-        forces = self._measure()
-        if pick.final_gripper_state == -1 and not max(forces) > 0.0:
-            reason: FailureReason = "dropped" if out.contact_during_close else "no_contact"
-            self._fail(reason, "no finger touches the object when the command list empties")
-        elif not self._velocity_valid():
-            self._fail(
-                "velocity_invalid",
-                f"max joint speed {out.verdict_joint_speed:.2f}, max object velocity "
-                f"{out.verdict_object_speed:.2f} (bound {MAX_VELOCITY})",
-            )
-        elif pick.lift_th > 0 and not out.lift_height_m > pick.lift_th:
-            self._fail(
-                "lift_below_threshold",
-                f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
-            )
+    def _judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
+        """Fail with the first term that did not pass (``harness.pick.verdict``); True if one."""
+        failed = first_failure(terms)
+        if failed is not None:
+            self._fail(failed.reason, failed.message)
+        return failed is not None
 
     def _object_speed(self) -> float:
         velocity = self.data.qvel[self.obj.dof_adr : self.obj.dof_adr + 3]
@@ -642,20 +410,6 @@ class PickExecutor:
             return False
         assert self.hold_reference is not None
         out.slip_m = float(np.linalg.norm(self._object_in_tcp() - self.hold_reference))
-        forces = self._measure()
-        if pick.final_gripper_state == -1 and min(forces) < pick.min_finger_force:
-            self._fail(
-                "dropped",
-                f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after the hold, below "
-                f"{pick.min_finger_force} N",
-            )
-        elif out.slip_m > pick.max_slip:
-            self._fail("dropped", f"the object slipped {out.slip_m * 1e3:.1f} mm in the hold")
-        elif not self._velocity_valid():
-            self._fail("velocity_invalid", "velocities above the bound after the hold")
-        elif not out.lift_height_m > pick.lift_th:
-            self._fail(
-                "lift_below_threshold",
-                f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
-            )
+        self._measure()
+        self._judge(self.semantics.verdict_terms(pick, out))
         return True

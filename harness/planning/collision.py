@@ -17,7 +17,7 @@ What the planning world holds is set per episode (``sync``, a ``PlanningWorld``)
 (the episode puts it in only where the robot physically collides with it, or under strict
 semantics: the reference's planning always ignores it, quirk 21) and the target object (the
 episode always puts it in; the reference removes it while planning the pre-grasp and the grasp,
-pick-skill.md section 6).
+docs/reference-pick-skill.md section 6).
 """
 
 from __future__ import annotations
@@ -69,7 +69,8 @@ class CollisionChecker:
         ``check_table`` False leaves the table out of the planning world (the reference's
         planning ignore list always holds it); ``check_target`` False leaves the target object
         out (the reference removes it before testing and planning the pre-grasp and the grasp,
-        pick-skill.md section 6 step 2). Contacts present in the current state (a first
+        docs/reference-pick-skill.md section 6 step 2).
+        Contacts present in the current state (a first
         link standing in the table top, two links of a noisy home posture touching) are where
         the robot already is, not planning failures: those pairs are allowed for the queries
         that follow.

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import placo  # pyright: ignore[reportMissingImports]  # a cmeel .pth path pyright cannot see
+import placo
 
 from harness.errors import InputFileError
 

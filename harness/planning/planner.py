@@ -4,7 +4,7 @@ The planning world is set per episode with ``sync`` (a
 :class:`harness.planning.world.PlanningWorld`); what it holds and the collision rules per phase
 are described in ``harness.planning.collision``.
 
-Feasibility of one candidate (``test_mode``, pick-skill.md section 5):
+Feasibility of one candidate (``test_mode``, docs/reference-pick-skill.md section 5):
 
 - ``ik``: IK for the pre-grasp and (when ``pre_grasp_offset > 0``) the grasp, each from the
   current joint state, within 5 mm / 0.05 rad, and each solution collision-free (the

@@ -31,7 +31,8 @@ from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
 from harness.markdown import markdown_table
 from harness.report.stats import compare_proportions, wilson_interval
-from harness.runs.store import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
+from harness.row import KEY_COLUMNS, param_columns
+from harness.runs.store import JSONL_NAME, ResultStore
 
 POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")
 FAIL_PREFIX = "fail."

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.config.models import Placement, read_yaml, validate_model
+from harness.config import Placement, read_yaml, validate_model
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
 from harness.robots.registry import resolve_robot_yaml

@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from harness.config.models import FiniteFloat, Placement
+from harness.config import FiniteFloat, Placement
 
 Axis = Literal["x", "y", "z"]
 NonNegative = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]

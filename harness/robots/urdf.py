@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.config.models import ConfigError
+from harness.config import ConfigError
 
 
 @dataclass(frozen=True)

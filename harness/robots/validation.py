@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from harness.config.models import ConfigError
+from harness.config import ConfigError
 from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 from harness.robots.spec import ArmSpec, RobotFile
 from harness.robots.urdf import UrdfInfo, UrdfJoint

@@ -1,10 +1,11 @@
-"""The episode row schema and the append-only, crash-safe, resumable episode store.
+"""The append-only, crash-safe, resumable episode store and the typed episode table.
 
-One episode = one flat row. ``SCHEMA`` is the single definition of its columns (name -> dtype,
-null value, description); ``run_episode`` produces such rows, sweeps and ``harness run`` append
-them to ``<run_dir>/episodes.jsonl`` through ``ResultStore``, and reports read them back as a
-typed ``pandas.DataFrame``. Besides the fixed columns a row carries one ``param.<dotted key>``
-column per swept axis (dynamic, typed by inference).
+One episode = one flat row, with the columns of ``harness.row.SCHEMA`` (derived from
+``EpisodeRow``: name -> dtype, null value, description); ``run_episode`` produces such rows,
+sweeps and ``harness run`` append them to ``<run_dir>/episodes.jsonl`` through ``ResultStore``,
+and reports read them back as a typed ``pandas.DataFrame`` (the CSV and Parquet exports are that
+frame). Besides the fixed columns a row carries one ``param.<dotted key>`` column per swept axis
+(dynamic, typed by inference).
 
 The store is append-only JSON lines: each ``append`` writes one line and fsyncs, so a crash
 loses at most the line being written. A torn line is skipped on read (and a resumed run starts
@@ -16,117 +17,19 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Hashable, Iterator
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 
 from harness.errors import HarnessError
+from harness.row import SCHEMA, Column, param_columns
 
-Dtype = Literal["str", "int", "float", "bool"]
-PARAM_PREFIX = "param."
 JSONL_NAME = "episodes.jsonl"
 CSV_NAME = "episodes.csv"
 PARQUET_NAME = "episodes.parquet"
-
-FILTER_OUTCOMES: tuple[str, ...] = ("ok", "fallback", "filter_empty")
-
-
-@dataclass(frozen=True)
-class Column:
-    """One column of the episode row: its type, the value used when a row lacks it, meaning."""
-
-    name: str
-    dtype: Dtype
-    description: str
-    null: Any = None
-
-    @property
-    def null_value(self) -> Any:
-        if self.null is not None:
-            return self.null
-        return {"str": "", "int": 0, "float": math.nan, "bool": False}[self.dtype]
-
-
-def _columns(*columns: Column) -> dict[str, Column]:
-    return {column.name: column for column in columns}
-
-
-SCHEMA: dict[str, Column] = _columns(
-    # Identity
-    Column("episode_id", "str", "deterministic id: hash of (task, point, episode index)"),
-    Column("run", "str", "run / sweep name"),
-    Column("point_id", "int", "index of the sweep point", -1),
-    Column("point", "str", "JSON of the swept parameter values of the point", "{}"),
-    Column("task", "str", "task name"),
-    Column("robot", "str", "robot name"),
-    Column("arm", "str", "arm used (left | right)"),
-    Column("object", "str", "name of the picked object"),
-    Column("seed", "int", "seed of the episode's random generator", -1),
-    Column("episode_index", "int", "index of the episode within its point", -1),
-    # Configuration
-    Column("semantics", "str", "reference | strict"),
-    Column("test_mode", "str", "feasibility test: forward | ik"),
-    Column("timing", "str", "transport timing: toppra | ruckig"),
-    Column("filter_x_dir", "str", "reference filter as JSON, '' when unset"),
-    Column("filter_y_dir", "str", "reference filter as JSON, '' when unset"),
-    Column("filter_z_dir", "str", "reference filter as JSON, '' when unset"),
-    Column("approach_filter", "str", "robot-neutral approach-axis filter as JSON, '' when unset"),
-    Column("facing_filter", "str", "robot-neutral facing-axis filter as JSON, '' when unset"),
-    Column("direction_to_obj", "str", "left | right | '' when unset"),
-    Column("pre_grasp_offset", "float", "pre-grasp distance along the approach axis (m)"),
-    Column("post_grasp_offset", "float", "lift height drawn for this episode (m)"),
-    # Candidates
-    Column("n_total", "int", "grasp poses considered (grasps x symmetric flips)"),
-    Column("n_passed_filter", "int", "poses that passed the direction filters"),
-    Column("n_feasible", "int", "candidates found feasible by the feasibility test"),
-    Column("n_tested", "int", "candidates run through the feasibility test"),
-    Column("filter_outcome", "str", "ok | fallback | filter_empty"),
-    Column("chosen_index", "int", "index of the chosen grasp pose, -1 for none", -1),
-    Column("chosen_score", "float", "grasp score of the chosen candidate"),
-    Column("approach_angle_deg", "float", "angle of the chosen approach axis from straight down"),
-    # Timing
-    Column("ik_time_s", "float", "wall time spent in IK (s)"),
-    Column("plan_time_s", "float", "wall time spent planning and timing (s)"),
-    Column("traj_duration_s", "float", "duration of the executed trajectory (s)"),
-    Column("sim_time_s", "float", "simulated time (s)"),
-    Column("sim_steps", "int", "MuJoCo steps taken"),
-    Column("wall_time_s", "float", "wall time of the whole episode (s)"),
-    # Physics
-    Column("finger_force_left_n", "float", "normal force on the left finger after closing (N)"),
-    Column("finger_force_right_n", "float", "normal force on the right finger after closing (N)"),
-    Column("lift_height_m", "float", "object z rise over the lift (m)"),
-    Column("slip_m", "float", "object motion relative to the gripper during the hold (m)"),
-    Column("max_joint_vel", "float", "peak |joint velocity| (rad/s or m/s)"),
-    Column("max_object_vel", "float", "peak object speed (m/s)"),
-    Column(
-        "tcp_grasp_error_m", "float", "executed vs planned TCP at grasp (m), NaN if not reached"
-    ),
-    # Verdict
-    Column("success", "bool", "the pick succeeded under its semantics"),
-    Column("failure_reason", "str", "first failure cause (FAILURE_REASONS), '' on success"),
-    Column("error_message", "str", "message of an error or of the failure"),
-    Column("harness_version", "str", "pick-harness version"),
-    Column("mujoco_version", "str", "MuJoCo version"),
-    # Added by the sweep executors
-    Column("worker_peak_rss_mb", "float", "peak memory of the worker process (MiB)"),
-    Column("recording", "str", "episode recording (.rrd) relative to the run directory"),
-    Column("recording_error", "str", "why the episode recording could not be written"),
-)
-KEY_COLUMNS: tuple[str, ...] = ("task", "robot", "arm", "object")
-
-
-def param_columns(columns: Any) -> list[str]:
-    """The ``param.*`` columns among ``columns``, in their order."""
-    return [str(c) for c in columns if str(c).startswith(PARAM_PREFIX)]
-
-
-def empty_row() -> dict[str, Any]:
-    """A row with every schema column at its null value."""
-    return {name: column.null_value for name, column in SCHEMA.items()}
 
 
 # --------------------------------------------------------------------------------------------
@@ -157,16 +60,23 @@ def typed_frame(rows: list[dict[str, Any]] | pd.DataFrame) -> pd.DataFrame:
     out: dict[str, pd.Series] = {}
     index = frame.index
     for name, column in SCHEMA.items():
-        values = frame[name] if name in frame.columns else pd.Series([None] * len(frame), index)
+        values = (
+            _series(frame, name) if name in frame.columns else pd.Series([None] * len(frame), index)
+        )
         try:
             out[name] = _typed(values, column)
         except (ValueError, TypeError) as exc:
             raise ValueError(f"column {name!r} ({column.dtype}): {exc}") from None
     for name in params:
-        out[name] = _param_series(frame[name])
+        out[name] = _param_series(_series(frame, name))
     for name in extras:
-        out[name] = frame[name]
+        out[name] = _series(frame, name)
     return pd.DataFrame(out, index=index).reset_index(drop=True)
+
+
+def _series(frame: pd.DataFrame, name: str) -> pd.Series:
+    """``frame[name]``, typed as the column it is (the pandas stubs allow a sub-frame)."""
+    return cast(pd.Series, frame[name])
 
 
 def _typed(values: pd.Series, column: Column) -> pd.Series:
@@ -181,7 +91,9 @@ def _typed(values: pd.Series, column: Column) -> pd.Series:
         # Not through float64: 63-bit episode seeds must survive exactly.
         cells = values.astype("object").mask(blank | values.isna(), null)
         return pd.Series([_to_int(v) for v in cells], index=values.index, dtype="int64")
-    numbers = pd.to_numeric(values.astype("object").mask(blank, None), errors="raise")
+    numbers = cast(
+        pd.Series, pd.to_numeric(values.astype("object").mask(blank, None), errors="raise")
+    )
     return numbers.astype("float64")
 
 
@@ -204,7 +116,7 @@ def _param_series(values: pd.Series) -> pd.Series:
     present = [v for v in items if not _is_null(v)]
     if present and all(isinstance(v, (bool, np.bool_)) for v in present):
         return pd.Series(items, index=values.index, dtype="object")
-    numeric = pd.to_numeric(values, errors="coerce")
+    numeric = cast(pd.Series, pd.to_numeric(values, errors="coerce"))
     if present and all(
         not isinstance(v, (bool, np.bool_)) and not _is_null(n)
         for v, n in zip(items, numeric.tolist(), strict=True)
@@ -343,7 +255,9 @@ def read_episodes_csv(path: str | Path, typed: bool = True) -> pd.DataFrame:
     types. A file that is not an episode table raises ``HarnessError`` naming it.
     """
     path = Path(path)
-    string_columns = {name: "str" for name, c in SCHEMA.items() if c.dtype == "str"}
+    string_columns: dict[Hashable, str] = {
+        name: "str" for name, c in SCHEMA.items() if c.dtype == "str"
+    }
     try:
         frame = pd.read_csv(path, dtype=string_columns, keep_default_na=False, na_values=[""])
     except (OSError, ValueError, pd.errors.ParserError) as exc:

@@ -20,7 +20,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from harness.config.models import ObjectConfig, PhysicsConfig, TaskConfig
+from harness.config import ObjectConfig, PhysicsConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
 from harness.robots.model import RobotModel

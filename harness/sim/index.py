@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from harness.config.models import ObjectConfig
+from harness.config import ObjectConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset
 from harness.robots.model import RobotModel

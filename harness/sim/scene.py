@@ -28,7 +28,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from harness.config.models import ObjectConfig, PhysicsConfig, Placement, TaskConfig
+from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset
 from harness.robots.model import RobotModel

@@ -1,0 +1,103 @@
+"""A sweep: tasks x points x seeds, with points from a grid over dotted-key axes or random draws."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from harness.config.errors import KeyedValueError
+from harness.config.messages import suggest
+from harness.config.pick import PickConfig
+from harness.config.task import TaskConfig
+from harness.config.values import FiniteFloat, StrictModel
+
+
+class RandomAxis(StrictModel):
+    """A random axis: uniform over [low, high], or a uniform choice among ``choices``."""
+
+    low: FiniteFloat | None = None
+    high: FiniteFloat | None = None
+    choices: list[Any] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> RandomAxis:
+        low, high = self.low, self.high
+        ranged = low is not None and high is not None
+        if ranged == (self.choices is not None):
+            raise ValueError("give either low and high, or choices")
+        if low is not None and high is not None and low > high:
+            raise KeyedValueError("high", f"low ({self.low}) must be <= high ({self.high})")
+        if self.choices is not None and not self.choices:
+            raise KeyedValueError("choices", "choices must not be empty")
+        return self
+
+
+TASK_KEYS = frozenset(TaskConfig.model_fields)
+
+
+def check_dotted_key(key: str) -> str:
+    """``key`` if it names a task key (``object.`` is the target object), else KeyedValueError."""
+    parts = key.split(".")
+    if not all(parts):
+        raise KeyedValueError(
+            (key,), f"axis key {key!r} is not a dotted key like 'pick.filter_z_dir'"
+        )
+    head = parts[0]
+    if head == "object":  # shorthand for the target object
+        parts = ["objects", "0", *parts[1:]]
+        head = "objects"
+    if head not in TASK_KEYS:
+        raise KeyedValueError(
+            (key,), f"axis key {key!r}: unknown task key {head!r}{suggest(head, TASK_KEYS)}"
+        )
+    if head == "pick" and len(parts) > 1 and parts[1] not in PickConfig.model_fields:
+        raise KeyedValueError(
+            (key,),
+            f"axis key {key!r}: unknown pick key {parts[1]!r}"
+            f"{suggest(parts[1], PickConfig.model_fields)}",
+        )
+    return key
+
+
+class SweepConfig(StrictModel):
+    """Tasks x points x seeds. Points come from a grid over ``axes`` or ``random`` draws."""
+
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    tasks: list[str | dict[str, Any]] = Field(
+        min_length=1,
+        description="Task YAML paths (relative to the sweep file), inline tasks, or "
+        "{interndata: path, asset_root: dir, objects: {name: path}}.",
+    )
+    mode: Literal["grid", "random"] = "grid"
+    axes: dict[str, list[Any]] = Field(default_factory=dict)
+    random_axes: dict[str, RandomAxis] = Field(default_factory=dict)
+    points: int = Field(default=1, ge=1, le=100_000, description="Random mode: number of draws.")
+    episodes_per_point: int = Field(default=10, ge=1, le=100_000)
+    seed: int = Field(default=0, ge=0)
+    workers: int | None = Field(default=None, ge=1, le=1024)
+    record: str = Field(default="failures", pattern=r"^(none|failures|all|sample:\d+)$")
+
+    @field_validator("axes")
+    @classmethod
+    def _grid_axes(cls, axes: dict[str, list[Any]]) -> dict[str, list[Any]]:
+        for key, values in axes.items():
+            check_dotted_key(key)
+            if not values:
+                raise KeyedValueError((key,), f"axis {key!r} has no values")
+        return axes
+
+    @field_validator("random_axes")
+    @classmethod
+    def _random_axes(cls, axes: dict[str, RandomAxis]) -> dict[str, RandomAxis]:
+        for key in axes:
+            check_dotted_key(key)
+        return axes
+
+    @model_validator(mode="after")
+    def _mode_matches(self) -> SweepConfig:
+        if self.mode == "random" and not self.random_axes:
+            raise KeyedValueError("mode", "mode 'random' needs random_axes")
+        if self.mode == "grid" and self.random_axes:
+            raise KeyedValueError("random_axes", "random_axes are only used with mode: random")
+        return self

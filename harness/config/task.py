@@ -1,0 +1,148 @@
+"""A task: one robot arm picking one object; its placements, objects and physics."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from harness.config.errors import KeyedValueError
+from harness.config.messages import suggest
+from harness.config.pick import PickConfig
+from harness.config.values import FiniteFloat, StrictModel, Vec3
+
+
+class Placement(StrictModel):
+    """Uniform placement: position = centre + U(pos_range), yaw = U(yaw_range) in degrees.
+
+    Positions are in the world frame (origin at the table-top centre, z up). For objects the
+    z offset is added on top of resting on the table.
+    """
+
+    pos_range: tuple[Vec3, Vec3]
+    yaw_range: tuple[FiniteFloat, FiniteFloat] = (-180.0, 180.0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Placement:
+        lo, hi = self.pos_range
+        for axis, (a, b) in enumerate(zip(lo, hi, strict=True)):
+            if a > b:
+                raise KeyedValueError(
+                    "pos_range", f"pos_range axis {'xyz'[axis]}: min {a} must be <= max {b}"
+                )
+        if self.yaw_range[0] > self.yaw_range[1]:
+            raise KeyedValueError(
+                "yaw_range", f"yaw_range min {self.yaw_range[0]} must be <= max {self.yaw_range[1]}"
+            )
+        return self
+
+
+class ObjectConfig(StrictModel):
+    """One object: a mesh (path, or the name of a default object), its grasps and physics."""
+
+    name: str = Field(min_length=1)
+    mesh: str = Field(min_length=1, description="Mesh path (relative to the YAML) or object name.")
+    grasps: str | None = Field(default=None, description="Grasp file; default by naming rule.")
+    scale: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (1.0, 1.0, 1.0)
+    mass: FiniteFloat = Field(default=0.1, gt=0.0, le=100.0)
+    friction: FiniteFloat = Field(default=1.0, gt=0.0, le=10.0)
+    placement: Placement | None = Field(
+        default=None, description="Default: the robot arm's object region from robot.yaml."
+    )
+    orientations: list[Vec3] | None = Field(
+        default=None,
+        description="Base orientations (xyz Euler, degrees) drawn uniformly per episode.",
+    )
+    category: str | None = None
+
+    @field_validator("scale", mode="before")
+    @classmethod
+    def _scalar_scale(cls, value: Any) -> Any:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return (value, value, value)
+        return value
+
+    @field_validator("scale")
+    @classmethod
+    def _positive_scale(cls, value: tuple[float, float, float]) -> tuple[float, float, float]:
+        if any(v <= 0 for v in value):
+            raise ValueError(f"scale must be positive, got {list(value)}")
+        return value
+
+
+class PhysicsConfig(StrictModel):
+    """MuJoCo options. Elliptic cones with impratio 10 keep friction grasps from creeping."""
+
+    timestep: FiniteFloat = Field(default=0.002, gt=0.0, le=0.05)
+    integrator: Literal["implicitfast", "implicit", "euler", "rk4"] = "implicitfast"
+    cone: Literal["elliptic", "pyramidal"] = "elliptic"
+    impratio: FiniteFloat = Field(default=10.0, ge=1.0, le=1000.0)
+    noslip_iterations: int = Field(default=0, ge=0, le=100)
+    solver_iterations: int = Field(default=100, ge=1, le=10_000)
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    table_contact: bool = Field(
+        default=True,
+        description="Robot-table contact (the reference disables it: neglect_collision_names).",
+    )
+
+
+class TaskConfig(StrictModel):
+    """One pick task: robot arm, objects, physics and the pick block."""
+
+    name: str = Field(default="task", min_length=1)
+    robot: str = Field(min_length=1, description="Robot name (robots/<name>) or robot.yaml path.")
+    arm: Literal["left", "right"] = "left"
+    robot_placement: Placement | None = Field(
+        default=None, description="Robot root placement; default from robot.yaml."
+    )
+    home: list[FiniteFloat] | None = Field(default=None, description="Arm home joint values.")
+    home_noise_std: list[Annotated[float, Field(ge=0.0, allow_inf_nan=False)]] | None = None
+    objects: list[ObjectConfig] = Field(min_length=1)
+    physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
+    pick: PickConfig = Field(default_factory=PickConfig)
+    max_episode_length: int = Field(default=500, ge=1, le=1_000_000)
+    control_dt: FiniteFloat = Field(
+        default=1.0 / 30.0, gt=0.0, le=0.5, description="Control step (s); the reference's 1/30."
+    )
+    source: str | None = Field(default=None, description="File this task was loaded from.")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> TaskConfig:
+        names = [obj.name for obj in self.objects]
+        for index, name in enumerate(names):
+            if name in names[:index]:
+                raise KeyedValueError(
+                    ("objects", index, "name"), f"object names must be unique, {name!r} repeats"
+                )
+        if self.pick.objects is None:
+            self.pick = self.pick.model_copy(update={"objects": [names[0]]})
+        for index, name in enumerate(self.pick.objects or []):
+            if name not in names:
+                raise KeyedValueError(
+                    ("pick", "objects", index),
+                    f"unknown object {name!r}{suggest(name, names)} (objects: {names})",
+                )
+        if self.control_dt < self.physics.timestep:
+            given_dt = "control_dt" in self.model_fields_set
+            raise KeyedValueError(
+                "control_dt" if given_dt else ("physics", "timestep"),
+                f"control_dt ({self.control_dt:g} s) must be at least physics.timestep "
+                f"({self.physics.timestep:g} s)",
+            )
+        home, noise = self.home, self.home_noise_std
+        if home is not None and noise is not None and len(home) != len(noise):
+            raise KeyedValueError(
+                "home_noise_std",
+                f"home_noise_std has {len(noise)} values but home has {len(home)}",
+            )
+        return self
+
+    @property
+    def target_object(self) -> ObjectConfig:
+        name = (self.pick.objects or [self.objects[0].name])[0]
+        return next(obj for obj in self.objects if obj.name == name)
+
+    def base_dir(self) -> Path:
+        """Folder that relative paths in this task are resolved against."""
+        return Path(self.source).resolve().parent if self.source else Path.cwd()

@@ -1,0 +1,92 @@
+"""The per-servo-chunk record of one pick execution, for viewers and tests.
+
+Preallocated buffers (``TraceRecorder``) filled once per servo chunk (~10 ms) by the executor,
+trimmed into an ``ExecutionTrace`` at the end; kept apart from the control loop so the loop
+reads as control and the record as data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from harness.sim import Scene
+
+
+@dataclass
+class ExecutionTrace:
+    """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
+
+    time: np.ndarray  # (T,) s since the start of the execution
+    qpos: np.ndarray  # (T, nq) full MuJoCo qpos
+    q_active: np.ndarray  # (T, n) the arm's active joints
+    tcp_pose: np.ndarray  # (T, 7) world position + wxyz quaternion of the TCP frame
+    ee_pose: np.ndarray  # (T, 7) world pose of the EE frame
+    gripper_width: np.ndarray  # (T,) m (sum of both fingers)
+    finger_forces: np.ndarray  # (T, 2) N, left and right finger on the target object
+    object_pose: np.ndarray  # (T, 7) world pose of the target object
+    phase: np.ndarray  # (T,) str: the head command's function / target
+    events: list[tuple[float, str]] = field(default_factory=list)
+
+
+class TraceRecorder:
+    """Preallocated per-step buffers; ``finish()`` trims them into an ExecutionTrace."""
+
+    def __init__(self, scene: Scene, arm: str, object_name: str, capacity: int) -> None:
+        self.scene = scene
+        self.handles = scene.arms[arm]
+        self.arm = arm
+        self.object_name = object_name
+        self.obj = scene.objects[object_name]
+        n = capacity
+        nq = scene.model.nq
+        self.time = np.zeros(n)
+        self.qpos = np.zeros((n, nq))
+        self.q_active = np.zeros((n, len(self.handles.active_qpos)))
+        self.tcp_pose = np.zeros((n, 7))
+        self.ee_pose = np.zeros((n, 7))
+        self.gripper_width = np.zeros(n)
+        self.finger_forces = np.zeros((n, 2))
+        self.object_pose = np.zeros((n, 7))
+        self.phase = np.empty(n, dtype=object)
+        self.events: list[tuple[float, str]] = []
+        self.count = 0
+
+    def record(self, t: float, phase: str, forces: tuple[float, float]) -> None:
+        k = self.count
+        if k >= len(self.time):
+            return
+        d = self.scene.data
+        h = self.handles
+        self.time[k] = t
+        self.qpos[k] = d.qpos
+        self.q_active[k] = d.qpos[h.active_qpos]
+        self.tcp_pose[k, :3] = d.xpos[h.tcp_body]
+        self.tcp_pose[k, 3:] = d.xquat[h.tcp_body]
+        self.ee_pose[k, :3] = d.xpos[h.ee_body]
+        self.ee_pose[k, 3:] = d.xquat[h.ee_body]
+        self.gripper_width[k] = float(np.sum(d.qpos[h.finger_qpos]))
+        self.finger_forces[k] = forces
+        self.object_pose[k, :3] = d.xpos[self.obj.body_id]
+        self.object_pose[k, 3:] = d.xquat[self.obj.body_id]
+        self.phase[k] = phase
+        self.count = k + 1
+
+    def event(self, t: float, text: str) -> None:
+        self.events.append((t, text))
+
+    def finish(self) -> ExecutionTrace:
+        n = self.count
+        return ExecutionTrace(
+            time=self.time[:n].copy(),
+            qpos=self.qpos[:n].copy(),
+            q_active=self.q_active[:n].copy(),
+            tcp_pose=self.tcp_pose[:n].copy(),
+            ee_pose=self.ee_pose[:n].copy(),
+            gripper_width=self.gripper_width[:n].copy(),
+            finger_forces=self.finger_forces[:n].copy(),
+            object_pose=self.object_pose[:n].copy(),
+            phase=self.phase[:n].astype(str),
+            events=list(self.events),
+        )

@@ -1,0 +1,278 @@
+"""Executors: serial, process pool and Ray, behind one ``Executor`` protocol.
+
+An executor runs a list of episodes, hands each row to ``on_result`` as soon as it arrives
+(the caller stores it), and returns ``RunStats``. A worker that dies (even by a segfault) turns
+its episode into an ``error`` row and is replaced; Ctrl-C stops the run and keeps what finished.
+"""
+
+from __future__ import annotations
+
+import functools
+import multiprocessing as mp
+import os
+import signal
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from harness.config import ConfigError
+from harness.runs.worker import error_row, execute
+
+if TYPE_CHECKING:
+    from harness.episode import EpisodeSpec
+
+
+OnResult = Callable[[dict[str, Any]], None]
+
+
+@dataclass
+class RunStats:
+    finished: int = 0
+    crashed: int = 0
+    interrupted: bool = False
+    wall_time_s: float = 0.0
+    errors: list[str] = field(default_factory=list)
+
+
+def run_serial(
+    episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+) -> RunStats:
+    stats = RunStats()
+    start = time.perf_counter()
+    try:
+        for episode in episodes:
+            on_result(execute(episode, str(run_dir), record))
+            stats.finished += 1
+    except KeyboardInterrupt:
+        stats.interrupted = True
+    stats.wall_time_s = time.perf_counter() - start
+    return stats
+
+
+def _worker_main(conn: Connection, run_dir: str, record: str) -> None:
+    """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    while True:
+        try:
+            episode = conn.recv()
+        except EOFError:
+            return
+        if episode is None:
+            return
+        conn.send(execute(episode, run_dir, record))
+
+
+@dataclass
+class _Worker:
+    process: Any
+    conn: Connection
+    episode: EpisodeSpec | None = None
+
+
+class _ProcessPool:
+    """The pool's workers, the episodes still to hand out, and what happened so far."""
+
+    def __init__(
+        self, episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+    ) -> None:
+        self.context = mp.get_context("spawn")
+        self.run_dir = run_dir
+        self.record = record
+        self.on_result = on_result
+        self.stats = RunStats()
+        self.pending: Iterator[EpisodeSpec] = iter(episodes)
+        self.workers: list[_Worker] = []
+
+    def spawn(self) -> _Worker:
+        parent, child = self.context.Pipe()
+        process = self.context.Process(
+            target=_worker_main, args=(child, str(self.run_dir), self.record), daemon=True
+        )
+        # Ctrl-C goes to the whole terminal process group. The worker ignores SIGINT once its
+        # main runs, but a signal during its start-up (imports) would kill it and look like a
+        # crash. The child inherits the signal mask across fork + exec, so start it with SIGINT
+        # blocked: only the parent ever sees Ctrl-C, and it stops the workers itself.
+        blocked = hasattr(signal, "pthread_sigmask")
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            process.start()
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        child.close()
+        return _Worker(process, parent)
+
+    def start(self) -> None:
+        """A fresh worker in the pool, given the next episode."""
+        worker = self.spawn()
+        self.workers.append(worker)
+        self.assign(worker)
+
+    def assign(self, worker: _Worker) -> bool:
+        episode = next(self.pending, None)
+        worker.episode = episode
+        if episode is None:
+            return False
+        worker.conn.send(episode)
+        return True
+
+    def collect(self, worker: _Worker, ready: list[Any]) -> None:
+        """Take a busy worker's row if it sent one, or replace it if it died."""
+        if worker.conn in ready:
+            try:
+                row = worker.conn.recv()
+            except (EOFError, OSError):
+                row = None
+            if row is not None:
+                self.on_result(row)
+                self.stats.finished += 1
+                self.assign(worker)
+                return
+        if worker.process.sentinel in ready or not worker.process.is_alive():
+            worker.process.join(timeout=1)
+            code = worker.process.exitcode
+            reason = (
+                f"worker crashed (signal {-code})"
+                if code and code < 0
+                else f"worker exited with code {code}"
+            )
+            assert worker.episode is not None
+            self.on_result(error_row(worker.episode, reason))
+            self.stats.finished += 1
+            self.stats.crashed += 1
+            self.workers.remove(worker)
+            self.start()
+
+    def shutdown(self) -> None:
+        """Stop every worker: a polite stop after a normal run, terminate after Ctrl-C."""
+        for worker in self.workers:
+            try:
+                if self.stats.interrupted:
+                    worker.process.terminate()
+                else:
+                    worker.conn.send(None)
+            except (OSError, BrokenPipeError):
+                pass
+        for worker in self.workers:
+            worker.process.join(timeout=5)
+            if worker.process.is_alive():
+                worker.process.kill()
+
+
+def run_process_pool(
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    workers: int,
+) -> RunStats:
+    """One process per worker, one episode in flight per worker; dead workers are replaced."""
+    pool = _ProcessPool(episodes, run_dir, record, on_result)
+    stats = pool.stats
+    start = time.perf_counter()
+    try:
+        for _ in range(max(1, min(workers, len(episodes)))):
+            pool.start()
+        while any(w.episode is not None for w in pool.workers):
+            busy = [w for w in pool.workers if w.episode is not None]
+            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
+            for worker in busy:
+                pool.collect(worker, ready)
+    except KeyboardInterrupt:
+        stats.interrupted = True
+    finally:
+        pool.shutdown()
+    stats.wall_time_s = time.perf_counter() - start
+    return stats
+
+
+def run_ray(
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    workers: int,
+    address: str | None = None,
+) -> RunStats:
+    """Ray actors (one scene cache each); a dead actor's episode becomes an error row."""
+    try:
+        import ray
+    except ImportError as exc:  # pragma: no cover - depends on the extra
+        from harness.errors import HarnessError
+
+        raise HarnessError(
+            "the ray backend needs the 'ray' extra: pip install 'pick-harness[ray]'"
+        ) from exc
+
+    started_here = not ray.is_initialized()
+    if started_here:
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+
+    @ray.remote(num_cpus=1, max_restarts=-1)
+    class EpisodeActor:
+        def run(self, episode: EpisodeSpec) -> dict[str, Any]:
+            return execute(episode, str(run_dir), record)
+
+    stats = RunStats()
+    start = time.perf_counter()
+    pending = iter(episodes)
+    actors = [EpisodeActor.remote() for _ in range(max(1, min(workers, len(episodes))))]
+    in_flight: dict[Any, tuple[Any, EpisodeSpec]] = {}
+
+    def submit(actor: Any) -> None:
+        episode = next(pending, None)
+        if episode is not None:
+            in_flight[actor.run.remote(episode)] = (actor, episode)
+
+    try:
+        for actor in actors:
+            submit(actor)
+        while in_flight:
+            done, _ = ray.wait(list(in_flight), num_returns=1)
+            ref = done[0]
+            actor, episode = in_flight.pop(ref)
+            try:
+                row = ray.get(ref)
+            except Exception as exc:  # actor died (segfault) or task error
+                row = error_row(episode, f"ray worker failed: {type(exc).__name__}")
+                stats.crashed += 1
+            on_result(row)
+            stats.finished += 1
+            submit(actor)
+    except KeyboardInterrupt:
+        stats.interrupted = True
+        for ref in in_flight:
+            ray.cancel(ref, force=True)
+    finally:
+        if started_here:
+            ray.shutdown()
+    stats.wall_time_s = time.perf_counter() - start
+    return stats
+
+
+class Executor(Protocol):
+    """Runs ``episodes`` (recordings under ``run_dir`` per the ``record`` policy), passing each
+    row to ``on_result`` as it arrives; returns how the run went."""
+
+    def __call__(
+        self, episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+    ) -> RunStats: ...
+
+
+def executor_for(backend: str, workers: int, address: str | None = None) -> Executor:
+    """The executor of a backend name: ``serial``, ``process`` or ``ray``."""
+    if backend == "serial":
+        return run_serial
+    if backend == "ray":
+        return functools.partial(run_ray, workers=workers, address=address)
+    if backend == "process":
+        return functools.partial(run_process_pool, workers=workers)
+    raise ConfigError(f"unknown backend {backend!r}; use serial, process or ray")

@@ -1,0 +1,92 @@
+"""A run directory and its lifecycle, shared by ``harness sweep`` and ``harness run``.
+
+Created with ``sweep.yaml`` (the sweep as run, every task inlined, so ``--resume`` needs nothing
+else) and, for InternDataEngine tasks, the mapping notes; reopened by ``--resume``; filled row by
+row through the append-only ``ResultStore``; finalized into ``episodes.csv`` /
+``episodes.parquet``, the report and the sweep overview recording.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
+from harness.config.interndata import write_notes
+from harness.runs.store import ResultStore
+
+SWEEP_YAML = "sweep.yaml"
+
+
+def resolved_sweep_document(sweep: SweepConfig, tasks: list[TaskConfig]) -> dict[str, Any]:
+    """The sweep as run: its settings with every task inlined (self-contained for --resume)."""
+    data = sweep.model_dump(mode="json")
+    data["tasks"] = [
+        task.model_dump(mode="json", exclude={"source"}, exclude_none=True) for task in tasks
+    ]
+    return data
+
+
+class RunDir:
+    """One run directory: its ``sweep.yaml``, its episode store, its exports and report."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.store = ResultStore(path)
+
+    @staticmethod
+    def default_path(name: str) -> Path:
+        """``reports/<name>-<date>-<time>``: where a run goes without ``--out``."""
+        return Path("reports") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}"
+
+    @classmethod
+    def existing(cls, path: Path) -> RunDir:
+        """A run directory to resume; it must hold a ``sweep.yaml``."""
+        run = cls(path)
+        if not run.sweep_yaml.is_file():
+            raise ConfigError("not a run directory (no sweep.yaml)", file=path)
+        return run
+
+    @property
+    def sweep_yaml(self) -> Path:
+        return self.path / SWEEP_YAML
+
+    def load_sweep(self) -> SweepConfig:
+        """The sweep this directory was created with (tasks inlined)."""
+        return load_sweep(self.sweep_yaml)
+
+    def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
+        """Write ``sweep.yaml``; a directory that already holds a run raises ``taken``."""
+        if self.sweep_yaml.exists():
+            raise ConfigError(taken, file=self.path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        text = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
+        self.sweep_yaml.write_text(text, encoding="utf-8")
+
+    def write_notes(self, notes: list[str]) -> Path:
+        """The InternDataEngine mapping notes (skipped skills, ignored keys, approximations)."""
+        return write_notes(self.path, notes)
+
+    def completed_ids(self) -> set[str]:
+        """Episode ids that already have a row (a resumed run skips them)."""
+        return self.store.completed_ids()
+
+    def append(self, row: dict[str, Any]) -> None:
+        """Store one episode's row (crash-safe)."""
+        self.store.append(row)
+
+    def finalize(self) -> None:
+        """Export the store, rebuild the report and the sweep overview recording."""
+        from harness.report.summary import build_report  # scipy: only once there are results
+
+        self.store.export()
+        build_report(self.path)
+        try:
+            from harness.viz.recording import record_sweep
+
+            record_sweep(self.path)
+        except ImportError:
+            pass

@@ -1,0 +1,105 @@
+"""Running one sweep episode, in whichever process: its row, its recording, its error row.
+
+``execute`` is what every executor runs per episode (in the parent, a pool worker or a Ray
+actor). Scenes stay cached per process. A worker that cannot produce an episode's row (a crash,
+a lost worker) gets an ``error_row`` from the executor instead.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from harness.row import identity_columns
+
+if TYPE_CHECKING:
+    from harness.episode import EpisodeSpec
+
+_SCENE_CACHE: dict[Any, Any] = {}
+
+
+def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str, Any]:
+    """Run one episode and return its flat row; writes its recording when chosen.
+
+    Never raises for episode-level problems: ``run_episode`` turns them into failure reasons,
+    and anything that escapes it becomes an ``error`` row here.
+    """
+    from harness.episode import run_episode  # MuJoCo and the planners: only where episodes run
+
+    start = time.perf_counter()
+    _inject_fault(episode.resolved_id)
+    try:
+        result = run_episode(episode, scene_cache=_SCENE_CACHE)
+        row = dict(result.row)
+    except Exception as exc:  # the last line of defence; run_episode already catches
+        result = None
+        row = error_row(episode, f"{type(exc).__name__}: {exc}")
+    row.update(identity_columns(episode))
+    row.setdefault("wall_time_s", time.perf_counter() - start)
+    row["worker_peak_rss_mb"] = _peak_rss_mb()
+    failed = not bool(row.get("success"))
+    wants = episode.record or (record_policy == "failures" and failed)
+    if wants and result is not None and getattr(result, "trace", None) is not None:
+        try:
+            from harness.viz.recording import record_episode
+
+            path = Path(run_dir) / "episodes" / f"{episode.resolved_id}.rrd"
+            record_episode(result, path, episode.task)
+            row["recording"] = str(path.relative_to(run_dir))
+        except Exception as exc:  # a recording problem must not lose the episode
+            row["recording_error"] = f"{type(exc).__name__}: {exc}"
+    return row
+
+
+FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"
+
+
+def _inject_fault(episode_id_: str) -> None:
+    """Fault injection for tests of crash recovery: a real segfault in the worker process.
+
+    Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list).
+    """
+    targets = os.environ.get(FAULT_ENV, "")
+    if targets and episode_id_ in targets.split(","):
+        import ctypes
+
+        ctypes.string_at(0)  # dereference NULL: SIGSEGV, as a crashing C extension would
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process in MiB.
+
+    Linux: ``VmHWM`` -- a spawned worker's ``ru_maxrss`` carries the parent's RSS across
+    fork + exec and over-reports. Elsewhere ``ru_maxrss`` (KiB on Linux, bytes on macOS).
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    import resource
+    import sys
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1024 * 1024) if sys.platform == "darwin" else peak / 1024
+
+
+def error_row(episode: EpisodeSpec, message: str) -> dict[str, Any]:
+    """The row of an episode that could not produce its own (crash, lost worker)."""
+    task = episode.task
+    row = identity_columns(episode)
+    row.update(
+        {
+            "semantics": task.pick.semantics,
+            "test_mode": task.pick.test_mode,
+            "timing": task.pick.timing,
+            "success": False,
+            "failure_reason": "error",
+            "error_message": message,
+        }
+    )
+    return row

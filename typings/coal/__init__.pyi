@@ -1,0 +1,5 @@
+# coal's Python bindings are compiled (boost.python) and ship no type information, so pyright
+# cannot see `coal.BVHModelOBBRSS`, `coal.collide`, ...; this stub types every attribute as Any.
+from typing import Any
+
+def __getattr__(name: str) -> Any: ...
