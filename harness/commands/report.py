@@ -10,7 +10,7 @@ import pandas as pd
 from rich.table import Table
 
 from harness.commands.console import make_console
-from harness.report.summary import (
+from harness.report import (
     FAIL_PREFIX,
     build_report,
     compare_runs,

@@ -15,13 +15,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LinearSegmentedColormap
 
-from harness.report.summary import (
-    FAIL_PREFIX,
-    format_value,
-    point_label,
-    pooled,
-    varying_params,
-)
+from harness.report.labels import format_value, point_label, varying_params
+from harness.report.tables import FAIL_PREFIX, pooled
 
 DPI = 110
 MAX_BARS = 60

@@ -745,7 +745,7 @@ def run_sweep(
 
 def finalize_run(run_dir: Path) -> None:
     """Export the store, rebuild the report and the sweep overview recording."""
-    from harness.report.summary import build_report
+    from harness.report import build_report
     from harness.runs.store import ResultStore
 
     store = ResultStore(run_dir)
