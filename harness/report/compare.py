@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harness.report.frames import frame_of, series_rows
 from harness.report.stats import compare_proportions
 from harness.report.tables import POINT_KEY, load_episodes, summarize
 from harness.runs.store import KEY_COLUMNS, param_columns
@@ -38,8 +39,8 @@ def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
     )
     params_frame = pd.concat(
         [
-            summary_a[[*POINT_KEY, *_present(summary_a, params)]],
-            summary_b[[*POINT_KEY, *_present(summary_b, params)]],
+            frame_of(summary_a[[*POINT_KEY, *_present(summary_a, params)]]),
+            frame_of(summary_b[[*POINT_KEY, *_present(summary_b, params)]]),
         ]
     )
     params_frame = params_frame.drop_duplicates(list(POINT_KEY), keep="first")
@@ -49,19 +50,7 @@ def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
         .map({"both": "both", "left_only": "a only", "right_only": "b only"})
         .astype("str")
     )
-    tests = []
-    for _, row in merged.iterrows():
-        if row["present"] != "both":
-            tests.append((math.nan, math.nan, math.nan, ""))
-            continue
-        result = compare_proportions(
-            int(row["successes_a"]), int(row["n_a"]), int(row["successes_b"]), int(row["n_b"])
-        )
-        tests.append((result.difference, result.z, result.p_value, result.test))
-    merged["difference"] = [t[0] for t in tests]
-    merged["z"] = [t[1] for t in tests]
-    merged["p_value"] = [t[2] for t in tests]
-    merged["test"] = pd.Series([t[3] for t in tests], index=merged.index, dtype="str")
+    _add_tests(merged)
     merged["point_id"] = merged["point_id_a"].fillna(merged["point_id_b"]).astype("int64")
     for name in ("n_a", "successes_a", "n_b", "successes_b"):
         merged[name] = merged[name].fillna(0).astype("int64")
@@ -83,7 +72,24 @@ def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
         "present",
     ]
     merged = merged.sort_values(["robot", "arm", "object", "task", "point_id"], kind="stable")
-    return merged[columns].reset_index(drop=True)
+    return frame_of(merged[columns]).reset_index(drop=True)
+
+
+def _add_tests(merged: pd.DataFrame) -> None:
+    """Columns difference, z, p_value and test of every point present in both runs."""
+    tests = []
+    for row in series_rows(merged):
+        if row["present"] != "both":
+            tests.append((math.nan, math.nan, math.nan, ""))
+            continue
+        result = compare_proportions(
+            int(row["successes_a"]), int(row["n_a"]), int(row["successes_b"]), int(row["n_b"])
+        )
+        tests.append((result.difference, result.z, result.p_value, result.test))
+    merged["difference"] = [t[0] for t in tests]
+    merged["z"] = [t[1] for t in tests]
+    merged["p_value"] = [t[2] for t in tests]
+    merged["test"] = pd.Series([t[3] for t in tests], index=merged.index, dtype="str")
 
 
 def _present(frame: pd.DataFrame, names: list[str]) -> list[str]:

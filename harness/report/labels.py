@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from harness.report.frames import column
 from harness.runs.store import param_columns
 
 
@@ -46,4 +47,8 @@ def point_label(row: pd.Series | dict[str, Any], params: list[str]) -> str:
 
 def varying_params(frame: pd.DataFrame) -> list[str]:
     """Swept parameter columns that take more than one value in ``frame``."""
-    return [name for name in param_columns(frame.columns) if frame[name].nunique(dropna=True) > 1]
+    return [
+        name
+        for name in param_columns(frame.columns)
+        if column(frame, name).nunique(dropna=True) > 1
+    ]

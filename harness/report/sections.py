@@ -9,9 +9,11 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
+from harness.report.frames import column, series_rows, tuple_rows
 from harness.report.labels import point_label, varying_params
 from harness.report.tables import (
     FAIL_PREFIX,
@@ -35,7 +37,8 @@ def _ci(lo: float, hi: float) -> str:
     return f"{lo:.2f}–{hi:.2f}"
 
 
-def _top_failures(row: pd.Series, limit: int = 2) -> str:
+def _top_failures(row: Any, limit: int = 2) -> str:
+    """The ``limit`` most frequent failures of one summary row (a Series), as ``reason count``."""
     counts = {
         c.removeprefix(FAIL_PREFIX): int(row[c])
         for c in row.index
@@ -85,7 +88,7 @@ def _overall_table(summary: pd.DataFrame) -> Table:
                 _percent(r.rate),
                 _ci(r.wilson_lo, r.wilson_hi),
             ]
-            for r in overall.sort_values(["robot", "arm", "object"]).itertuples()
+            for r in tuple_rows(overall.sort_values(["robot", "arm", "object"]))
         ],
     )
 
@@ -104,7 +107,7 @@ def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
                 _ci(r["wilson_lo"], r["wilson_hi"]),
                 str(int(r["points_compared"])),
             ]
-            for _, r in best.iterrows()
+            for r in series_rows(best)
         ],
         "Ranked by the lower bound of the 95% Wilson interval, pooled over the robot's arms "
         "and objects.",
@@ -126,7 +129,7 @@ def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
                 _ci(r["wilson_lo"], r["wilson_hi"]),
                 _top_failures(r),
             ]
-            for _, r in summary.iterrows()
+            for r in series_rows(summary)
         ],
     )
 
@@ -148,7 +151,7 @@ def _messages_table(messages: pd.DataFrame) -> Table:
         ["reason", "message", "episodes", "example episode"],
         [
             [str(r.failure_reason), str(r.message), str(r.episodes), str(r.example)]
-            for r in messages.itertuples()
+            for r in tuple_rows(messages)
         ],
         f"The {MAX_MESSAGES} most frequent messages of failed episodes "
         f"(cut at {MESSAGE_CHARS} characters).",
@@ -181,7 +184,7 @@ def _funnel_table(stages: pd.DataFrame) -> Table:
                 _percent(r.episodes_feasible),
                 _percent(r.episodes_success),
             ]
-            for r in stages.itertuples()
+            for r in tuple_rows(stages)
         ],
         "Candidate sums over all episodes; the last three columns are shares of episodes "
         "whose filter kept candidates, that found a feasible candidate, that succeeded.",
@@ -189,11 +192,12 @@ def _funnel_table(stages: pd.DataFrame) -> Table:
 
 
 def overview(run_dir: Path, frame: pd.DataFrame) -> list[tuple[str, str]]:
+    """The report's head as (key, value) pairs: run, episodes, robots, versions, time."""
     runs = sorted(set(frame["run"]) - {""})
     items = [
         ("run", ", ".join(runs) or run_dir.name),
         ("directory", str(run_dir)),
-        ("episodes", f"{len(frame)} ({int(frame['success'].sum())} successes)"),
+        ("episodes", f"{len(frame)} ({int(column(frame, 'success').sum())} successes)"),
         ("robots", ", ".join(sorted(set(frame["robot"])))),
         ("objects", ", ".join(sorted(set(frame["object"])))),
         ("semantics", ", ".join(sorted(set(frame["semantics"]) - {""})) or "?"),

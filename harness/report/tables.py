@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pandas as pd
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
+from harness.report.frames import column, frame_of
 from harness.report.stats import wilson_interval
 from harness.runs.store import JSONL_NAME, KEY_COLUMNS, ResultStore, param_columns
 
@@ -81,23 +82,23 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
     )
     rows: list[dict[str, Any]] = []
     for key, group in frame.groupby(list(POINT_KEY), sort=False, dropna=False):
-        row: dict[str, Any] = dict(zip(POINT_KEY, key, strict=True))
-        row["point_id"] = int(group["point_id"].min())
+        row: dict[str, Any] = dict(zip(POINT_KEY, cast(tuple[Any, ...], key), strict=True))
+        row["point_id"] = int(column(group, "point_id").min())
         for name in params:
             row[name] = group[name].iloc[0]
         row["n"] = len(group)
-        row["successes"] = int(group["success"].sum())
-        failed = group.loc[~group["success"], "_reason"].value_counts()
+        row["successes"] = int(column(group, "success").sum())
+        failed = group.loc[~column(group, "success"), "_reason"].value_counts()
         for reason in reasons:
             row[FAIL_PREFIX + reason] = int(failed.get(reason, 0))
-        row["median_n_passed_filter"] = float(group["n_passed_filter"].median())
-        row["median_n_feasible"] = float(group["n_feasible"].median())
-        row["median_wall_time_s"] = float(group["wall_time_s"].median())
+        row["median_n_passed_filter"] = float(column(group, "n_passed_filter").median())
+        row["median_n_feasible"] = float(column(group, "n_feasible").median())
+        row["median_wall_time_s"] = float(column(group, "wall_time_s").median())
         rows.append(row)
     summary = pd.DataFrame(rows)
     if summary.empty:
         return summary
-    rates = _rate_columns(summary["successes"], summary["n"])
+    rates = _rate_columns(column(summary, "successes"), column(summary, "n"))
     fail_columns = [FAIL_PREFIX + reason for reason in reasons]
     medians = ["median_n_passed_filter", "median_n_feasible", "median_wall_time_s"]
     ordered = [
@@ -111,7 +112,7 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         *fail_columns,
         *medians,
     ]
-    summary = pd.concat([summary, rates], axis=1)[ordered]
+    summary = frame_of(pd.concat([summary, rates], axis=1)[ordered])
     return summary.sort_values(["robot", "arm", "object", "task", "point_id"], kind="stable")
 
 
@@ -128,7 +129,7 @@ def pooled(summary: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     for name in fail_columns:
         aggregations[name] = "sum"
     out = summary.groupby(by, sort=False, dropna=False).agg(aggregations).reset_index()
-    return pd.concat([out, _rate_columns(out["successes"], out["n"])], axis=1)
+    return pd.concat([out, _rate_columns(column(out, "successes"), column(out, "n"))], axis=1)
 
 
 def best_settings(summary: pd.DataFrame) -> pd.DataFrame:
@@ -157,7 +158,7 @@ def best_settings(summary: pd.DataFrame) -> pd.DataFrame:
         "wilson_hi",
         "points_compared",
     ]
-    return best[columns].reset_index(drop=True)
+    return frame_of(best[columns]).reset_index(drop=True)
 
 
 def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
@@ -168,7 +169,7 @@ def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
     reasons = failed["failure_reason"].replace("", "unknown")
     table = pd.crosstab(failed["robot"], reasons)
     order = [r for r in failure_reasons_in(frame) if r in table.columns]
-    return table[order]
+    return frame_of(table[order])
 
 
 def funnel(frame: pd.DataFrame) -> pd.DataFrame:
@@ -180,16 +181,16 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
             {
                 "robot": robot,
                 "episodes": len(group),
-                "candidates_total": int(group["n_total"].sum()),
-                "candidates_passed_filter": int(group["n_passed_filter"].sum()),
-                "candidates_feasible": int(group["n_feasible"].sum()),
-                "candidates_succeeded": int(group["success"].sum()),
-                "median_total": float(group["n_total"].median()),
-                "median_passed_filter": float(group["n_passed_filter"].median()),
-                "median_feasible": float(group["n_feasible"].median()),
-                "episodes_filter_ok": float((group["filter_outcome"] == "ok").mean()),
-                "episodes_feasible": float((group["n_feasible"] > 0).mean()),
-                "episodes_success": float(group["success"].mean()),
+                "candidates_total": int(column(group, "n_total").sum()),
+                "candidates_passed_filter": int(column(group, "n_passed_filter").sum()),
+                "candidates_feasible": int(column(group, "n_feasible").sum()),
+                "candidates_succeeded": int(column(group, "success").sum()),
+                "median_total": float(column(group, "n_total").median()),
+                "median_passed_filter": float(column(group, "n_passed_filter").median()),
+                "median_feasible": float(column(group, "n_feasible").median()),
+                "episodes_filter_ok": float((column(group, "filter_outcome") == "ok").mean()),
+                "episodes_feasible": float((column(group, "n_feasible") > 0).mean()),
+                "episodes_success": float(column(group, "success").mean()),
             }
         )
     return pd.DataFrame(rows)
