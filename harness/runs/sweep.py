@@ -752,7 +752,7 @@ def finalize_run(run_dir: Path) -> None:
     store.export()
     build_report(run_dir)
     try:
-        from harness.viz.recording import record_sweep
+        from harness.viz.sweep_recording import record_sweep
 
         record_sweep(run_dir)
     except ImportError:
