@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from harness.commands.graspgen import summary
 from harness.errors import HarnessError, InputFileError
 from harness.objects.assets import (
     ObjectAsset,
@@ -23,6 +24,14 @@ from harness.objects.assets import (
     load_mesh,
     load_object_info,
     resolve_mesh,
+)
+from harness.objects.graspgen import generate_grasps
+from harness.objects.shapes import (
+    DEFAULT_OBJECTS,
+    FIT_FRACTION,
+    GRIPPER_MAX_WIDTHS,
+    default_object,
+    obj_text,
 )
 from harness.viz.object_render import render_object
 
@@ -59,8 +68,6 @@ def _load_for_show(name: str) -> tuple[ObjectAsset, dict[str, Any] | None]:
 
 def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
     """Human-readable lines about an asset."""
-    from harness.commands.graspgen import summary
-
     lo, hi = asset.bounds
     mesh = asset.mesh
     piece_vertices = sum(len(v) for v, _ in asset.collision_pieces)
@@ -105,8 +112,6 @@ def show(args: argparse.Namespace) -> int:
 
 def gripper_fit(widths: np.ndarray) -> dict[str, dict[str, float]]:
     """Per gripper: its maximum opening and the fraction of grasp widths within it."""
-    from harness.objects.shapes import GRIPPER_MAX_WIDTHS
-
     return {
         name: {
             "max_width": max_width,
@@ -122,9 +127,6 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
     The grasps are generated from the mesh as re-read from the written OBJ, so regenerating them
     from the file with ``harness grasps generate`` and the same seed gives the same bytes.
     """
-    from harness.objects.graspgen import generate_grasps
-    from harness.objects.shapes import FIT_FRACTION, default_object, obj_text
-
     spec = default_object(name)
     folder = out_root / name
     folder.mkdir(parents=True, exist_ok=True)
@@ -166,8 +168,6 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
 
 
 def build(args: argparse.Namespace) -> int:
-    from harness.objects.shapes import DEFAULT_OBJECTS
-
     known = [spec.name for spec in DEFAULT_OBJECTS]
     names = args.only or known
     unknown = [name for name in names if name not in known]

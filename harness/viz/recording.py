@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.robots.model import RobotModel
 from harness.transforms import quat_to_matrix, wxyz_to_xyzw
 
 APP_ID = "pick-harness"
@@ -278,8 +279,6 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
 
 def _log_candidates(rec: Any, trace: Any, task: Any) -> None:
     """Every grasp candidate as an arrow along its approach axis, one entity per verdict."""
-    from harness.robots.model import RobotModel
-
     rr = _rr()
     robot = RobotModel.load(task.robot)
     convention = robot.convention
