@@ -11,10 +11,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import TypeAlias
 
 from harness import __version__
 from harness.errors import HarnessError
+
+# The object ``add_subparsers`` returns (argparse has no public name for its type).
+Subparsers: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 
 def _handler(module: str, function: str):
@@ -45,11 +49,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"pick-harness {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for add_command in COMMANDS:
+        add_command(sub)
+    return parser
 
+
+def _add_validate(sub: Subparsers) -> None:
+    """``harness validate FILE...``"""
     p = sub.add_parser("validate", help="validate task and sweep YAML files")
     p.add_argument("files", nargs="+", metavar="FILE")
     p.set_defaults(func=_handler("validate", "main"))
 
+
+def _add_run(sub: Subparsers) -> None:
+    """``harness run [TASK.yaml] [--interndata TASK.yaml] ...``"""
     p = sub.add_parser("run", help="run episodes of one task and write a run directory")
     p.add_argument("task", nargs="?", metavar="TASK.yaml")
     p.add_argument("--interndata", metavar="TASK.yaml", help="an InternDataEngine task YAML")
@@ -64,6 +77,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record", default="failures", help="none|failures|all|sample:N")
     p.set_defaults(func=_handler("run", "main"))
 
+
+def _add_sweep(sub: Subparsers) -> None:
+    """``harness sweep [SWEEP.yaml] [--resume RUN_DIR] ...``"""
     p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
     p.add_argument("sweep", metavar="SWEEP.yaml", nargs="?")
     p.add_argument("--out", metavar="DIR")
@@ -76,20 +92,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=_handler("sweep", "main"))
 
+
+def _add_report(sub: Subparsers) -> None:
+    """``harness report RUN_DIR``"""
     p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.set_defaults(func=_handler("report", "main"))
 
+
+def _add_compare(sub: Subparsers) -> None:
+    """``harness compare RUN_A RUN_B [--csv FILE]``"""
     p = sub.add_parser("compare", help="per-point success-rate differences between two runs")
     p.add_argument("run_a", metavar="RUN_A")
     p.add_argument("run_b", metavar="RUN_B")
     p.add_argument("--csv", metavar="FILE")
     p.set_defaults(func=_handler("report", "compare"))
 
+
+def _add_view(sub: Subparsers) -> None:
+    """``harness view FILE.rrd``"""
     p = sub.add_parser("view", help="open a Rerun recording (or say how to)")
     p.add_argument("file", metavar="FILE.rrd")
     p.set_defaults(func=_handler("view", "main"))
 
+
+def _add_grasps(sub: Subparsers) -> None:
+    """``harness grasps inspect | generate``"""
     grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
     gsub = grasps.add_subparsers(dest="grasps_command", metavar="SUBCOMMAND", required=True)
     p = gsub.add_parser("inspect", help="filter and order the grasps of a file for a robot")
@@ -119,6 +147,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-width", type=float, default=0.1)
     p.set_defaults(func=_handler("graspgen", "generate"))
 
+
+def _add_robots(sub: Subparsers) -> None:
+    """``harness robots list | show``"""
     robots = sub.add_parser("robots", help="list and show robots")
     rsub = robots.add_subparsers(dest="robots_command", metavar="SUBCOMMAND", required=True)
     p = rsub.add_parser("list", help="list the robots")
@@ -128,6 +159,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--render", metavar="FILE.png")
     p.set_defaults(func=_handler("robots", "show"))
 
+
+def _add_objects(sub: Subparsers) -> None:
+    """``harness objects list | show | build``"""
     objects = sub.add_parser("objects", help="list, show and build objects")
     osub = objects.add_subparsers(dest="objects_command", metavar="SUBCOMMAND", required=True)
     p = osub.add_parser("list", help="list the default objects")
@@ -141,12 +175,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--num", type=int, default=3000)
     p.set_defaults(func=_handler("objects", "build"))
 
+
+def _add_bench(sub: Subparsers) -> None:
+    """``harness bench [--quick] [--json FILE] [--only SECTION...]``"""
     p = sub.add_parser("bench", help="measure speed on this machine")
     p.add_argument("--quick", action="store_true")
     p.add_argument("--json", metavar="FILE")
     p.add_argument("--only", nargs="+", metavar="SECTION")
     p.set_defaults(func=_handler("bench", "main"))
-    return parser
+
+
+# Every command's parser builder, in the order of ``harness --help``.
+COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
+    _add_validate,
+    _add_run,
+    _add_sweep,
+    _add_report,
+    _add_compare,
+    _add_view,
+    _add_grasps,
+    _add_robots,
+    _add_objects,
+    _add_bench,
+)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -25,13 +25,7 @@ import pytest
 from harness.cli import main as cli_main
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
-from harness.report.stats import (
-    compare_proportions,
-    fisher_exact_p,
-    two_proportion_z_test,
-    wilson_interval,
-)
-from harness.report.summary import (
+from harness.report import (
     best_settings,
     build_report,
     compare_runs,
@@ -40,6 +34,12 @@ from harness.report.summary import (
     load_episodes,
     pooled,
     summarize,
+)
+from harness.report.stats import (
+    compare_proportions,
+    fisher_exact_p,
+    two_proportion_z_test,
+    wilson_interval,
 )
 from harness.runs.store import ResultStore
 
@@ -263,7 +263,7 @@ def test_report_from_the_store_exports_episodes(tmp_path: Path) -> None:
 
 
 def test_failure_messages_are_listed_most_frequent_first(fixture_run: Path) -> None:
-    from harness.report.summary import error_messages
+    from harness.report import error_messages
 
     frame = load_episodes(fixture_run)
     empty = frame.index[frame["failure_reason"] == "filter_empty"]

@@ -17,6 +17,7 @@ Targets (FR3, ik mode, TOPP-RA): median episode under 0.2 s, wall / bare physics
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -60,30 +61,50 @@ def run(quick: bool) -> list[Figure]:
         return figures
 
 
-def _task_figures(name: str, count: int, pinned: str) -> list[Figure]:
-    """Wall time and its parts for ``count`` seeded episodes of one canonical task."""
-    task = load_task(TASKS_DIR / f"{name}.yaml")
+@dataclass
+class EpisodeTimes:
+    """Per-episode wall time and its parts for one canonical task (lists in seed order)."""
+
+    walls: list[float] = field(default_factory=list)
+    setups: list[float] = field(default_factory=list)
+    plans: list[float] = field(default_factory=list)
+    sims: list[float] = field(default_factory=list)
+    ratios: list[float] = field(default_factory=list)
+    bares: list[float] = field(default_factory=list)
+    steps: list[float] = field(default_factory=list)
+    successes: int = 0
+
+
+def _measure(task: Any, count: int) -> EpisodeTimes:
+    """Run ``count`` seeded episodes on one cached scene (built and warmed up first)."""
     cache: dict[str, Any] = {}
     run_episode(EpisodeSpec(task=task, seed=10_000), cache)  # build the scene, warm up
-    walls, setups, plans, sims, ratios, bares = [], [], [], [], [], []
-    steps, successes = [], 0
+    times = EpisodeTimes()
     for seed in range(count):
         result = run_episode(EpisodeSpec(task=task, seed=seed, log_ctrl=True), cache)
         row = result.row
-        successes += bool(row["success"])
-        walls.append(row["wall_time_s"])
-        setups.append(result.timings.get("setup_s", float("nan")))
-        plans.append(result.timings.get("plan_s", float("nan")))
-        sims.append(result.timings.get("sim_s", float("nan")))
+        times.successes += bool(row["success"])
+        times.walls.append(row["wall_time_s"])
+        times.setups.append(result.timings.get("setup_s", float("nan")))
+        times.plans.append(result.timings.get("plan_s", float("nan")))
+        times.sims.append(result.timings.get("sim_s", float("nan")))
         if result.ctrl_log:
             bare = bare_physics_time(result, seed)
-            bares.append(bare)
-            ratios.append(row["wall_time_s"] / bare)
-            steps.append(
+            times.bares.append(bare)
+            times.ratios.append(row["wall_time_s"] / bare)
+            times.steps.append(
                 row["sim_steps"]
                 + result.timings.get("settle_steps", 0.0)
                 + result.timings.get("warmup_steps", 0.0)
             )
+    return times
+
+
+def _task_figures(name: str, count: int, pinned: str) -> list[Figure]:
+    """Wall time and its parts for ``count`` seeded episodes of one canonical task."""
+    task = load_task(TASKS_DIR / f"{name}.yaml")
+    times = _measure(task, count)
+    walls, steps, bares, successes = times.walls, times.steps, times.bares, times.successes
     label = f"{name} ({task.pick.test_mode}, {task.pick.timing})"
     extra = {
         "successes": successes,
@@ -107,21 +128,21 @@ def _task_figures(name: str, count: int, pinned: str) -> list[Figure]:
         figure(
             SECTION,
             f"{label}: setup (reset + settle) per episode",
-            setups,
+            times.setups,
             "s",
             notes="placement, home + noise, settling physics",
         ),
         figure(
             SECTION,
             f"{label}: planning per episode",
-            plans,
+            times.plans,
             "s",
             notes="candidates, feasibility tests, plan, timing (episodes that reached execution)",
         ),
         figure(
             SECTION,
             f"{label}: simulation per episode",
-            sims,
+            times.sims,
             "s",
             notes="the executed control loop: controller, physics, checks, trace",
         ),
@@ -135,7 +156,7 @@ def _task_figures(name: str, count: int, pinned: str) -> list[Figure]:
         figure(
             SECTION,
             f"{label}: wall / bare mj_step",
-            ratios,
+            times.ratios,
             "x",
             target=RATIO_TARGET.get(name),
             notes="per episode, same run: whole episode over its physics alone",

@@ -38,6 +38,9 @@ EXAMPLE = (
 DEFAULT_OBJECTS = Path(__file__).resolve().parents[2] / "tasks" / "objects"
 MILLION_GRASPS = 500_000  # -> 1,000,000 poses
 
+# The filters in their YAML form (as PickConfig parses them).
+PICK_FILTERS = {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]}
+
 
 def grasp_source() -> tuple[Path, str]:
     """The grasp file to time and a label for the notes: the example file, else a default
@@ -84,7 +87,7 @@ def run(quick: bool) -> list[Figure]:
 def _figures(quick: bool, pinned: str) -> list[Figure]:
     source, label = grasp_source()
     convention = REFERENCE_CONVENTIONS["fr3"]
-    pick = PickConfig(filter_x_dir=["forward", 90], filter_z_dir=["downward", 140])
+    pick = PickConfig.model_validate(PICK_FILTERS)
     T_base_obj = make_T(yaw_matrix(35.0, degrees=True), [0.5, 0.05, 0.02])
     example = load_grasp_file(source)
     rows = len(example)

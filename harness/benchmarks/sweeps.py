@@ -243,25 +243,6 @@ def run(quick: bool) -> list[Figure]:
     twos = [r.two for r in rounds]
     runs = ones + twos
     what = f"{count} FR3 episodes per run (ik, toppra), {len(rounds)} round(s)"
-    references = [s for r in rounds for s in r.calibration.scalings]
-    per_run = [
-        {
-            "workers": run.workers,
-            "steady_rate": run.steady_rate,
-            "steady_count": run.steady_count,
-            "steady_window_s": run.steady_window_s,
-            "overall_rate": run.overall_rate,
-            "wall_s": run.wall_s,
-            "first_result_s": run.first_result_s,
-            "successes": run.successes,
-            "others_cpus": run.cpu.others_cpus,
-            "steal_cpus": run.cpu.steal_cpus,
-            "own_cpus": run.cpu.own_cpus,
-            "load_start": run.load_start,
-            "load_end": run.load_end,
-        }
-        for run in runs
-    ]
     figures = [
         figure(
             SECTION,
@@ -273,33 +254,8 @@ def run(quick: bool) -> list[Figure]:
         )
         for workers, group in ((1, ones), (2, twos))
     ]
-    figures.append(
-        figure(
-            SECTION,
-            "scaling 1 -> 2 workers (steady state)",
-            [r.scaling for r in rounds],
-            "x",
-            target=SCALING_TARGET,
-            higher_is_better=True,
-            notes=_scaling_notes(rounds),
-            extra={"runs": per_run},
-        )
-    )
-    figures.append(
-        figure(
-            SECTION,
-            "machine reference: CPU-bound loop, 1 -> 2 processes",
-            references,
-            "x",
-            higher_is_better=True,
-            notes="pure-Python loop, processes started before timing; what this machine gave "
-            "perfectly parallel work during this section",
-            extra={
-                "single_s": [s for r in rounds for s in r.calibration.single_s],
-                "parallel_s": [p for r in rounds for p in r.calibration.parallel_s],
-            },
-        )
-    )
+    figures.append(_scaling_figure(rounds, runs))
+    figures.append(_reference_figure(rounds))
     figures.append(
         figure(
             SECTION,
@@ -344,3 +300,55 @@ def run(quick: bool) -> list[Figure]:
             )
         )
     return figures
+
+
+def _run_record(run: PoolRun) -> dict[str, Any]:
+    """One pool run's figures for the scaling figure's extra."""
+    return {
+        "workers": run.workers,
+        "steady_rate": run.steady_rate,
+        "steady_count": run.steady_count,
+        "steady_window_s": run.steady_window_s,
+        "overall_rate": run.overall_rate,
+        "wall_s": run.wall_s,
+        "first_result_s": run.first_result_s,
+        "successes": run.successes,
+        "others_cpus": run.cpu.others_cpus,
+        "steal_cpus": run.cpu.steal_cpus,
+        "own_cpus": run.cpu.own_cpus,
+        "load_start": run.load_start,
+        "load_end": run.load_end,
+    }
+
+
+def _scaling_figure(rounds: list[Round], runs: list[PoolRun]) -> Figure:
+    """Steady-state scaling from 1 to 2 workers, every pool run in extra."""
+    per_run = [_run_record(run) for run in runs]
+    return figure(
+        SECTION,
+        "scaling 1 -> 2 workers (steady state)",
+        [r.scaling for r in rounds],
+        "x",
+        target=SCALING_TARGET,
+        higher_is_better=True,
+        notes=_scaling_notes(rounds),
+        extra={"runs": per_run},
+    )
+
+
+def _reference_figure(rounds: list[Round]) -> Figure:
+    """The machine's own scaling of a CPU-bound loop during this section."""
+    references = [s for r in rounds for s in r.calibration.scalings]
+    return figure(
+        SECTION,
+        "machine reference: CPU-bound loop, 1 -> 2 processes",
+        references,
+        "x",
+        higher_is_better=True,
+        notes="pure-Python loop, processes started before timing; what this machine gave "
+        "perfectly parallel work during this section",
+        extra={
+            "single_s": [s for r in rounds for s in r.calibration.single_s],
+            "parallel_s": [p for r in rounds for p in r.calibration.parallel_s],
+        },
+    )

@@ -16,6 +16,7 @@ import numpy as np
 from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
 from harness.planning.timing import (
+    Trajectory,
     ruckig_through,
     time_parameterize_ruckig,
     time_parameterize_toppra,
@@ -62,11 +63,23 @@ def run(quick: bool) -> list[Figure]:
 
 def _figures(quick: bool) -> list[Figure]:
     reps = 20 if quick else 100
-    figures: list[Figure] = []
     pick = pick_waypoints()
     straight = pick[[0, -1]]
     planner = planner_waypoints()
+    figures = _toppra_figures(reps, straight, pick, planner)
+    figures.append(_ruckig_single_figure(reps, straight))
+    toppra_pick = time_parameterize_toppra(pick, VEL, ACC)
+    chained = ruckig_through(pick, VEL, ACC, JERK)
+    figures.append(_ruckig_chained_figure(reps, pick, toppra_pick, chained))
+    figures.extend(_sampling_figures(reps, toppra_pick, chained))
+    return figures
 
+
+def _toppra_figures(
+    reps: int, straight: np.ndarray, pick: np.ndarray, planner: np.ndarray
+) -> list[Figure]:
+    """TOPP-RA time per trajectory, for each path and grid size."""
+    figures: list[Figure] = []
     cases = (
         ("2 waypoints", straight, None, TOPPRA_TARGET_MS),
         ("5 waypoints", pick, None, TOPPRA_TARGET_MS),
@@ -96,41 +109,49 @@ def _figures(quick: bool) -> list[Figure]:
                 },
             )
         )
+    return figures
 
+
+def _ruckig_single_figure(reps: int, straight: np.ndarray) -> Figure:
+    """Ruckig time per rest-to-rest move along the straight path."""
     ruckig_single = time_parameterize_ruckig(straight[0], straight[1], VEL, ACC, JERK)
     samples = time_call(
         lambda: time_parameterize_ruckig(straight[0], straight[1], VEL, ACC, JERK), reps * 10
     )
-    figures.append(
-        figure(
-            SECTION,
-            "Ruckig time per rest-to-rest move",
-            samples,
-            "ms",
-            1e3,
-            target=RUCKIG_TARGET_MS,
-            notes="7 DoF, Phase synchronisation (straight joint-space line), incl. Python setup",
-            extra={"trajectory_duration_s": ruckig_single.duration},
-        )
-    )
-    toppra_pick = time_parameterize_toppra(pick, VEL, ACC)
-    chained = ruckig_through(pick, VEL, ACC, JERK)
-    samples = time_call(lambda: ruckig_through(pick, VEL, ACC, JERK), reps)
-    figures.append(
-        figure(
-            SECTION,
-            "Ruckig chained through 5 waypoints",
-            samples,
-            "ms",
-            1e3,
-            notes="stops at every waypoint; duration ratio vs TOPP-RA on the same path in extra",
-            extra={
-                "trajectory_duration_s": chained.duration,
-                "duration_ratio_vs_toppra": chained.duration / toppra_pick.duration,
-            },
-        )
+    return figure(
+        SECTION,
+        "Ruckig time per rest-to-rest move",
+        samples,
+        "ms",
+        1e3,
+        target=RUCKIG_TARGET_MS,
+        notes="7 DoF, Phase synchronisation (straight joint-space line), incl. Python setup",
+        extra={"trajectory_duration_s": ruckig_single.duration},
     )
 
+
+def _ruckig_chained_figure(
+    reps: int, pick: np.ndarray, toppra_pick: Trajectory, chained: Trajectory
+) -> Figure:
+    """Ruckig chained through the pick's waypoints, its duration against TOPP-RA's in extra."""
+    samples = time_call(lambda: ruckig_through(pick, VEL, ACC, JERK), reps)
+    return figure(
+        SECTION,
+        "Ruckig chained through 5 waypoints",
+        samples,
+        "ms",
+        1e3,
+        notes="stops at every waypoint; duration ratio vs TOPP-RA on the same path in extra",
+        extra={
+            "trajectory_duration_s": chained.duration,
+            "duration_ratio_vs_toppra": chained.duration / toppra_pick.duration,
+        },
+    )
+
+
+def _sampling_figures(reps: int, toppra_pick: Trajectory, chained: Trajectory) -> list[Figure]:
+    """Sampling cost of both trajectories on a 500 Hz grid."""
+    figures: list[Figure] = []
     for label, trajectory in (("TOPP-RA", toppra_pick), ("Ruckig", chained)):
         grid = trajectory.time_grid(0.002)
         samples = time_call(lambda t=trajectory, g=grid: t.sample_many(g), reps)

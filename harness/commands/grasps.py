@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from harness.grasps import (
 )
 from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
+
+if TYPE_CHECKING:  # matplotlib is imported only when a plot is asked for
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 
 def robot_convention(name: str, arm: str) -> GripperConvention:
@@ -194,7 +197,7 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
     candidates = np.unique(selection.order.indices)
 
     fig = plt.figure(figsize=(8, 7))
-    ax = fig.add_subplot(projection="3d")
+    ax = cast("Axes3D", fig.add_subplot(projection="3d"))
     u, v = np.mgrid[0 : 2 * np.pi : 37j, 0 : np.pi : 19j]
     ax.plot_wireframe(
         np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color="0.85", linewidth=0.4
@@ -212,7 +215,8 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
         )
     for axis_vec, name in ((np.eye(3)[0], "+X forward"), (np.eye(3)[2], "+Z up")):
         ax.quiver(0, 0, 0, *(1.35 * axis_vec), color="tab:blue", arrow_length_ratio=0.08)
-        ax.text(*(1.45 * axis_vec), name, color="tab:blue")
+        x, y, z = 1.45 * axis_vec
+        ax.text(x, y, z, name, color="tab:blue")
     ax.set_xlabel("base x (forward)")
     ax.set_ylabel("base y (left)")
     ax.set_zlabel("base z (up)")

@@ -1,13 +1,13 @@
 """``harness objects list | show | build``: the default object set and any mesh.
 
 ``show --render FILE.png`` draws three offscreen MuJoCo views side by side: the mesh, its convex
-collision pieces, and a sample of its grasps as gripper boxes (coloured by score, green = 0.1).
+collision pieces, and a sample of its grasps as gripper boxes (coloured by score, green = 0.1),
+drawn by ``harness.viz.object_render``.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from harness.commands.graspgen import summary
 from harness.errors import HarnessError, InputFileError
 from harness.objects.assets import (
     ObjectAsset,
@@ -23,7 +24,16 @@ from harness.objects.assets import (
     load_object_info,
     resolve_mesh,
 )
+from harness.objects.graspgen import generate_grasps
 from harness.objects.meshes import load_mesh
+from harness.objects.shapes import (
+    DEFAULT_OBJECTS,
+    FIT_FRACTION,
+    GRIPPER_MAX_WIDTHS,
+    default_object,
+    obj_text,
+)
+from harness.viz.object_render import render_object
 
 # --------------------------------------------------------------------------------------------
 # list / show
@@ -58,8 +68,6 @@ def _load_for_show(name: str) -> tuple[ObjectAsset, dict[str, Any] | None]:
 
 def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
     """Human-readable lines about an asset."""
-    from harness.commands.graspgen import summary
-
     lo, hi = asset.bounds
     mesh = asset.mesh
     piece_vertices = sum(len(v) for v, _ in asset.collision_pieces)
@@ -99,137 +107,11 @@ def show(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------------------------
-# Rendering
-
-
-def _score_colour(score: float) -> list[float]:
-    """Green for 0.1 through yellow to red for 1.0."""
-    t = float(np.clip((score - 0.1) / 0.9, 0.0, 1.0))
-    return [min(1.0, 2 * t), min(1.0, 2 * (1 - t)), 0.1, 1.0]
-
-
-def render_object(
-    asset: ObjectAsset,
-    out: Path,
-    n_grasps: int = 8,
-    size: tuple[int, int] = (400, 480),
-    seed: int = 0,
-) -> Path:
-    """Offscreen MuJoCo render: mesh | collision pieces | sampled grasps, saved as one PNG."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-    from PIL import Image, ImageDraw
-
-    from harness.objects.graspgen import GripperModel, grasp_boxes
-
-    spec = mujoco.MjSpec()
-    spec.visual.global_.offwidth = size[1]
-    spec.visual.global_.offheight = size[0]
-    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
-    spec.visual.headlight.diffuse = [0.55, 0.55, 0.55]
-    sky = spec.add_texture()
-    sky.name = "sky"
-    sky.type = mujoco.mjtTexture.mjTEXTURE_SKYBOX
-    sky.builtin = mujoco.mjtBuiltin.mjBUILTIN_GRADIENT
-    sky.rgb1, sky.rgb2 = [1.0, 1.0, 1.0], [0.78, 0.8, 0.86]
-    sky.width = sky.height = 64
-    world = spec.worldbody
-    light = world.add_light()
-    light.pos = [0.3, -0.3, 0.6]
-    light.dir = [-0.4, 0.4, -1.0]
-
-    def add_mesh(name: str, vertices: np.ndarray, faces: np.ndarray, rgba, group: int) -> None:
-        mesh = spec.add_mesh()
-        mesh.name = name
-        mesh.uservert = np.asarray(vertices, dtype=np.float32).ravel()
-        mesh.userface = np.asarray(faces, dtype=np.int32).ravel()
-        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-        geom = world.add_geom()
-        geom.type = mujoco.mjtGeom.mjGEOM_MESH
-        geom.meshname = name
-        geom.rgba = rgba
-        geom.group = group
-        geom.contype = geom.conaffinity = 0
-
-    add_mesh("object", asset.vertices, asset.faces, [0.75, 0.72, 0.65, 1.0], 0)
-    palette = np.array(
-        [[0.9, 0.4, 0.3], [0.3, 0.6, 0.9], [0.4, 0.8, 0.4], [0.9, 0.8, 0.3], [0.7, 0.4, 0.9]]
-    )
-    for i, (vertices, faces) in enumerate(asset.collision_pieces):
-        add_mesh(f"piece{i}", vertices, faces, [*palette[i % len(palette)], 1.0], 1)
-    add_mesh("ghost", asset.vertices, asset.faces, [0.75, 0.72, 0.65, 0.45], 2)
-    shown = 0
-    if asset.grasp_path is not None:
-        grasps = np.asarray(np.load(asset.grasp_path), dtype=np.float64)
-        if grasps.ndim == 2 and grasps.shape[1] == 17 and len(grasps):
-            rng = np.random.default_rng(seed)
-            rows = grasps[np.sort(rng.choice(len(grasps), min(n_grasps, len(grasps)), False))]
-            # thin GraspNet-style drawing: two fingers, a palm and a tail along -g_x
-            thin = GripperModel(
-                finger_thickness=0.002, height=0.004, palm_thickness=0.002, approach_clearance=0.0
-            )
-            for row in rows:
-                boxes = grasp_boxes(row, thin, 0.5 * row[1])
-                rotation = boxes[0][0]
-                tail_centre = np.array([row[3] - thin.finger_length - 0.017, 0.0, 0.0])
-                boxes.append(
-                    (
-                        rotation,
-                        row[13:16] + rotation @ tail_centre,
-                        np.array([0.03, 0.002, 0.004]),
-                    )
-                )
-                for rotation, centre, box_size in boxes:
-                    geom = world.add_geom()
-                    geom.type = mujoco.mjtGeom.mjGEOM_BOX
-                    geom.size = 0.5 * np.asarray(box_size)
-                    geom.pos = centre
-                    quat = np.zeros(4)
-                    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).ravel())
-                    geom.quat = quat
-                    geom.rgba = _score_colour(row[0])
-                    geom.group = 3
-                    geom.contype = geom.conaffinity = 0
-                shown += 1
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    lo, hi = asset.bounds
-    camera = mujoco.MjvCamera()
-    camera.lookat[:] = 0.5 * (lo + hi)
-    camera.distance = 1.7 * float(np.linalg.norm(hi - lo)) + 0.12
-    camera.azimuth, camera.elevation = 135.0, -28.0
-    panels = []
-    titles = [
-        f"{asset.path.name}: {len(asset.vertices)} vertices",
-        f"collision: {len(asset.collision_pieces)} convex pieces",
-        f"{shown} random grasps (green = score 0.1, red = 1.0)" if shown else "no grasp file",
-    ]
-    with mujoco.Renderer(model, size[0], size[1]) as renderer:
-        for groups in ((0,), (1,), (2, 3)):
-            option = mujoco.MjvOption()
-            option.geomgroup[:] = 0
-            for g in groups:
-                option.geomgroup[g] = 1
-            renderer.update_scene(data, camera, option)
-            panels.append(renderer.render().copy())
-    image = Image.fromarray(np.concatenate(panels, axis=1))
-    draw = ImageDraw.Draw(image)
-    for i, title in enumerate(titles):
-        draw.text((i * size[1] + 8, 6), title, fill=(20, 20, 20))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    image.save(out)
-    return out
-
-
-# --------------------------------------------------------------------------------------------
 # build
 
 
 def gripper_fit(widths: np.ndarray) -> dict[str, dict[str, float]]:
     """Per gripper: its maximum opening and the fraction of grasp widths within it."""
-    from harness.objects.shapes import GRIPPER_MAX_WIDTHS
-
     return {
         name: {
             "max_width": max_width,
@@ -245,9 +127,6 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
     The grasps are generated from the mesh as re-read from the written OBJ, so regenerating them
     from the file with ``harness grasps generate`` and the same seed gives the same bytes.
     """
-    from harness.objects.graspgen import generate_grasps
-    from harness.objects.shapes import FIT_FRACTION, default_object, obj_text
-
     spec = default_object(name)
     folder = out_root / name
     folder.mkdir(parents=True, exist_ok=True)
@@ -289,8 +168,6 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
 
 
 def build(args: argparse.Namespace) -> int:
-    from harness.objects.shapes import DEFAULT_OBJECTS
-
     known = [spec.name for spec in DEFAULT_OBJECTS]
     names = args.only or known
     unknown = [name for name in names if name not in known]

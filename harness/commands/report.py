@@ -10,7 +10,7 @@ import pandas as pd
 from rich.table import Table
 
 from harness.commands.console import make_console
-from harness.report.summary import (
+from harness.report import (
     FAIL_PREFIX,
     build_report,
     compare_runs,
@@ -18,6 +18,8 @@ from harness.report.summary import (
     point_label,
     varying_params,
 )
+from harness.report.frames import column as column_of
+from harness.report.frames import frame_of, series_rows
 
 SIGNIFICANCE = 0.05
 
@@ -30,7 +32,7 @@ def main(args: argparse.Namespace) -> int:
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
-    for _, row in best.iterrows():
+    for row in series_rows(best):
         console.print(
             f"best for [bold]{row['robot']}[/]: {point_label(row, params)} — "
             f"{row['successes']}/{row['n']} ({row['rate']:.0%}, 95% CI "
@@ -63,7 +65,7 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
     for column in ("k/n", "rate", "95% CI", "top failure"):
         table.add_column(column, justify="right")
     fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
-    for _, row in summary.iterrows():
+    for row in series_rows(summary):
         fails = {c.removeprefix(FAIL_PREFIX): int(row[c]) for c in fail_columns if row[c] > 0}
         top = max(sorted(fails), key=fails.__getitem__) if fails else ""
         table.add_row(
@@ -89,7 +91,7 @@ def compare(args: argparse.Namespace) -> int:
         table.add_column(column)
     for column in ("A", "B", "B - A", "p", "test"):
         table.add_column(column, justify="right")
-    for _, row in comparison.iterrows():
+    for row in series_rows(comparison):
         a = f"{row['successes_a']}/{row['n_a']}" if row["n_a"] else "—"
         b = f"{row['successes_b']}/{row['n_b']}" if row["n_b"] else "—"
         if row["present"] == "both":
@@ -113,8 +115,8 @@ def compare(args: argparse.Namespace) -> int:
             str(row["test"]),
         )
     console.print(table)
-    both = comparison[comparison["present"] == "both"]
-    significant = int((both["p_value"] < SIGNIFICANCE).sum())
+    both = frame_of(comparison[comparison["present"] == "both"])
+    significant = int((column_of(both, "p_value") < SIGNIFICANCE).sum())
     console.print(
         f"{len(both)} matched point(s), {significant} with p < {SIGNIFICANCE} "
         f"(not corrected for multiple comparisons)",

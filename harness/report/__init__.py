@@ -1,0 +1,50 @@
+"""Run reports: per-point success with Wilson intervals, failure breakdown, best settings, plots.
+
+``build_report(run_dir)`` reads the run's episodes (``harness.runs.store.ResultStore``) and writes
+summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build``);
+``compare_runs(run_a, run_b)`` matches points between two runs and tests each rate difference
+(``harness.report.compare``). The package's modules, each one concept:
+
+- ``tables``: the run's episodes and the data tables computed from them (DataFrames);
+- ``labels``: parameter values and sweep points as text for people;
+- ``sections``: the overview and the formatted tables shared by Markdown and HTML;
+- ``plots``: the matplotlib figures; ``render``: report.md and report.html;
+- ``stats``: Wilson intervals and two-proportion tests.
+"""
+
+from harness.report.build import BEST_NAME, SUMMARY_NAME, ReportPaths, build_report
+from harness.report.compare import compare_runs
+from harness.report.labels import format_value, point_label, varying_params
+from harness.report.tables import (
+    FAIL_PREFIX,
+    POINT_KEY,
+    best_settings,
+    error_messages,
+    failure_reasons_in,
+    failure_totals,
+    funnel,
+    load_episodes,
+    pooled,
+    summarize,
+)
+
+__all__ = [
+    "BEST_NAME",
+    "FAIL_PREFIX",
+    "POINT_KEY",
+    "SUMMARY_NAME",
+    "ReportPaths",
+    "best_settings",
+    "build_report",
+    "compare_runs",
+    "error_messages",
+    "failure_reasons_in",
+    "failure_totals",
+    "format_value",
+    "funnel",
+    "load_episodes",
+    "point_label",
+    "pooled",
+    "summarize",
+    "varying_params",
+]

@@ -5,6 +5,7 @@ point, and the candidate funnel. Each function writes one PNG and returns its pa
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import matplotlib
 
@@ -13,15 +14,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from matplotlib.colors import LinearSegmentedColormap
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import LinearSegmentedColormap, Normalize
+from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
-from harness.report.summary import (
-    FAIL_PREFIX,
-    format_value,
-    point_label,
-    pooled,
-    varying_params,
-)
+from harness.report.frames import column, frame_of, series_of, series_rows, tuple_rows
+from harness.report.labels import format_value, point_label, varying_params
+from harness.report.tables import FAIL_PREFIX, pooled
 
 DPI = 110
 MAX_BARS = 60
@@ -46,20 +47,21 @@ RATE_CMAP = LinearSegmentedColormap.from_list("rate", ["#cf222e", "#f2cc60", "#2
 
 def _axis_order(summary: pd.DataFrame, column: str) -> list:
     """Values of a parameter axis: numeric ascending, otherwise in sweep (point) order."""
-    values = summary[[column, "point_id"]].dropna(subset=[column])
+    values = frame_of(summary[[column, "point_id"]]).dropna(subset=[column])
     if pd.api.types.is_numeric_dtype(summary[column]):
         return sorted(values[column].unique().tolist())
-    first_seen = values.groupby(column, sort=False)["point_id"].min().sort_values(kind="stable")
+    first_seen = series_of(values.groupby(column, sort=False)["point_id"].min())
+    first_seen = first_seen.sort_values(kind="stable")
     return first_seen.index.tolist()
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     fig.savefig(path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)
     return path
 
 
-def _grid(count: int, width: float, height: float) -> tuple[plt.Figure, list[plt.Axes]]:
+def _grid(count: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
     cols = min(3, count)
     rows = -(-count // cols)
     fig, axes = plt.subplots(
@@ -97,10 +99,10 @@ def _success_heatmap(
     height = 1.4 + 0.55 * len(y_values)
     fig, axes = _grid(len(robots), max(width, 3.6), max(height, 2.6))
     for ax, robot in zip(axes, robots, strict=True):
-        cells = pooled(summary[summary["robot"] == robot], [x_axis, y_axis])
+        cells = pooled(frame_of(summary[summary["robot"] == robot]), [x_axis, y_axis])
         rate = np.full((len(y_values), len(x_values)), np.nan)
         labels: dict[tuple[int, int], str] = {}
-        for _, values in cells.iterrows():
+        for values in series_rows(cells):
             i = y_values.index(values[y_axis])
             j = x_values.index(values[x_axis])
             rate[i, j] = values["rate"]
@@ -130,19 +132,20 @@ def _success_heatmap(
         ax.set_xticks(range(len(x_values)), [format_value(v) for v in x_values], fontsize=8)
         ax.set_yticks(range(len(y_values)), [format_value(v) for v in y_values], fontsize=8)
         ax.set_xlabel(x_axis.removeprefix("param."), fontsize=9)
-        if ax.get_subplotspec().is_first_col():
+        subplot = ax.get_subplotspec()
+        if subplot is not None and subplot.is_first_col():
             ax.set_ylabel(y_axis.removeprefix("param."), fontsize=9)
         ax.set_title(robot, fontsize=11, fontweight="bold")
         plt.setp(ax.get_xticklabels(), rotation=30 if cell_width > 1.0 else 0, ha="right")
     note = f" (pooled over {', '.join(o.removeprefix('param.') for o in others)})" if others else ""
     fig.suptitle(f"Success rate per robot{note}", fontsize=12)
-    mappable = plt.cm.ScalarMappable(cmap=RATE_CMAP, norm=plt.Normalize(0, 1))
+    mappable = ScalarMappable(cmap=RATE_CMAP, norm=Normalize(0, 1))
     fig.colorbar(mappable, ax=axes, shrink=0.8, label="success rate", format="{x:.0%}")
     return _save(fig, path)
 
 
 def _bars_with_ci(
-    ax: plt.Axes, positions: np.ndarray, table: pd.DataFrame, width: float, colour: str, label: str
+    ax: Axes, positions: np.ndarray, table: pd.DataFrame, width: float, colour: str, label: str
 ) -> None:
     rates = table["rate"].to_numpy(dtype=float)
     lower = np.clip(rates - table["wilson_lo"].to_numpy(dtype=float), 0, None)
@@ -175,7 +178,7 @@ def _success_bars(summary: pd.DataFrame, axis: str, path: Path) -> Path:
     width = 0.8 / len(robots)
     fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + len(values) * len(robots) * 0.6), 4.2))
     for index, robot in enumerate(robots):
-        table = pooled(summary[summary["robot"] == robot], [axis]).set_index(axis)
+        table = pooled(frame_of(summary[summary["robot"] == robot]), [axis]).set_index(axis)
         table = table.reindex([v for v in values if v in table.index])
         positions = np.array([values.index(v) for v in table.index], dtype=float)
         positions += (index - (len(robots) - 1) / 2) * width
@@ -201,19 +204,20 @@ def _success_per_task(summary: pd.DataFrame, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(max(5.0, 1.0 + 0.9 * len(table)), 4.2))
     positions = np.arange(len(table), dtype=float)
     for robot, rows in table.groupby("robot", sort=True):
-        _bars_with_ci(ax, positions[rows.index], rows, 0.7, colours[robot], robot)
+        name = cast(str, robot)
+        _bars_with_ci(ax, positions[rows.index], rows, 0.7, colours[name], name)
     ax.set_xticks(
-        positions, [f"{r.robot}\n{r.arm} · {r.object}" for r in table.itertuples()], fontsize=8
+        positions, [f"{r.robot}\n{r.arm} · {r.object}" for r in tuple_rows(table)], fontsize=8
     )
     _rate_axis(ax)
     ax.set_title("Success rate with 95% Wilson interval")
     return _save(fig, path)
 
 
-def _rate_axis(ax: plt.Axes) -> None:
+def _rate_axis(ax: Axes) -> None:
     ax.set_ylim(0, 1.12)
     ax.set_yticks(np.linspace(0, 1, 6))
-    ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:.0%}"))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0%}"))
     ax.set_ylabel("success rate")
     ax.grid(axis="y", color="#eaeef2")
     ax.set_axisbelow(True)
@@ -255,7 +259,7 @@ def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
     reasons = [
         c.removeprefix(FAIL_PREFIX)
         for c in table.columns
-        if c.startswith(FAIL_PREFIX) and table[c].sum() > 0
+        if c.startswith(FAIL_PREFIX) and column(table, c).sum() > 0
     ]
     height = 1.6 + 0.32 * len(table)
     longest = max(len(label) for label in labels)
@@ -278,7 +282,7 @@ def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
             height=0.75,
         )
         for yi, start, count in zip(y, left, counts, strict=True):
-            if count > 0 and count / max(table["n"].max(), 1) > 0.06:
+            if count > 0 and count / max(column(table, "n").max(), 1) > 0.06:
                 ax.text(
                     start + count / 2,
                     yi,
@@ -322,7 +326,7 @@ def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
         "candidates_succeeded",
     ]
     width = 0.8 / max(len(robots), 1)
-    for index, row in stages.reset_index(drop=True).iterrows():
+    for index, row in enumerate(series_rows(stages.reset_index(drop=True))):
         values = row[columns].to_numpy(dtype=float)
         positions = np.arange(len(names)) + (index - (len(robots) - 1) / 2) * width
         bars = left.bar(
@@ -351,7 +355,7 @@ def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
 
     shares = ["episodes_filter_ok", "episodes_feasible", "episodes_success"]
     share_names = ["filter kept\ncandidates", "feasible\ncandidate", "success"]
-    for index, row in stages.reset_index(drop=True).iterrows():
+    for index, row in enumerate(series_rows(stages.reset_index(drop=True))):
         values = row[shares].to_numpy(dtype=float)
         positions = np.arange(len(shares)) + (index - (len(robots) - 1) / 2) * width
         right.bar(positions, values, width * 0.92, color=colours[row["robot"]])

@@ -70,7 +70,9 @@ def fisher_exact_p(k1: int, n1: int, k2: int, n2: int) -> float:
     if n1 == 0 or n2 == 0:
         return math.nan
     table = [[k1, n1 - k1], [k2, n2 - k2]]
-    return float(scipy_stats.fisher_exact(table, alternative="two-sided").pvalue)
+    result = scipy_stats.fisher_exact(table, alternative="two-sided")
+    # scipy's decorator hides the result type (a SignificanceResult with .pvalue).
+    return float(result.pvalue)  # pyright: ignore[reportAttributeAccessIssue]
 
 
 @dataclass(frozen=True)

@@ -80,12 +80,12 @@ class RunDir:
 
     def finalize(self) -> None:
         """Export the store, rebuild the report and the sweep overview recording."""
-        from harness.report.summary import build_report  # scipy: only once there are results
+        from harness.report import build_report  # scipy: only once there are results
 
         self.store.export()
         build_report(self.path)
         try:
-            from harness.viz.recording import record_sweep
+            from harness.viz.sweep_recording import record_sweep
 
             record_sweep(self.path)
         except ImportError:

@@ -1,10 +1,10 @@
-"""Rerun recordings of episodes and sweeps (rerun-sdk 0.41).
+"""Rerun recordings of episodes (rerun-sdk 0.41); the sweep's is in ``harness.viz.sweep_recording``.
 
 Per episode: the scene geometry read from the MuJoCo model (one entity per body, animated by
 replaying the recorded ``qpos`` through forward kinematics), every grasp candidate as an arrow
 along its approach axis coloured by verdict, the planned and executed TCP paths, joint positions,
 gripper width, finger forces and object height on a ``sim_time`` timeline, phase events as a text
-log, and the verdict. Per sweep: success rate with its Wilson interval per point.
+log, and the verdict.
 
 Quaternions are wxyz inside the harness; Rerun wants xyzw, converted here and nowhere else.
 Logged transforms are float32 in Rerun, so read-back checks must not expect 1e-9 agreement.
@@ -12,13 +12,12 @@ Logged transforms are float32 in Rerun, so read-back checks must not expect 1e-9
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from harness.markdown import markdown_table
+from harness.robots import RobotModel
 from harness.transforms import quat_to_matrix, wxyz_to_xyzw
 
 APP_ID = "pick-harness"
@@ -84,9 +83,6 @@ def body_entity(model: Any, body_id: int, root: str = "/world") -> str:
 
 def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
     """Log every collision geom (group 0-2) statically in its body frame; returns body ids used."""
-    import mujoco
-
-    rr = _rr()
     bodies: dict[int, list[int]] = {}
     for geom_id in range(model.ngeom):
         if model.geom_group[geom_id] > 2 or model.geom_rgba[geom_id, 3] == 0:
@@ -95,75 +91,89 @@ def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
     for body_id, geoms in bodies.items():
         entity = body_entity(model, body_id, root)
         for geom_id in geoms:
-            kind = _geom_kind(model, geom_id)
-            color = GEOM_COLORS[kind]
-            pos = model.geom_pos[geom_id]
-            quat_xyzw = wxyz_to_xyzw(model.geom_quat[geom_id])
-            size = model.geom_size[geom_id]
-            gtype = model.geom_type[geom_id]
-            path = f"{entity}/geom{geom_id}"
-            if gtype == mujoco.mjtGeom.mjGEOM_BOX:
-                archetype = rr.Boxes3D(
-                    half_sizes=[size],
-                    centers=[pos],
-                    quaternions=[quat_xyzw],
-                    colors=[color],
-                    fill_mode="solid",
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_SPHERE:
-                archetype = rr.Ellipsoids3D(
-                    half_sizes=[[size[0]] * 3], centers=[pos], colors=[color], fill_mode="solid"
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-                archetype = rr.Ellipsoids3D(
-                    half_sizes=[size],
-                    centers=[pos],
-                    quaternions=[quat_xyzw],
-                    colors=[color],
-                    fill_mode="solid",
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_CAPSULE:
-                R = quat_to_matrix(model.geom_quat[geom_id])
-                start = pos - R[:, 2] * size[1]
-                archetype = rr.Capsules3D(
-                    lengths=[2 * size[1]],
-                    radii=[size[0]],
-                    translations=[start],
-                    quaternions=[quat_xyzw],
-                    colors=[color],
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_CYLINDER:
-                archetype = rr.Cylinders3D(
-                    lengths=[2 * size[1]],
-                    radii=[size[0]],
-                    centers=[pos],
-                    quaternions=[quat_xyzw],
-                    colors=[color],
-                    fill_mode="solid",
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_MESH:
-                mesh_id = model.geom_dataid[geom_id]
-                v0, nv = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
-                f0, nf = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
-                R = quat_to_matrix(model.geom_quat[geom_id])
-                vertices = model.mesh_vert[v0 : v0 + nv] @ R.T + pos
-                archetype = rr.Mesh3D(
-                    vertex_positions=vertices,
-                    triangle_indices=model.mesh_face[f0 : f0 + nf],
-                    albedo_factor=[*color, 255],
-                )
-            elif gtype == mujoco.mjtGeom.mjGEOM_PLANE:
-                extent = size[:2] if np.all(size[:2] > 0) else np.array([1.0, 1.0])
-                archetype = rr.Boxes3D(
-                    half_sizes=[[extent[0], extent[1], 1e-4]],
-                    centers=[pos],
-                    colors=[color],
-                    fill_mode="solid",
-                )
-            else:
+            archetype = _geom_archetype(model, geom_id)
+            if archetype is None:
                 continue
-            rec.log(path, archetype, static=True)
+            rec.log(f"{entity}/geom{geom_id}", archetype, static=True)
     return sorted(bodies)
+
+
+def _geom_archetype(model: Any, geom_id: int) -> Any:
+    """The Rerun archetype drawing one geom in its body frame; None for unsupported types."""
+    import mujoco
+
+    rr = _rr()
+    kind = _geom_kind(model, geom_id)
+    color = GEOM_COLORS[kind]
+    pos = model.geom_pos[geom_id]
+    quat_xyzw = wxyz_to_xyzw(model.geom_quat[geom_id])
+    size = model.geom_size[geom_id]
+    gtype = model.geom_type[geom_id]
+    if gtype == mujoco.mjtGeom.mjGEOM_BOX:
+        return rr.Boxes3D(
+            half_sizes=[size],
+            centers=[pos],
+            quaternions=[quat_xyzw],
+            colors=[color],
+            fill_mode="solid",
+        )
+    if gtype == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return rr.Ellipsoids3D(
+            half_sizes=[[size[0]] * 3], centers=[pos], colors=[color], fill_mode="solid"
+        )
+    if gtype == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        return rr.Ellipsoids3D(
+            half_sizes=[size],
+            centers=[pos],
+            quaternions=[quat_xyzw],
+            colors=[color],
+            fill_mode="solid",
+        )
+    if gtype == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        R = quat_to_matrix(model.geom_quat[geom_id])
+        start = pos - R[:, 2] * size[1]
+        return rr.Capsules3D(
+            lengths=[2 * size[1]],
+            radii=[size[0]],
+            translations=[start],
+            quaternions=[quat_xyzw],
+            colors=[color],
+        )
+    if gtype == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return rr.Cylinders3D(
+            lengths=[2 * size[1]],
+            radii=[size[0]],
+            centers=[pos],
+            quaternions=[quat_xyzw],
+            colors=[color],
+            fill_mode="solid",
+        )
+    if gtype == mujoco.mjtGeom.mjGEOM_MESH:
+        return _mesh_archetype(model, geom_id, pos, color)
+    if gtype == mujoco.mjtGeom.mjGEOM_PLANE:
+        extent = size[:2] if np.all(size[:2] > 0) else np.array([1.0, 1.0])
+        return rr.Boxes3D(
+            half_sizes=[[extent[0], extent[1], 1e-4]],
+            centers=[pos],
+            colors=[color],
+            fill_mode="solid",
+        )
+    return None
+
+
+def _mesh_archetype(model: Any, geom_id: int, pos: np.ndarray, color: tuple[int, int, int]) -> Any:
+    """A mesh geom as a Mesh3D, its vertices moved into the body frame."""
+    rr = _rr()
+    mesh_id = model.geom_dataid[geom_id]
+    v0, nv = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
+    f0, nf = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
+    R = quat_to_matrix(model.geom_quat[geom_id])
+    vertices = model.mesh_vert[v0 : v0 + nv] @ R.T + pos
+    return rr.Mesh3D(
+        vertex_positions=vertices,
+        triangle_indices=model.mesh_face[f0 : f0 + nf],
+        albedo_factor=[*color, 255],
+    )
 
 
 def log_series(
@@ -202,106 +212,6 @@ def episode_blueprint():
 
 
 # --------------------------------------------------------------------------------------------
-# Sweep overview
-
-
-def record_sweep(run_dir: Path) -> Path | None:
-    """``recording.rrd``: success rate and Wilson interval per point and task, plus a summary."""
-    import pandas as pd
-    import rerun.blueprint as rrb
-
-    rr = _rr()
-    run_dir = Path(run_dir)
-    summary_path = run_dir / "summary.csv"
-    if not summary_path.is_file():
-        return None
-    summary = pd.read_csv(summary_path)
-    path = run_dir / "recording.rrd"
-    rec = new_recording(path, f"sweep-{run_dir.name}")
-    rec.send_blueprint(
-        rrb.Blueprint(
-            rrb.Horizontal(
-                rrb.TimeSeriesView(name="success rate per point", origin="/sweep"),
-                rrb.Vertical(
-                    rrb.TextDocumentView(name="summary", origin="/summary"),
-                    rrb.TextLogView(name="episodes", origin="/episodes"),
-                ),
-            )
-        )
-    )
-    group_column = "task" if "task" in summary.columns else "robot"
-    for group, frame in summary.groupby(group_column, sort=True):
-        frame = frame.sort_values("point_id") if "point_id" in frame.columns else frame
-        entity = f"/sweep/{str(group).replace('/', '_')}"
-        points = (
-            frame["point_id"].to_numpy() if "point_id" in frame.columns else np.arange(len(frame))
-        )
-        values = frame[["rate", "wilson_lo", "wilson_hi"]].to_numpy(dtype=float)
-        rec.log(entity, rr.SeriesLines(names=["rate", "wilson_lo", "wilson_hi"]), static=True)
-        rec.send_columns(
-            entity,
-            indexes=[rr.TimeColumn("point", sequence=points.astype(np.int64))],
-            columns=rr.Scalars.columns(scalars=values),
-        )
-    rec.log(
-        "/summary",
-        rr.TextDocument(_summary_markdown(summary), media_type="text/markdown"),
-        static=True,
-    )
-    episodes_csv = run_dir / "episodes.csv"
-    if episodes_csv.is_file():
-        episodes = pd.read_csv(episodes_csv)
-        for order, row in enumerate(episodes.itertuples(index=False)):
-            rec.set_time("episode", sequence=order)
-            ok = bool(getattr(row, "success", False))
-            reason = getattr(row, "failure_reason", "")
-            reason = "" if (isinstance(reason, float) and np.isnan(reason)) else reason
-            text = (
-                f"{row.episode_id}: {'success' if ok else 'failure ' + str(reason)}"
-                f" point {getattr(row, 'point', '')}"
-            )
-            level = rr.TextLogLevel.INFO if ok else rr.TextLogLevel.WARN
-            rec.log("/episodes", rr.TextLog(text, level=level))
-    rec.disconnect()
-    return path
-
-
-def _summary_markdown(summary: Any) -> str:
-    columns = [
-        c
-        for c in (
-            "task",
-            "robot",
-            "arm",
-            "object",
-            "point",
-            "n",
-            "successes",
-            "rate",
-            "wilson_lo",
-            "wilson_hi",
-        )
-        if c in summary.columns
-    ]
-    columns += [c for c in summary.columns if c.startswith("param.") and c not in columns]
-    rows = [
-        [f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.tolist()]
-        for _, row in summary[columns].iterrows()
-    ]
-    lines = markdown_table(columns, rows)
-    return "# Sweep summary\n\n" + "\n".join(lines)
-
-
-def point_label(point: Any) -> str:
-    if isinstance(point, str):
-        try:
-            point = json.loads(point)
-        except json.JSONDecodeError:
-            return point
-    return ", ".join(f"{k}={v}" for k, v in dict(point).items()) or "default"
-
-
-# --------------------------------------------------------------------------------------------
 # Episodes
 
 MAX_FRAME_RATE = 30.0  # Hz of logged body transforms; physics runs at 500 Hz
@@ -337,8 +247,6 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model)."""
     import mujoco
 
-    from harness.robots import RobotModel
-
     rr = _rr()
     trace = result.trace
     model = result.model
@@ -356,7 +264,22 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         data.mocap_quat[:] = trace.mocap_quat
     frames = _frame_indices(np.asarray(trace.time))
     _log_body_motion_with_mocap(rec, model, data, trace.time[frames], trace.qpos[frames], body_ids)
+    _log_candidates(rec, trace, task)
+    _log_tcp_paths(rec, trace, frames)
 
+    times = np.asarray(trace.time, dtype=float)
+    _log_plots(rec, trace, times)
+    for t, text in trace.events:
+        rec.set_time("sim_time", duration=float(t))
+        rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+    _log_verdict(rec, row, times)
+    rec.disconnect()
+    return Path(path)
+
+
+def _log_candidates(rec: Any, trace: Any, task: Any) -> None:
+    """Every grasp candidate as an arrow along its approach axis, one entity per verdict."""
+    rr = _rr()
     robot = RobotModel.load(task.robot)
     convention = robot.convention
     tcp_offset = task.pick.tcp_offset or convention.tcp_offset
@@ -376,6 +299,11 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
             ),
             static=True,
         )
+
+
+def _log_tcp_paths(rec: Any, trace: Any, frames: np.ndarray) -> None:
+    """The planned and the executed TCP paths, and the executed TCP at each logged frame."""
+    rr = _rr()
     if len(trace.planned_tcp):
         rec.log(
             "/world/plan/tcp",
@@ -395,7 +323,9 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
             columns=rr.Points3D.columns(positions=tcp[frames]).partition([1] * len(frames)),
         )
 
-    times = np.asarray(trace.time, dtype=float)
+
+def _log_plots(rec: Any, trace: Any, times: np.ndarray) -> None:
+    """Object height, finger forces, gripper width and joint positions over sim_time."""
     if len(times):
         log_series(rec, "/plots/object_z", times, trace.object_pose[:, 2], ["object z (m)"])
         log_series(
@@ -407,9 +337,11 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         )
         log_series(rec, "/plots/gripper_width", times, trace.gripper_width, ["width (m)"])
         log_series(rec, "/plots/joints", times, trace.q, list(trace.joint_names))
-    for t, text in trace.events:
-        rec.set_time("sim_time", duration=float(t))
-        rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+
+
+def _log_verdict(rec: Any, row: dict[str, Any], times: np.ndarray) -> None:
+    """The verdict as the last event at the episode's end, and as a text document."""
+    rr = _rr()
     verdict = "SUCCESS" if row.get("success") else f"FAILURE: {row.get('failure_reason', '')}"
     end = float(times[-1]) if len(times) else 0.0
     rec.set_time("sim_time", duration=end)
@@ -420,8 +352,6 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         rr.TextDocument(_verdict_markdown(row, verdict), media_type="text/markdown"),
         static=True,
     )
-    rec.disconnect()
-    return Path(path)
 
 
 def _log_body_motion_with_mocap(
