@@ -140,10 +140,10 @@ def test_inspect_errors(bottle: Path, tmp_path: Path, capsys: pytest.CaptureFixt
 def test_robot_convention_comes_from_robot_yaml() -> None:
     from harness.commands.grasps import robot_convention
     from harness.errors import HarnessError
-    from harness.grasps import REFERENCE_CONVENTIONS
+    from harness.robots.facts import reference_convention
 
     convention = robot_convention("lift2", "right")
-    assert convention.ee_axis == REFERENCE_CONVENTIONS["lift2"].ee_axis == "x"
+    assert convention.ee_axis == reference_convention("lift2").ee_axis == "x"
     with pytest.raises(HarnessError, match="available robots: fr3, lift2, split_aloha"):
         robot_convention("ur5", "left")
     with pytest.raises(HarnessError, match="no right arm"):

@@ -17,7 +17,6 @@ from scipy.stats import chisquare
 from harness.config import AxisFilter, ConfigError, PickConfig
 from harness.errors import InputFileError
 from harness.grasps import (
-    REFERENCE_CONVENTIONS,
     GraspSet,
     base_frame_poses,
     check_strict_filters,
@@ -32,9 +31,13 @@ from harness.grasps import (
     strict_order,
     top_by_score,
 )
+from harness.robots.facts import reference_convention
 from harness.transforms import make_T, yaw_matrix
 
 ROBOTS = ("fr3", "lift2", "split_aloha")
+# Each robot's grasp convention from its robots/<name>/robot.yaml (test_robot.py checks those
+# values against the reference robot configs).
+REFERENCE_CONVENTIONS = {robot: reference_convention(robot) for robot in ROBOTS}
 CANONICAL = {  # pick-skill.md section 9
     "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
     "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},

@@ -18,7 +18,6 @@ from hypothesis import strategies as st
 from harness.config import AxisFilter, ConfigError, TaskConfig, parse_text
 from harness.config.interndata import (
     CATEGORY_ORIENTATIONS,
-    REFERENCE_ROBOT_HOMES,
     InternDataPick,
     load_interndata_tasks,
     parse_object_substitutions,
@@ -27,6 +26,7 @@ from harness.config.interndata import (
     split_substitute,
     suggested_orientations,
 )
+from harness.robots.facts import interndata_home
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 ROBOTS_DIR = PROJECT_ROOT / "robots"
@@ -268,7 +268,7 @@ def test_sort_the_rubbish_maps_both_arms_in_phase_order(
         assert task.robot_placement is not None
         assert task.robot_placement.pos_range == ((0.0, -0.86, -0.775), (0.0, -0.86, -0.725))
         # No home override in this file: the reference robot file's home, without noise.
-        assert task.home == REFERENCE_ROBOT_HOMES["split_aloha"] == [0.0] * 6
+        assert task.home == interndata_home("split_aloha", "left") == [0.0] * 6
         assert task.home_noise_std == [0.0] * 6
         # Both bottles are in both scenes; the garbage cans' assets are absent, so left out.
         assert [obj.name for obj in task.objects] == ["pick_object_left", "pick_object_right"]

@@ -20,8 +20,15 @@ from scipy.spatial.transform import Rotation
 
 from harness.config import AxisFilter, ConfigError
 from harness.errors import HarnessError
-from harness.grasps import REFERENCE_CONVENTIONS, filter_ee_poses, load_grasp_file, post_process
+from harness.grasps import GripperConvention, filter_ee_poses, load_grasp_file, post_process
 from harness.robots import ROBOTS_DIR, RobotModel, available_robots
+from harness.robots.facts import (
+    interndata_home,
+    interndata_robots,
+    max_jaw_opening,
+    reference_convention,
+    robot_arms,
+)
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses, set_configuration
 
 ROBOTS = ["fr3", "lift2", "split_aloha"]
@@ -57,6 +64,37 @@ def test_load_by_name_path_and_folder(robot: RobotModel) -> None:
     by_folder = RobotModel.load(str(robot.yaml_path.parent))
     assert by_path.urdf_path == by_folder.urdf_path == robot.urdf_path
     assert robot.urdf_path == ROBOTS_DIR / robot.name / f"{robot.name}.urdf"
+
+
+# The reference robot configs' grasp conventions (InternDataEngine fr3.yaml, lift2.yaml,
+# split_aloha.yaml; docs/reference-pick-skill.md section 3), written out here as the expected
+# values that robots/<name>/robot.yaml must reproduce.
+REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
+    "fr3": GripperConvention(
+        R_ee_graspnet=np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+        ee_axis="z",
+        facing_axis="x",
+        tcp_offset=0.1043,
+        gripper_min_width=0.0,
+        gripper_max_width=0.08,
+    ),
+    "lift2": GripperConvention(
+        R_ee_graspnet=np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
+        ee_axis="x",
+        facing_axis="z",
+        tcp_offset=0.125,
+        gripper_min_width=0.0,
+        gripper_max_width=0.088,
+    ),
+    "split_aloha": GripperConvention(
+        R_ee_graspnet=np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]),
+        ee_axis="z",
+        facing_axis="y",
+        tcp_offset=0.12,
+        gripper_min_width=0.0,
+        gripper_max_width=0.10,
+    ),
+}
 
 
 def test_convention_equals_reference(robot: RobotModel) -> None:
@@ -388,6 +426,8 @@ def test_joint_missing_from_urdf_names_file_and_key(tmp_path: Path) -> None:
         ("tcp_offset: 0.1043", "tcp_ofset: 0.1043", "convention.tcp_ofset", "unknown key"),
         ("approach_axis: z", "approach_axis: x", "convention", "must equal ee_axis"),
         ("frictionloss: [1.137,", "frictionloss: [", "arms.left", "entries for 7 joints"),
+        ("left: [0.0, -0.785, 0.0,", "left: [0.0,", "interndata.home.left", "5 values for 7 arm"),
+        ("  home:\n    left:", "  home:\n    right:", "interndata.home.right", "no right arm"),
     ],
 )
 def test_bad_robot_yaml_is_located(
@@ -399,3 +439,21 @@ def test_bad_robot_yaml_is_located(
     assert info.value.file == str(path)
     assert info.value.key == key
     assert message in str(info.value)
+
+
+def test_robot_facts_come_from_the_robot_folders() -> None:
+    """Every robot fact a tool needs is read from robots/<name>/robot.yaml (no Python tables)."""
+    assert interndata_robots() == {
+        "fr3.yaml": "fr3",
+        "lift2.yaml": "lift2",
+        "split_aloha.yaml": "split_aloha",
+    }
+    assert robot_arms("fr3") == ("left",) and robot_arms("lift2") == ("left", "right")
+    assert interndata_home("fr3", "left") == [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+    assert interndata_home("split_aloha", "right") == [0.0] * 6
+    assert [max_jaw_opening(r) for r in ("fr3", "lift2", "split_aloha")] == [0.08, 0.088, 0.07]
+    for robot in ("fr3", "lift2", "split_aloha"):
+        expected = REFERENCE_CONVENTIONS[robot]
+        convention = reference_convention(robot)
+        assert convention.tcp_offset == expected.tcp_offset
+        np.testing.assert_array_equal(convention.R_ee_graspnet, expected.R_ee_graspnet)

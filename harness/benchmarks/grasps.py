@@ -21,12 +21,12 @@ from harness.benchmarks.framework import Figure, figure, time_call
 from harness.benchmarks.machine import one_core
 from harness.config import PickConfig
 from harness.grasps import (
-    REFERENCE_CONVENTIONS,
     GraspSet,
     load_grasp_file,
     post_process,
     select_candidates,
 )
+from harness.robots.facts import reference_convention
 from harness.transforms import make_T, yaw_matrix
 
 SECTION = "grasps"
@@ -86,7 +86,7 @@ def run(quick: bool) -> list[Figure]:
 
 def _figures(quick: bool, pinned: str) -> list[Figure]:
     source, label = grasp_source()
-    convention = REFERENCE_CONVENTIONS["fr3"]
+    convention = reference_convention("fr3")
     pick = PickConfig.model_validate(PICK_FILTERS)
     T_base_obj = make_T(yaw_matrix(35.0, degrees=True), [0.5, 0.05, 0.02])
     example = load_grasp_file(source)

@@ -29,10 +29,11 @@ from harness.objects.meshes import load_mesh
 from harness.objects.shapes import (
     DEFAULT_OBJECTS,
     FIT_FRACTION,
-    GRIPPER_MAX_WIDTHS,
     default_object,
     obj_text,
 )
+from harness.robots import available_robots
+from harness.robots.facts import max_jaw_opening
 from harness.viz.object_render import render_object
 
 # --------------------------------------------------------------------------------------------
@@ -111,13 +112,17 @@ def show(args: argparse.Namespace) -> int:
 
 
 def gripper_fit(widths: np.ndarray) -> dict[str, dict[str, float]]:
-    """Per gripper: its maximum opening and the fraction of grasp widths within it."""
+    """Per gripper: its maximum opening and the fraction of grasp widths within it.
+
+    The openings are each bundled robot's jaw opening (``open_width`` in robots/<name>/robot.yaml).
+    """
+    openings = {name: max_jaw_opening(name) for name in available_robots()}
     return {
         name: {
             "max_width": max_width,
             "fraction": round(float(np.mean(widths <= max_width)) if len(widths) else 0.0, 3),
         }
-        for name, max_width in GRIPPER_MAX_WIDTHS.items()
+        for name, max_width in openings.items()
     }
 
 

@@ -13,7 +13,6 @@ loop over grasps:
   / ``facing_filter`` <-> per-axis ``filter_{x,y,z}_dir``;
 - :func:`reference_order` / :func:`strict_order` -> :class:`CandidateOrder` (``candidates``);
 - :func:`select_candidates` -> :class:`CandidateSelection` (``selection``): all of it for one pick;
-- ``REFERENCE_CONVENTIONS`` (``reference_conventions``): the project robots' reference values.
 
 This package only re-exports; its modules import each other directly.
 """
@@ -38,13 +37,11 @@ from harness.grasps.filters import (
     resolve_filters,
 )
 from harness.grasps.grasp_set import GraspSet, load_grasp_file
-from harness.grasps.reference_conventions import REFERENCE_CONVENTIONS
 from harness.grasps.selection import CandidateSelection, select_candidates
 
 __all__ = [
     "AXES",
     "CANDIDATE_BATCH",
-    "REFERENCE_CONVENTIONS",
     "CandidateOrder",
     "CandidateSelection",
     "EEPoses",

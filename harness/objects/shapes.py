@@ -284,9 +284,6 @@ class DefaultObject:
     orientations: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 0.0),)
 
 
-# Maximum gripper openings (m), robots.md section 1. Split ALOHA's Piper opens 0.07 m per the SDK;
-# the reference's Split ALOHA model allows 0.10 m.
-GRIPPER_MAX_WIDTHS: dict[str, float] = {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.07}
 FIT_FRACTION = 0.1  # a gripper "fits" an object when at least this fraction of its grasps fits
 
 DEFAULT_OBJECTS: tuple[DefaultObject, ...] = (

@@ -26,10 +26,11 @@ import numpy as np
 from harness.config import Placement, read_yaml, validate_model
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
+from harness.robots.facts import gripper_convention
 from harness.robots.registry import resolve_robot_yaml
 from harness.robots.spec import ArmSpec, LiftSpec, RobotFile
 from harness.robots.urdf import UrdfInfo, UrdfJoint, read_urdf
-from harness.robots.validation import check_against_urdf, located_error
+from harness.robots.validation import check_against_urdf, check_interndata_block, located_error
 
 
 @dataclass(frozen=True)
@@ -68,15 +69,7 @@ class RobotModel:
         self.arms: dict[str, ArmSpec] = {
             name: arm.model_copy(update={"name": name}) for name, arm in spec.arms.items()
         }
-        c = spec.convention
-        self.convention = GripperConvention(
-            R_ee_graspnet=np.asarray(c.R_ee_graspnet, dtype=float),
-            ee_axis=c.ee_axis,
-            facing_axis=c.facing_axis,
-            tcp_offset=c.tcp_offset,
-            gripper_min_width=c.gripper_min_width,
-            gripper_max_width=c.gripper_max_width,
-        )
+        self.convention: GripperConvention = gripper_convention(spec.convention)
         self.lift: LiftSpec | None = spec.lift
         self.lift_joint: str | None = spec.lift.joint if spec.lift else None
         self.lift_home: float | None = spec.lift.home if spec.lift else None
@@ -95,6 +88,7 @@ class RobotModel:
             raise located_error(doc, ("urdf",), f"URDF file not found: {urdf_path}")
         urdf = read_urdf(urdf_path)
         check_against_urdf(spec, urdf, doc)
+        check_interndata_block(spec, doc)
         return cls(spec, yaml_path, urdf, urdf_path)
 
     # ---- joints and limits

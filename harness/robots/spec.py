@@ -149,6 +149,18 @@ class ConventionSpec(_Strict):
         return self
 
 
+class InternDataSpec(_Strict):
+    """How InternDataEngine task files name this robot, and the defaults they take from it."""
+
+    robot_config_file: str = Field(
+        min_length=1,
+        description="Basename of the reference robot config a task's robots entry names.",
+    )
+    home: dict[str, list[FiniteFloat]] = Field(
+        description="Arm home in that config, used when a task file sets no <arm>_joint_home."
+    )
+
+
 class RobotFile(_Strict):
     """Top level of robot.yaml."""
 
@@ -160,3 +172,4 @@ class RobotFile(_Strict):
     convention: ConventionSpec
     arms: dict[Literal["left", "right"], ArmSpec] = Field(min_length=1)
     lift: LiftSpec | None = None
+    interndata: InternDataSpec | None = None

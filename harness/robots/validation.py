@@ -19,6 +19,19 @@ def located_error(doc: YamlDocument, key: KeyPath, message: str) -> ConfigError:
     return ConfigError(message, file=doc.path, line=doc.line_of(key), key=format_key_path(key))
 
 
+def check_interndata_block(spec: RobotFile, doc: YamlDocument) -> None:
+    """The ``interndata`` block's homes name existing arms, one value per arm joint."""
+    if spec.interndata is None:
+        return
+    for arm, home in spec.interndata.home.items():
+        key: KeyPath = ("interndata", "home", arm)
+        if arm not in spec.arms:
+            raise located_error(doc, key, f"the robot has no {arm} arm")
+        joints = len(spec.arms[arm].joints)  # pyright: ignore[reportArgumentType]
+        if len(home) != joints:
+            raise located_error(doc, key, f"{len(home)} values for {joints} arm joints")
+
+
 def check_against_urdf(spec: RobotFile, urdf: UrdfInfo, doc: YamlDocument) -> None:
     links = set(urdf.links)
 

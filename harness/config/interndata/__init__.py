@@ -26,7 +26,7 @@ the key in it (``tasks[0].objects[0].path``), whatever harness key the value end
 Modules: ``loader`` (the entry point), ``interpolation`` (``${...}``), ``resolver`` (robots,
 objects, regions, skills of a task entry), ``mapper`` (a pick skill -> ``TaskConfig``),
 ``categories`` / ``orientations`` (object orientations), ``keys`` (what happens to each key),
-``robot_tables`` (the robots mapped), ``substitutes`` (``--object``), ``result`` and ``notes``
+``substitutes`` (``--object``), ``result`` and ``notes``
 (what a run takes from the file). This package re-exports the public names.
 """
 
@@ -42,21 +42,13 @@ from harness.config.interndata.loader import load_interndata_tasks
 from harness.config.interndata.notes import NOTES_FILE, note_lines, summary_lines, write_notes
 from harness.config.interndata.orientations import random_orientations, suggested_orientations
 from harness.config.interndata.result import InternDataPick, SkippedSkill
-from harness.config.interndata.robot_tables import (
-    REFERENCE_ROBOT_HOMES,
-    ROBOT_ARMS,
-    SUPPORTED_ROBOTS,
-)
 from harness.config.interndata.substitutes import parse_object_substitutions, split_substitute
 
 __all__ = [
     "CATEGORY_ORIENTATIONS",
     "NOTES_FILE",
     "OBJECT_KEYS_IGNORED",
-    "REFERENCE_ROBOT_HOMES",
-    "ROBOT_ARMS",
     "ROBOT_KEYS_IGNORED",
-    "SUPPORTED_ROBOTS",
     "TASK_KEYS_IGNORED",
     "TASK_KEYS_MAPPED",
     "InternDataPick",

@@ -23,14 +23,10 @@ from harness.config.interndata.orientations import (
     suggested_orientations,
 )
 from harness.config.interndata.result import SkippedSkill
-from harness.config.interndata.robot_tables import (
-    REFERENCE_ROBOT_HOMES,
-    ROBOT_ARMS,
-    SUPPORTED_ROBOTS,
-)
 from harness.config.interndata.substitutes import split_substitute
 from harness.config.messages import suggest
 from harness.config.yamlio import KeyPath, format_key_path
+from harness.robots.facts import interndata_home, interndata_robots, robot_arms
 
 log = logging.getLogger(__name__)
 
@@ -133,16 +129,17 @@ class TaskResolver:
             if not isinstance(config_file, str):
                 raise self.error((*rpath, "robot_config_file"), "required key is missing")
             basename = Path(config_file).name
-            if basename not in SUPPORTED_ROBOTS:
+            supported = interndata_robots()
+            if basename not in supported:
                 raise self.error(
                     (*rpath, "robot_config_file"),
                     f"unsupported robot {basename!r} ({config_file}); supported: "
-                    f"{', '.join(SUPPORTED_ROBOTS.values())}",
+                    f"{', '.join(supported.values())}",
                 )
             for key in robot:
                 if key in ROBOT_KEYS_IGNORED:
                     self.note(f"ignored {self.key((*rpath, key))}: {ROBOT_KEYS_IGNORED[key]}")
-            robots[name] = RobotEntry(name, SUPPORTED_ROBOTS[basename], rpath, robot)
+            robots[name] = RobotEntry(name, supported[basename], rpath, robot)
         if not robots:
             raise self.error(path, "no robots")
         if len(robots) > 1:
@@ -174,7 +171,7 @@ class TaskResolver:
         home = robot.config.get(home_key)
         std = robot.config.get(std_key)
         if home is None:
-            home = list(REFERENCE_ROBOT_HOMES[robot.harness])
+            home = interndata_home(robot.harness, arm)
             self.note(
                 f"{self.key(robot.path)}: no {home_key}; using the reference robot file's "
                 f"home {home}"
@@ -362,11 +359,11 @@ class TaskResolver:
                     arms = self.mapping(arms, ppath, "{left|right: [skills]}")
                     for arm, skill_list in arms.items():
                         apath = (*ppath, arm)
-                        if arm not in ROBOT_ARMS[robot.harness]:
+                        if arm not in robot_arms(robot.harness):
                             raise self.error(
                                 apath,
                                 f"{robot.harness} has no arm {arm!r} "
-                                f"(arms: {', '.join(ROBOT_ARMS[robot.harness])})",
+                                f"(arms: {', '.join(robot_arms(robot.harness))})",
                             )
                         for k, skill in enumerate(self.sequence(skill_list, apath, "skills")):
                             kpath = (*apath, k)
