@@ -323,7 +323,9 @@ def _candidates(setup: _Setup) -> _Planning:
     T_world_obj = scene.T_world_object(obj_name)
     T_base_obj = invert_T(T_world_base) @ T_world_obj
     t0 = time.perf_counter()
-    selection = select_candidates(ee_poses, scene.robot.convention, pick, T_base_obj, rng)
+    selection = select_candidates(
+        ee_poses, scene.robot.convention, pick, T_base_obj, rng, setup.semantics.candidates
+    )
     counts = selection.counts()
     row["n_total"] = counts["total"]
     row["n_passed_filter"] = counts["passed"]

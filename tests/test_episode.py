@@ -268,7 +268,8 @@ def test_harness_run_writes_a_run_directory(tmp_path: Path, capsys) -> None:
 # Reference semantics: timeline, draw order, command targets, forward test (docs/semantics.md)
 
 CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
-# The reference's planner files (pick-skill.md section 3): the pre-grasp backs off along EE
+# The reference's planner files (docs/reference-pick-skill.md section 3): the pre-grasp backs off
+# along EE
 # column 0 when "r5a" is in the file name, else column 2 (quirk 14).
 REFERENCE_PLANNER_FILES = {
     "fr3": ["fr3_left_arm.yml"],
@@ -339,7 +340,10 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     bundle = get_scene(task, cache)
     poses = bundle.poses(task, grasp_file_for(task, scene))
     T_base_obj = invert_T(scene.T_world_base("left")) @ T_world_obj
-    selection = select_candidates(poses, scene.robot.convention, task.pick, T_base_obj, rng)
+    selection = select_candidates(
+        poses, scene.robot.convention, task.pick, T_base_obj, rng,
+        Semantics.from_pick(task.pick).candidates,
+    )  # fmt: skip
     assert len(selection.order) == 20 and selection.order.outcome == "ok"
     assert row["chosen_index"] in selection.order.indices.tolist()
     lift_offset = rng.uniform(task.pick.post_grasp_offset_min, task.pick.post_grasp_offset_max)

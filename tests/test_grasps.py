@@ -1,4 +1,4 @@
-"""Grasp core against the reference semantics (../shared/reference/pick-skill.md sections 2-4, 11).
+"""Grasp core against the reference semantics (docs/reference-pick-skill.md sections 2-4, 11).
 
 Hand-computed cases for post-processing, every filter direction / sign / form, direction_to_obj,
 the neutral filters, and the candidate order; then the shared example grasp files.
@@ -17,6 +17,7 @@ from scipy.stats import chisquare
 from harness.config import AxisFilter, ConfigError, PickConfig
 from harness.errors import InputFileError
 from harness.grasps import (
+    CandidateRule,
     GraspSet,
     base_frame_poses,
     check_strict_filters,
@@ -31,6 +32,7 @@ from harness.grasps import (
     strict_order,
     top_by_score,
 )
+from harness.pick.semantics import Semantics
 from harness.robots.facts import reference_convention
 from harness.transforms import make_T, yaw_matrix
 
@@ -38,7 +40,18 @@ ROBOTS = ("fr3", "lift2", "split_aloha")
 # Each robot's grasp convention from its robots/<name>/robot.yaml (test_robot.py checks those
 # values against the reference robot configs).
 REFERENCE_CONVENTIONS = {robot: reference_convention(robot) for robot in ROBOTS}
-CANONICAL = {  # pick-skill.md section 9
+
+
+def rule_of(pick: PickConfig) -> CandidateRule:
+    """The candidate rule of the pick's semantics."""
+    return Semantics.from_pick(pick).candidates
+
+
+def rng0() -> np.random.Generator:
+    return np.random.default_rng(0)
+
+
+CANONICAL = {  # docs/reference-pick-skill.md section 9
     "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
     "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
     "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
@@ -424,7 +437,7 @@ def test_reversed_band_reference_fallback_and_strict_config_error() -> None:
     poses = post_process(GraspSet.from_array(np.stack(rows)), convention)
     reversed_band = ["downward", 140, 110]
     pick = PickConfig(filter_z_dir=reversed_band)
-    selection = select_candidates(poses, convention, pick, np.eye(4), np.random.default_rng(0))
+    selection = select_candidates(poses, convention, pick, np.eye(4), rng0(), rule_of(pick))
     assert selection.filter_result.passed == 0
     assert selection.order.outcome == "fallback"
     assert selection.order.indices.tolist() == list(range(20))  # 30 poses: 15 unflipped + 5
@@ -435,12 +448,12 @@ def test_reversed_band_reference_fallback_and_strict_config_error() -> None:
         PickConfig(approach_filter=["forward", 45, 135], semantics="strict")
     strict = pick.model_copy(update={"semantics": "strict"})
     with pytest.raises(ConfigError, match=r"filter_z_dir.*smaller angle first"):
-        select_candidates(poses, convention, strict, np.eye(4), np.random.default_rng(0))
+        select_candidates(poses, convention, strict, np.eye(4), rng0(), rule_of(strict))
     with pytest.raises(ConfigError, match="larger angle first"):
         check_strict_filters({"filter_x_dir": spec("upward", 30, 60)})
     # Strict with filters that pass nothing is a filter_empty outcome, not a fallback.
     nothing = PickConfig(filter_z_dir=["upward", 10], semantics="strict")
-    selection = select_candidates(poses, convention, nothing, np.eye(4), np.random.default_rng(0))
+    selection = select_candidates(poses, convention, nothing, np.eye(4), rng0(), rule_of(nothing))
     assert selection.order.outcome == "filter_empty" and len(selection.order) == 0
 
 
@@ -460,7 +473,9 @@ def test_select_candidates_base_frame_poses() -> None:
     pick = PickConfig(
         approach_filter=["downward", 120], facing_filter=["forward", 90], direction_to_obj="right"
     )
-    selection = select_candidates(poses, convention, pick, T_base_obj, np.random.default_rng(0))
+    selection = select_candidates(
+        poses, convention, pick, T_base_obj, np.random.default_rng(0), rule_of(pick)
+    )
     T_base_ee = base_frame_poses(poses, T_base_obj)
     np.testing.assert_allclose(selection.T_base_ee, T_base_ee, atol=1e-15)
     full = filter_poses(T_base_ee, selection.filters, "right", T_base_obj)
@@ -595,6 +610,7 @@ def test_canonical_filters_select_identical_grasps_across_robots(
                     PickConfig(**CANONICAL[r]),
                     T_base_obj,
                     np.random.default_rng(seed),
+                    rule_of(PickConfig(**CANONICAL[r])),
                 )
                 for r in ROBOTS
             }
@@ -625,8 +641,15 @@ def test_neutral_filters_match_canonical_masks(example_objects: list[Path]) -> N
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
         rng = np.random.default_rng(0)
-        a = select_candidates(poses, convention, neutral, T_base_obj, rng)
-        b = select_candidates(poses, convention, PickConfig(**CANONICAL[robot]), T_base_obj, rng)
+        a = select_candidates(poses, convention, neutral, T_base_obj, rng, rule_of(neutral))
+        b = select_candidates(
+            poses,
+            convention,
+            PickConfig(**CANONICAL[robot]),
+            T_base_obj,
+            rng,
+            rule_of(PickConfig(**CANONICAL[robot])),
+        )
         np.testing.assert_array_equal(a.filter_result.combined, b.filter_result.combined)
 
 
@@ -654,7 +677,9 @@ def test_example_reference_order_top_block_and_duplicates(
     poses = post_process(load_grasp_file(path), convention)
     pick = PickConfig(**CANONICAL["fr3"])
     T_base_obj = make_T(yaw_matrix(0.3), [0.5, 0.0, 0.02])
-    selection = select_candidates(poses, convention, pick, T_base_obj, np.random.default_rng(9))
+    selection = select_candidates(
+        poses, convention, pick, T_base_obj, np.random.default_rng(9), rule_of(pick)
+    )
     order = selection.order
     assert order.top_candidates.tolist() == _reference_top(
         poses.scores, selection.filter_result.combined

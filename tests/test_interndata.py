@@ -31,7 +31,7 @@ from harness.robots.facts import interndata_home
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 ROBOTS_DIR = PROJECT_ROOT / "robots"
 
-# The reference's canonical single-pick parameters (pick-skill.md sections 9 and 10).
+# The reference's canonical single-pick parameters (docs/reference-pick-skill.md sections 9 and 10).
 CANONICAL = {
     "franka_single_pick_banana.yaml": {
         "robot_name": "franka",

@@ -1,12 +1,14 @@
 """The robots' own conventions (robot.yaml) tie them to the grasp core: the canonical reference
-filters of fr3, lift2 and split_aloha select the same physical grasps (pick-skill.md section 11)."""
+filters of fr3, lift2 and split_aloha select the same physical grasps (docs/reference-pick-skill.md
+section 11)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from harness.config import PickConfig
-from harness.grasps import ee_poses_for_pick, load_grasp_file, select_candidates
+from harness.grasps import CandidateRule, ee_poses_for_pick, load_grasp_file, select_candidates
+from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import make_T, yaw_matrix
 
@@ -15,6 +17,11 @@ CANONICAL = {
     "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
     "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
 }
+
+
+def rule_of(pick: PickConfig) -> CandidateRule:
+    """The candidate rule of the pick's semantics."""
+    return Semantics.from_pick(pick).candidates
 
 
 def test_canonical_filters_select_the_same_grasps_with_robot_yaml_axes(example_objects):
@@ -31,7 +38,12 @@ def test_canonical_filters_select_the_same_grasps_with_robot_yaml_axes(example_o
                 pick = PickConfig(**CANONICAL[name])
                 poses = ee_poses_for_pick(grasps, robot.convention, pick)
                 selection = select_candidates(
-                    poses, robot.convention, pick, T_base_obj, np.random.default_rng(11)
+                    poses,
+                    robot.convention,
+                    pick,
+                    T_base_obj,
+                    np.random.default_rng(11),
+                    rule_of(pick),
                 )
                 masks[name] = selection.filter_result.combined
                 orders[name] = selection.order.indices
@@ -55,6 +67,7 @@ def test_neutral_filters_equal_each_robots_canonical_set(example_objects):
             canonical,
             T_base_obj,
             np.random.default_rng(0),
+            rule_of(canonical),
         )
         b = select_candidates(
             ee_poses_for_pick(grasps, robot.convention, neutral),
@@ -62,5 +75,6 @@ def test_neutral_filters_equal_each_robots_canonical_set(example_objects):
             neutral,
             T_base_obj,
             np.random.default_rng(0),
+            rule_of(neutral),
         )
         np.testing.assert_array_equal(a.filter_result.combined, b.filter_result.combined)

@@ -80,7 +80,8 @@ def make_task(
     pick: dict[str, Any] | None = None,
     **task: Any,
 ) -> TaskConfig:
-    """A canonical pick task (pick-skill.md section 9) of ``robot``/``arm`` on ``mesh``."""
+    """A canonical pick task (docs/reference-pick-skill.md section 9) of ``robot``/``arm`` on
+    ``mesh``."""
     obj = {"name": "target", "mesh": str(mesh), **task.pop("object", {})}
     data = {
         "name": f"{robot}_{arm}_test",

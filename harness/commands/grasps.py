@@ -25,6 +25,7 @@ from harness.grasps import (
     load_grasp_file,
     select_candidates,
 )
+from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
 
@@ -235,9 +236,9 @@ def inspect(args: argparse.Namespace) -> int:
     pick = pick_from_args(args)
     grasps = load_grasp_file(args.file)
     poses = ee_poses_for_pick(grasps, convention, pick)
-    selection = select_candidates(
-        poses, convention, pick, object_pose(args.object_pose), np.random.default_rng(args.seed)
-    )
+    rng = np.random.default_rng(args.seed)
+    rule = Semantics.from_pick(pick).candidates
+    selection = select_candidates(poses, convention, pick, object_pose(args.object_pose), rng, rule)
     info = summary(selection, args)
     if args.json:
         print(json.dumps(info))

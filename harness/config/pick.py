@@ -1,7 +1,7 @@
 """The Pick block: every key of the reference Pick skill, plus the harness keys.
 
 ``PickConfig`` carries every key of the InternDataEngine Pick skill with the reference defaults
-(../shared/reference/pick-skill.md section 8), so a reference pick block pastes in unchanged,
+(docs/reference-pick-skill.md section 8), so a reference pick block pastes in unchanged,
 plus the harness keys (``semantics``, ``approach_filter``, ``facing_filter``, ``timing``, the
 strict-verdict thresholds).
 """
@@ -21,7 +21,7 @@ from harness.config.values import FiniteFloat, Probability, StrictModel
 class PickConfig(StrictModel):
     """Every key of the reference Pick skill (reference defaults), plus the harness keys."""
 
-    # Reference keys (pick-skill.md section 8).
+    # Reference keys (docs/reference-pick-skill.md section 8).
     objects: list[str] | None = Field(
         default=None,
         min_length=1,

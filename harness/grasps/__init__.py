@@ -1,7 +1,7 @@
 """Grasp core: GraspNet-style annotations -> end-effector poses -> direction filters -> order.
 
 Implements the reference Pick skill's pose post-processing and candidate selection
-(../shared/reference/pick-skill.md sections 2-4, 11, 12) as vectorised numpy, with no Python
+(docs/reference-pick-skill.md sections 2-4, 11, 12) as vectorised numpy, with no Python
 loop over grasps:
 
 - :class:`GraspSet` / :func:`load_grasp_file` (``grasp_set``): a validated N x 17 grasp file;
@@ -37,12 +37,13 @@ from harness.grasps.filters import (
     resolve_filters,
 )
 from harness.grasps.grasp_set import GraspSet, load_grasp_file
-from harness.grasps.selection import CandidateSelection, select_candidates
+from harness.grasps.selection import CandidateRule, CandidateSelection, select_candidates
 
 __all__ = [
     "AXES",
     "CANDIDATE_BATCH",
     "CandidateOrder",
+    "CandidateRule",
     "CandidateSelection",
     "EEPoses",
     "FilterResult",

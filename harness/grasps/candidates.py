@@ -1,4 +1,5 @@
-"""Candidate order (pick-skill.md sections 4.4, 4.5): which poses the feasibility loop walks.
+"""Candidate order (docs/reference-pick-skill.md sections 4.4, 4.5): which poses the feasibility
+loop walks.
 
 :func:`reference_order` (the reference's weighted draw) or :func:`strict_order` (unique passing
 candidates) -> :class:`CandidateOrder`; :func:`order_candidates` picks one by semantics.

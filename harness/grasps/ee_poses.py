@@ -1,4 +1,5 @@
-"""End-effector poses (pick-skill.md section 3): grasps -> the 2N poses ``T_obj_ee`` of a robot.
+"""End-effector poses (docs/reference-pick-skill.md section 3): grasps -> the 2N poses ``T_obj_ee``
+of a robot.
 
 :func:`post_process` -> :class:`EEPoses`: the N grasps for a robot's :class:`GripperConvention`
 plus their 180-degree flips, computed without a Python loop over grasps.

@@ -1,4 +1,5 @@
-"""Direction filters (pick-skill.md sections 4.2-4.4) and the robot-neutral filter names.
+"""Direction filters (docs/reference-pick-skill.md sections 4.2-4.4) and the robot-neutral filter
+names.
 
 - :func:`filter_poses` / :func:`filter_ee_poses` -> :class:`FilterResult`: the direction filters
   and ``direction_to_obj`` in the arm base frame, every mask kept;
@@ -19,7 +20,7 @@ from harness.grasps.conventions import AXES, GripperConvention
 from harness.grasps.ee_poses import EEPoses
 
 # --------------------------------------------------------------------------------------------
-# Direction filters in the arm base frame (pick-skill.md sections 4.2, 4.3)
+# Direction filters in the arm base frame (docs/reference-pick-skill.md sections 4.2, 4.3)
 
 FILTER_KEYS: dict[str, str] = {axis: f"filter_{axis}_dir" for axis in AXES}
 # direction -> (row of T_base_ee: base +X or +Z, sign)

@@ -1,4 +1,5 @@
-"""Grasp files (pick-skill.md section 2): a validated N x 17 GraspNet-style grasp array.
+"""Grasp files (docs/reference-pick-skill.md section 2): a validated N x 17 GraspNet-style grasp
+array.
 
 :class:`GraspSet` / :func:`load_grasp_file` check the shape, dtype, finite values, score, width
 and depth signs and the rotations, and name the offending cell in the ``InputFileError``.

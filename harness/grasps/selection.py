@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike
 
 from harness.config import AxisFilter, PickConfig
 from harness.grasps.arrays import FloatArray
-from harness.grasps.candidates import CANDIDATE_BATCH, CandidateOrder, order_candidates
+from harness.grasps.candidates import CANDIDATE_BATCH, CandidateOrder, Semantics, order_candidates
 from harness.grasps.conventions import GripperConvention
 from harness.grasps.ee_poses import EEPoses, base_frame_poses
 from harness.grasps.filters import (
@@ -62,12 +62,25 @@ class CandidateSelection:
         return out
 
 
+@dataclass(frozen=True)
+class CandidateRule:
+    """How a pick's semantics choose candidates (built by ``harness.pick.semantics.Semantics``).
+
+    ``order``: the reference's weighted draw with replacement or strict's ranked order.
+    ``reject_impossible_filters``: a filter that can never pass is a ConfigError (strict).
+    """
+
+    order: Semantics
+    reject_impossible_filters: bool
+
+
 def select_candidates(
     ee_poses: EEPoses,
     convention: GripperConvention,
     pick: PickConfig,
     T_base_obj: ArrayLike,
     rng: np.random.Generator,
+    rule: CandidateRule,
     *,
     max_candidates: int = CANDIDATE_BATCH,
     strict_sampling: bool | None = None,
@@ -75,19 +88,20 @@ def select_candidates(
     """Resolve the pick's filters for this robot, apply them in the arm base frame, order.
 
     ``T_base_obj`` is the object pose in the arm base frame at selection time. Randomness comes
-    only from ``rng``. Under strict semantics a filter that can never pass is a ConfigError.
+    only from ``rng``. ``rule`` is the semantics' candidate rule (``Semantics.candidates``):
+    the order, and whether a filter that can never pass is a ConfigError.
     """
     T_bo = np.asarray(T_base_obj, dtype=np.float64)
     if T_bo.shape != (4, 4):
         raise ValueError(f"T_base_obj must be a 4x4 transform, got shape {T_bo.shape}")
     filters = resolve_filters(pick, convention)
-    if pick.semantics == "strict":
+    if rule.reject_impossible_filters:
         check_strict_filters(filters)
     result = filter_ee_poses(ee_poses, T_bo, filters, pick.direction_to_obj)
     if strict_sampling is None:
         strict_sampling = pick.strict_sampling
     order = order_candidates(
-        ee_poses.scores, result.combined, pick.semantics, rng, max_candidates, strict_sampling
+        ee_poses.scores, result.combined, rule.order, rng, max_candidates, strict_sampling
     )
     return CandidateSelection(
         ee_poses=ee_poses,

@@ -4,7 +4,8 @@ Formats: USD (``.usd``/``.usda``/``.usdc``/``.usdz``, read with usd-core) and OB
 PLY (read with trimesh). For USD the points of every ``UsdGeom.Mesh`` under ``/World/Aligned``
 (the InternDataEngine layout; the whole stage otherwise) are used *raw* -- transforms between that
 prim and the mesh are applied, but ``metersPerUnit`` is ignored, exactly as the reference does:
-the example assets declare 0.01 yet their points are metres (pick-skill.md section 2). The task's
+the example assets declare 0.01 yet their points are metres (docs/reference-pick-skill.md section
+2). The task's
 ``scale`` multiplies the points; grasp points are never scaled here.
 """
 

@@ -1,6 +1,7 @@
 """The reference's command list for one pick block, and its progress rules.
 
-Commands (pick-skill.md section 6), each a target pose plus a gripper action, in order:
+Commands (docs/reference-pick-skill.md section 6), each a target pose plus a gripper action, in
+order:
 
 1. current EE, ``update_pose_cost_metric``    2. current EE, ``update_specific``
 3. pre-grasp, ``open_gripper``                 4. pre-grasp, ``update_pose_cost_metric`` (if set)
@@ -48,7 +49,7 @@ HOLD_FUNCTIONS = ("update_pose_cost_metric", "update_specific")  # hold the arm,
 class PickCommand:
     """One reference command: a target (by name), the function, the gripper action."""
 
-    number: int  # the row of pick-skill.md section 6
+    number: int  # the row of docs/reference-pick-skill.md section 6
     function: str
     target: Literal["current", "pregrasp", "grasp", "lift"]
     gripper: Literal["open", "close"] | None = None

@@ -1,6 +1,7 @@
 """The Pick skill executed in MuJoCo: the control loop that runs the reference command list.
 
-The command list and its progress rules are ``harness.pick.commands`` (pick-skill.md sections 6
+The command list and its progress rules are ``harness.pick.commands`` (docs/reference-pick-skill.md
+sections 6
 and 7); the success checks are ``harness.pick.verdict``; which of them apply, and whether robot
 collisions are checked, is ``harness.pick.semantics``. This module steps the physics and moves
 through the list.

@@ -1,9 +1,10 @@
 """Choosing the grasp: the ordered candidates walked through the feasibility test.
 
 The order comes from ``harness.grasps`` (filters, then the reference's weighted draw or the
-strict order); each candidate is tested (``pick.test_mode``: ``ik`` or ``forward``, pick-skill.md
-section 5) until one passes. What happens when none does (the reference proceeds with the last
-one tested, strict stops) is the semantics' call (``Semantics.fall_back_to_last_tested``).
+strict order); each candidate is tested (``pick.test_mode``: ``ik`` or ``forward``,
+docs/reference-pick-skill.md section 5) until one passes. What happens when none does (the
+reference proceeds with the last one tested, strict stops) is the semantics' call
+(``Semantics.fall_back_to_last_tested``).
 """
 
 from __future__ import annotations

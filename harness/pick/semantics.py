@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from harness.config import PickConfig, TaskConfig
+from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_hold_terms
 from harness.planning.world import PlanningWorld
@@ -48,6 +49,7 @@ class Semantics:
     ``check_closing_forces`` (both fingers must carry ``min_finger_force`` when the closing
     ends), ``hold_after_list`` (after the list: finish, come to rest, hold, then judge; else
     judge at once, as the reference).
+    Candidates: ``candidates`` (the order rule and whether impossible filters are errors).
     """
 
     name: Literal["reference", "strict"]
@@ -61,6 +63,7 @@ class Semantics:
     check_collisions: bool
     check_closing_forces: bool
     hold_after_list: bool
+    candidates: CandidateRule
 
     @classmethod
     def from_pick(cls, pick: PickConfig) -> Semantics:
@@ -78,6 +81,7 @@ class Semantics:
             check_collisions=strict,
             check_closing_forces=strict,
             hold_after_list=strict,
+            candidates=CandidateRule(order=pick.semantics, reject_impossible_filters=strict),
         )
 
     def planning_world(self, task: TaskConfig, target: str) -> PlanningWorld:

@@ -1,6 +1,7 @@
 """The EE poses a pick commands: pre-grasp, grasp and lift of a candidate, and the timed plan.
 
-``command_targets`` is the reference's pose arithmetic (pick-skill.md section 6) in the arm
+``command_targets`` is the reference's pose arithmetic (docs/reference-pick-skill.md section 6) in
+the arm
 base frame; ``CandidatePoses`` applies it to the candidates of one episode and moves the result
 into the world; ``PickTargets`` is what the executor is given: the planned world poses and the
 timed segments that reach them.
