@@ -1,0 +1,2 @@
+"""The Pick skill: semantics policy, command targets, candidate walk, command list, executor and
+verdict terms."""

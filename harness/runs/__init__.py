@@ -1,0 +1,2 @@
+"""Runs: sweep expansion, executors (serial, process pool, Ray), run directories, the result
+store."""
