@@ -46,7 +46,7 @@ def benchmark(session: nox.Session) -> None:
 @nox.session(python=PYTHON)
 def lint(session: nox.Session) -> None:
     """ruff check, ruff format --check, and pyright (basic mode, pyrightconfig.json)."""
-    session.install("-e", ".[dev]", "pyright[nodejs]>=1.1.400")
+    session.install("-e", ".[dev,ray]", "pyright[nodejs]>=1.1.400")
     session.run("ruff", "check", "harness", "tests", "noxfile.py")
     session.run("ruff", "format", "--check", "harness", "tests", "noxfile.py")
     python = os.path.join(session.virtualenv.location, "bin", "python")
