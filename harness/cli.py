@@ -84,6 +84,11 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument("sweep", metavar="SWEEP.yaml", nargs="?")
     p.add_argument("--out", metavar="DIR")
     p.add_argument("--resume", metavar="RUN_DIR", help="run only the episodes missing in RUN_DIR")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --resume: continue even if RUN_DIR/sweep.yaml changed since the run began",
+    )
     p.add_argument("--workers", type=int)
     p.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")

@@ -123,7 +123,7 @@ def test_collection_keys_are_errors() -> None:
         ("a: [1, 2\nb: 3\n", 2, "expected ',' or ']'"),
         ("a:\n\t- 1\n", 2, "found character '\\t' that cannot start any token"),
         ("a: 1\n---\nb: 2\n", 2, "expected a single document"),
-        ("a: !!python/object:os.system x\n", 1, "could not determine a constructor"),
+        ("a: !!python/object:os.system x\n", 1, "unsupported YAML tag"),
         ("a: *missing\n", 1, "found undefined alias"),
         ("a: 'unterminated\n", 2, "found unexpected end of stream"),
     ],

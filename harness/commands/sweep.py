@@ -17,6 +17,7 @@ def main(args: argparse.Namespace) -> int:
     outcome = run_sweep(
         Path(args.sweep) if args.sweep else None,
         resume_dir=Path(args.resume) if args.resume else None,
+        force=bool(getattr(args, "force", False)),
         out=Path(args.out) if args.out else None,
         backend=args.backend,
         workers=args.workers,

@@ -24,9 +24,10 @@ def main(args: argparse.Namespace) -> int:
         raise HarnessError(f"{path}: no such recording")
     viewer = shutil.which("rerun")
     if has_display() and viewer:
-        return subprocess.call([viewer, str(path)])
+        # Loopback only: the viewer's server must not listen on every interface.
+        return subprocess.call([viewer, "--bind", "127.0.0.1", str(path)])
     print(f"no display here; to look at {path}:")
     print(f"  - on a machine with a display: pip install rerun-sdk==0.41.* && rerun {path.name}")
-    print(f"  - or serve it to a browser:     rerun --web-viewer {path}")
+    print(f"  - or serve it to a browser:     rerun --bind 127.0.0.1 --web-viewer {path}")
     print("  - or drag the file onto https://rerun.io/viewer (version 0.41)")
     return 0

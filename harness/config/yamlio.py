@@ -61,6 +61,12 @@ def _check_mapping(node: yaml.MappingNode, scalar: Callable[[yaml.Node], Any]) -
         yaml.SafeLoader("").flatten_mapping(node)
 
 
+# The tags plain YAML data resolves to; anything else (``!!python/object/apply:...``, custom
+# ``!tags``) is an error rather than silently dropped.
+SAFE_TAGS = frozenset(
+    f"tag:yaml.org,2002:{name}"
+    for name in ("str", "int", "float", "bool", "null", "map", "seq", "merge", "timestamp")
+)
 MAX_NODES = 200_000  # aliases can expand exponentially ("billion laughs"); stop well before
 
 
@@ -84,6 +90,10 @@ class _Builder:
                 None, None, f"document expands to more than {MAX_NODES} nodes", node.start_mark
             )
         self.lines.setdefault(path, node.start_mark.line + 1)
+        if node.tag not in SAFE_TAGS:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"unsupported YAML tag {node.tag!r} (plain data only)", node.start_mark
+            )
         if not isinstance(node, (yaml.MappingNode, yaml.SequenceNode)):
             return self.scalar(node)
         if id(node) in self.active:

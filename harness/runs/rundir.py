@@ -16,6 +16,13 @@ import yaml
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
 from harness.config.interndata import write_notes
+from harness.runs.safety import (
+    RunLock,
+    check_sweep_hash,
+    record_sweep_hash,
+    refuse_symlinks,
+    safe_file_name,
+)
 from harness.runs.store import ResultStore
 
 SWEEP_YAML = "sweep.yaml"
@@ -36,18 +43,23 @@ class RunDir:
     def __init__(self, path: Path) -> None:
         self.path = path
         self.store = ResultStore(path)
+        self.lock = RunLock(path)
 
     @staticmethod
     def default_path(name: str) -> Path:
         """``reports/<name>-<date>-<time>``: where a run goes without ``--out``."""
-        return Path("reports") / f"{name}-{time.strftime('%Y%m%d-%H%M%S')}"
+        return Path("reports") / safe_file_name(f"{name}-{time.strftime('%Y%m%d-%H%M%S')}")
 
     @classmethod
-    def existing(cls, path: Path) -> RunDir:
-        """A run directory to resume; it must hold a ``sweep.yaml``."""
+    def existing(cls, path: Path, *, force: bool = False) -> RunDir:
+        """A run directory to resume, locked for this process; it must hold a ``sweep.yaml``
+        unchanged since the run was created (unless ``force``) and no symlinked outputs."""
         run = cls(path)
         if not run.sweep_yaml.is_file():
             raise ConfigError("not a run directory (no sweep.yaml)", file=path)
+        refuse_symlinks(path)
+        check_sweep_hash(path, run.sweep_yaml, force)
+        run.lock.acquire()
         return run
 
     @property
@@ -59,12 +71,17 @@ class RunDir:
         return load_sweep(self.sweep_yaml)
 
     def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
-        """Write ``sweep.yaml``; a directory that already holds a run raises ``taken``."""
+        """Write ``sweep.yaml`` and lock the directory for this process; a directory that
+        already holds a run raises ``taken``, one with symlinked outputs is refused."""
+        if self.path.exists():
+            refuse_symlinks(self.path)
+        self.lock.acquire()
         if self.sweep_yaml.exists():
+            self.lock.release()
             raise ConfigError(taken, file=self.path)
-        self.path.mkdir(parents=True, exist_ok=True)
         text = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
         self.sweep_yaml.write_text(text, encoding="utf-8")
+        record_sweep_hash(self.path, self.sweep_yaml)
 
     def write_notes(self, notes: list[str]) -> Path:
         """The InternDataEngine mapping notes (skipped skills, ignored keys, approximations)."""
@@ -79,7 +96,13 @@ class RunDir:
         self.store.append(row)
 
     def finalize(self) -> None:
-        """Export the store, rebuild the report and the sweep overview recording."""
+        """Export the store, rebuild the report and the sweep overview recording; unlock."""
+        try:
+            self._finalize()
+        finally:
+            self.lock.release()
+
+    def _finalize(self) -> None:
         from harness.report import build_report  # scipy: only once there are results
 
         self.store.export()

@@ -35,11 +35,11 @@ def default_workers() -> int:
 
 
 def prepare_run(
-    sweep_path: Path | None, resume_dir: Path | None, out: Path | None
+    sweep_path: Path | None, resume_dir: Path | None, out: Path | None, force: bool = False
 ) -> tuple[SweepConfig, Path | None, RunDir]:
     """Load the sweep (from the run dir when resuming) and choose the run directory."""
     if resume_dir is not None:
-        run = RunDir.existing(resume_dir)
+        run = RunDir.existing(resume_dir, force=force)
         return run.load_sweep(), run.sweep_yaml, run
     if sweep_path is None:
         raise ConfigError("give a sweep YAML or --resume RUN_DIR")
@@ -59,42 +59,49 @@ def run_sweep(
     episodes_per_point: int | None = None,
     progress: bool = True,
     limit: int | None = None,
+    force: bool = False,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
+    ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created.
     """
-    sweep, source, run = prepare_run(sweep_path, resume_dir, out)
-    updates: dict[str, Any] = {}
-    if record is not None:
-        updates["record"] = record
-    if episodes_per_point is not None:
-        updates["episodes_per_point"] = episodes_per_point
-    if updates:
-        sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
-    notes: list[str] = []
-    tasks = load_sweep_tasks(sweep, source, notes)
-    episodes = expand(sweep, source, tasks)
-    if resume_dir is None:
-        run.create(
-            sweep, tasks, taken="run directory already holds a sweep; use --resume to continue it"
-        )
-        if notes:
-            run.write_notes(notes)
-    done_ids = run.completed_ids()
-    todo = [e for e in episodes if e.resolved_id not in done_ids]
-    if limit is not None:
-        todo = todo[:limit]
-    workers = workers or sweep.workers or default_workers()
+    sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
+    try:
+        updates: dict[str, Any] = {}
+        if record is not None:
+            updates["record"] = record
+        if episodes_per_point is not None:
+            updates["episodes_per_point"] = episodes_per_point
+        if updates:
+            sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
+        notes: list[str] = []
+        tasks = load_sweep_tasks(sweep, source, notes)
+        episodes = expand(sweep, source, tasks)
+        if resume_dir is None:
+            run.create(
+                sweep,
+                tasks,
+                taken="run directory already holds a sweep; use --resume to continue it",
+            )
+            if notes:
+                run.write_notes(notes)
+        done_ids = run.completed_ids()
+        todo = [e for e in episodes if e.resolved_id not in done_ids]
+        if limit is not None:
+            todo = todo[:limit]
+        workers = workers or sweep.workers or default_workers()
 
-    with SweepProgress(len(episodes), len(episodes) - len(todo), enabled=progress) as on_row:
+        with SweepProgress(len(episodes), len(episodes) - len(todo), enabled=progress) as on_row:
 
-        def on_result(row: dict[str, Any]) -> None:
-            run.append(row)
-            on_row(row)
+            def on_result(row: dict[str, Any]) -> None:
+                run.append(row)
+                on_row(row)
 
-        executor = executor_for(backend, workers, address)
-        stats = executor(todo, run.path, sweep.record, on_result)
+            executor = executor_for(backend, workers, address)
+            stats = executor(todo, run.path, sweep.record, on_result)
 
-    run.finalize()
+        run.finalize()
+    finally:
+        run.lock.release()
     return SweepOutcome(run.path, len(episodes), len(episodes) - len(todo), stats)

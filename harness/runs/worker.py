@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness.row import identity_columns
+from harness.runs.safety import inside, safe_file_name
 
 if TYPE_CHECKING:
     from harness.episode import EpisodeSpec
@@ -45,7 +46,8 @@ def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str,
         try:
             from harness.viz.recording import record_episode
 
-            path = Path(run_dir) / "episodes" / f"{episode.resolved_id}.rrd"
+            name = safe_file_name(episode.resolved_id, ".rrd")
+            path = inside(Path(run_dir), Path(run_dir) / "episodes" / name)
             record_episode(result, path, episode.task)
             row["recording"] = str(path.relative_to(run_dir))
         except Exception as exc:  # a recording problem must not lose the episode
