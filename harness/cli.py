@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 from collections.abc import Callable, Sequence
 from typing import TypeAlias
@@ -29,6 +30,33 @@ def _handler(module: str, function: str):
         return int(getattr(mod, function)(args) or 0)
 
     return call
+
+
+def _bounded_int(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: an integer in [low, high], else one clear usage error."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value} is outside [{low:,}, {high:,}]")
+        return value
+
+    return parse
+
+
+def _record_policy(text: str) -> str:
+    """An argparse type: none | failures | all | sample:N."""
+    if text in ("none", "failures", "all") or re.fullmatch(r"sample:\d+", text):
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, all or sample:N")
+
+
+SEED = _bounded_int(0, 2**63 - 1)
+EPISODES = _bounded_int(1, 1_000_000)
+WORKERS = _bounded_int(1, 1024)
 
 
 def _add_filter_args(parser: argparse.ArgumentParser) -> None:
@@ -70,11 +98,20 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument(
         "--object", action="append", default=[], metavar="NAME=PATH", help="substitute an asset"
     )
-    p.add_argument("--episodes", type=int, default=10)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides")
+    p.add_argument("--episodes", type=EPISODES, default=10, help="episodes to run (seeds)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the first episode's stream")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        dest="overrides",
+        help="override a task key, e.g. pick.filter_z_dir='[downward,150]' (repeatable)",
+    )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
-    p.add_argument("--record", default="failures", help="none|failures|all|sample:N")
+    p.add_argument(
+        "--record", type=_record_policy, default="failures", help="none|failures|all|sample:N"
+    )
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -89,12 +126,19 @@ def _add_sweep(sub: Subparsers) -> None:
         action="store_true",
         help="with --resume: continue even if RUN_DIR/sweep.yaml changed since the run began",
     )
-    p.add_argument("--workers", type=int)
+    p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
     p.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    p.add_argument("--record", help="none|failures|all|sample:N (overrides the sweep)")
-    p.add_argument("--episodes-per-point", type=int, help="override episodes_per_point")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument(
+        "--record", type=_record_policy, help="none|failures|all|sample:N (overrides the sweep)"
+    )
+    p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
+    p.add_argument(
+        "--max-episodes",
+        type=_bounded_int(1, 10**9),
+        help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     p.set_defaults(func=_handler("sweep", "main"))
 
 

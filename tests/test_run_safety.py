@@ -157,3 +157,63 @@ def test_cli_validate_rejects_an_unsafe_tag(tmp_path: Path) -> None:
     assert result.returncode != 0
     assert "unsupported YAML tag" in result.stderr + result.stdout
     assert str(bad) in result.stderr + result.stdout
+
+
+def harness_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "harness.cli", *args],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=120,
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("run", "tasks/pick/fr3.yaml", "--episodes", "1000000000"), "--episodes: 1000000000"),
+        (("run", "tasks/pick/fr3.yaml", "--seed", "-1"), "--seed: -1 is outside"),
+        (("run", "tasks/pick/fr3.yaml", "--record", "bogus"), "expected none, failures"),
+        (("sweep", "tasks/sweeps/demo.yaml", "--episodes-per-point", "0"), "0 is outside"),
+        (("sweep", "tasks/sweeps/demo.yaml", "--workers", "x"), "'x' is not an integer"),
+    ],
+)
+def test_bad_flags_are_one_line_usage_errors(args: tuple[str, ...], message: str) -> None:
+    """Finding 5: these were tracebacks (or a run of 10^9 episodes)."""
+    result = harness_cli(*args)
+    assert result.returncode == 2
+    assert message in result.stderr and "Traceback" not in result.stderr
+
+
+def test_an_oversized_sweep_is_refused_before_expansion(tmp_path: Path) -> None:
+    """Finding 3: a 10^6-episode sweep sat in expansion with no output."""
+    sweep = {
+        "name": "big",
+        "tasks": [str(ROOT / "tasks" / "pick" / "fr3.yaml")],
+        "axes": {"pick.lift_th": [0.01 * i for i in range(1, 101)]},
+        "episodes_per_point": 10_000,
+    }
+    path = tmp_path / "big.yaml"
+    path.write_text(yaml.safe_dump(sweep), encoding="utf-8")
+    result = harness_cli("sweep", str(path), "--out", str(tmp_path / "run"))
+    assert result.returncode == 2
+    assert "asks for 1,000,000 episodes" in result.stderr
+    assert "--max-episodes 1000000" in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_an_oversized_yaml_file_is_refused(tmp_path: Path) -> None:
+    """Finding 3: a 60 MB YAML was still parsing after 90 s."""
+    from harness.config.loading import MAX_YAML_BYTES
+
+    path = tmp_path / "huge.yaml"
+    with open(path, "w", encoding="utf-8") as handle:
+        handle.write("name: huge\nnotes:\n")
+        line = "  - " + "x" * 1000 + "\n"
+        for _ in range(MAX_YAML_BYTES // len(line) + 1):
+            handle.write(line)
+    result = harness_cli("validate", str(path))
+    assert result.returncode != 0
+    assert "too large for a task or sweep file" in result.stderr + result.stdout

@@ -12,7 +12,7 @@ import yaml
 from harness.config import load_sweep
 from harness.runs.expansion import expand
 from harness.runs.sweep import run_sweep
-from harness.runs.worker import FAULT_ENV
+from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -119,12 +119,37 @@ def test_segfaulting_worker_becomes_an_error_row(tmp_path: Path, monkeypatch):
     victim = episodes[1].episode_id
     monkeypatch.setenv(FAULT_ENV, victim)
     outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+    # Retried once (CRASH_RETRIES), crashed again: one error row, nothing lost or doubled.
     assert outcome.stats.crashed == 1 and outcome.stats.finished == 4
+    assert outcome.stats.retried == 1
     frame = rows(outcome.run_dir).set_index("episode_id")
     assert frame.loc[victim, "failure_reason"] == "error"
     assert "signal 11" in frame.loc[victim, "error_message"]
+    assert "(2 attempts)" in frame.loc[victim, "error_message"]
     others = frame.drop(index=victim)
     assert (others["failure_reason"] != "error").all()
+    assert len(frame) == 4
+
+
+@pytest.mark.slow
+def test_a_one_off_worker_crash_is_retried_not_an_error(tmp_path: Path, monkeypatch):
+    """Issue 15 finding 6: a killed worker's episode was stored as a failed pick."""
+    sweep_path = write_sweep(tmp_path, episodes=2)
+    episodes = expand(load_sweep(sweep_path), sweep_path)
+    victim = episodes[1].episode_id
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv(FAULT_ENV, victim)
+    monkeypatch.setenv(FAULT_ONCE_ENV, str(markers))
+    outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+    assert (markers / victim).exists()  # it did crash once
+    assert outcome.stats.retried == 1 and outcome.stats.crashed == 0
+    frame = rows(outcome.run_dir).set_index("episode_id")
+    assert len(frame) == 4 and (frame["failure_reason"] != "error").all()
+    reference = run_sweep(sweep_path, out=tmp_path / "clean", workers=2, progress=False)
+    pd.testing.assert_frame_equal(
+        rows(outcome.run_dir)[DETERMINISTIC], rows(reference.run_dir)[DETERMINISTIC]
+    )
 
 
 @pytest.mark.slow

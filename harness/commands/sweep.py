@@ -9,6 +9,7 @@ from typing import Any
 from rich.console import Console
 
 from harness.commands.console import make_console
+from harness.runs.limits import MAX_EPISODES
 from harness.runs.sweep import run_sweep
 
 
@@ -18,6 +19,7 @@ def main(args: argparse.Namespace) -> int:
         Path(args.sweep) if args.sweep else None,
         resume_dir=Path(args.resume) if args.resume else None,
         force=bool(getattr(args, "force", False)),
+        max_episodes=args.max_episodes or MAX_EPISODES,
         out=Path(args.out) if args.out else None,
         backend=args.backend,
         workers=args.workers,

@@ -14,11 +14,21 @@ from harness.config.task import TaskConfig
 from harness.config.validation import validate_model
 from harness.config.yamlio import YamlDocument, parse_yaml
 
+# Task, sweep and robot files are a few kB; a 60 MB YAML took minutes to parse with no output.
+MAX_YAML_BYTES = 4 * 1024 * 1024
+
 
 def read_yaml(path: str | Path) -> YamlDocument:
     """Read and parse a YAML file; any I/O or syntax problem becomes a ConfigError."""
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_YAML_BYTES:
+            raise ConfigError(
+                f"{size:,} bytes is too large for a task or sweep file (limit "
+                f"{MAX_YAML_BYTES:,}); is this the right file?",
+                file=path,
+            )
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError("file not found", file=path) from None

@@ -26,12 +26,16 @@ if TYPE_CHECKING:
 
 
 OnResult = Callable[[dict[str, Any]], None]
+# A worker that dies mid-episode (segfault, OOM kill) gets its episode run again this many
+# times before the episode is stored as an ``error`` row.
+CRASH_RETRIES = 1
 
 
 @dataclass
 class RunStats:
     finished: int = 0
-    crashed: int = 0
+    crashed: int = 0  # episodes whose worker died on every attempt (stored as ``error`` rows)
+    retried: int = 0  # worker deaths whose episode was run again
     interrupted: bool = False
     wall_time_s: float = 0.0
     errors: list[str] = field(default_factory=list)
@@ -85,6 +89,8 @@ class _ProcessPool:
         self.on_result = on_result
         self.stats = RunStats()
         self.pending: Iterator[EpisodeSpec] = iter(episodes)
+        self.requeued: list[EpisodeSpec] = []  # episodes of dead workers, run again first
+        self.attempts: dict[str, int] = {}
         self.workers: list[_Worker] = []
 
     def spawn(self) -> _Worker:
@@ -114,7 +120,7 @@ class _ProcessPool:
         self.assign(worker)
 
     def assign(self, worker: _Worker) -> bool:
-        episode = next(self.pending, None)
+        episode = self.requeued.pop() if self.requeued else next(self.pending, None)
         worker.episode = episode
         if episode is None:
             return False
@@ -142,11 +148,23 @@ class _ProcessPool:
                 else f"worker exited with code {code}"
             )
             assert worker.episode is not None
-            self.on_result(error_row(worker.episode, reason))
-            self.stats.finished += 1
-            self.stats.crashed += 1
             self.workers.remove(worker)
+            self.retry_or_fail(worker.episode, reason)
             self.start()
+
+    def retry_or_fail(self, episode: EpisodeSpec, reason: str) -> None:
+        """A dead worker's episode runs again (``CRASH_RETRIES`` times), then is an error row:
+        a one-off crash (out of memory, a killed process) must not count as a failed pick."""
+        attempts = self.attempts.get(episode.resolved_id, 0) + 1
+        self.attempts[episode.resolved_id] = attempts
+        if attempts <= CRASH_RETRIES:
+            self.requeued.append(episode)
+            self.stats.retried += 1
+            return
+        suffix = f" ({attempts} attempts)" if attempts > 1 else ""
+        self.on_result(error_row(episode, reason + suffix))
+        self.stats.finished += 1
+        self.stats.crashed += 1
 
     def shutdown(self) -> None:
         """Stop every worker: a polite stop after a normal run, terminate after Ctrl-C."""

@@ -18,6 +18,7 @@ from typing import Any
 from harness.config import ConfigError, SweepConfig, load_sweep
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
+from harness.runs.limits import MAX_EPISODES, check_sweep_size
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
 
@@ -60,11 +61,13 @@ def run_sweep(
     progress: bool = True,
     limit: int | None = None,
     force: bool = False,
+    max_episodes: int = MAX_EPISODES,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
-    ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created.
+    ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
+    ``max_episodes`` refuses larger sweeps before expanding them.
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
@@ -77,6 +80,7 @@ def run_sweep(
             sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
+        check_sweep_size(sweep, len(tasks), max_episodes)
         episodes = expand(sweep, source, tasks)
         if resume_dir is None:
             run.create(

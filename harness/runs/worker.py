@@ -56,18 +56,27 @@ def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str,
 
 
 FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"
+FAULT_ONCE_ENV = "PICK_HARNESS_INJECT_SEGFAULT_ONCE"
 
 
 def _inject_fault(episode_id_: str) -> None:
     """Fault injection for tests of crash recovery: a real segfault in the worker process.
 
-    Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list).
+    Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list);
+    with ``PICK_HARNESS_INJECT_SEGFAULT_ONCE=DIR`` only on its first attempt (a marker in DIR).
     """
     targets = os.environ.get(FAULT_ENV, "")
-    if targets and episode_id_ in targets.split(","):
-        import ctypes
+    if not targets or episode_id_ not in targets.split(","):
+        return
+    once_dir = os.environ.get(FAULT_ONCE_ENV)
+    if once_dir:  # crash only on the first attempt of each named episode
+        marker = Path(once_dir) / episode_id_
+        if marker.exists():
+            return
+        marker.touch()
+    import ctypes
 
-        ctypes.string_at(0)  # dereference NULL: SIGSEGV, as a crashing C extension would
+    ctypes.string_at(0)  # dereference NULL: SIGSEGV, as a crashing C extension would
 
 
 def _peak_rss_mb() -> float:
