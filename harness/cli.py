@@ -126,6 +126,11 @@ def _add_sweep(sub: Subparsers) -> None:
         action="store_true",
         help="with --resume: continue even if RUN_DIR/sweep.yaml changed since the run began",
     )
+    p.add_argument(
+        "--retry-errors",
+        action="store_true",
+        help="with --resume: run episodes whose row is an error (crash, input problem) again",
+    )
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
     p.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")

@@ -250,3 +250,21 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
     assert resumed.returncode == 0, resumed.stderr
     full = run_sweep(sweep_path, out=tmp_path / "full", workers=2, progress=False)
     pd.testing.assert_frame_equal(rows(full.run_dir)[DETERMINISTIC], rows(run_dir)[DETERMINISTIC])
+
+
+@pytest.mark.slow
+def test_resume_with_retry_errors_reruns_only_the_error_rows(tmp_path: Path, monkeypatch):
+    """Issue 15 finding 6: ``--resume`` never retried ``error`` rows."""
+    sweep_path = write_sweep(tmp_path, episodes=2)
+    episodes = expand(load_sweep(sweep_path), sweep_path)
+    victim = episodes[1].episode_id
+    monkeypatch.setenv(FAULT_ENV, victim)
+    first = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+    assert first.stats.crashed == 1
+    monkeypatch.delenv(FAULT_ENV)
+    plain = run_sweep(resume_dir=first.run_dir, workers=2, progress=False)
+    assert plain.stats.finished == 0  # an error row counts as done without the flag
+    retried = run_sweep(resume_dir=first.run_dir, workers=2, progress=False, retry_errors=True)
+    assert retried.stats.finished == 1 and retried.skipped_existing == 3
+    frame = rows(first.run_dir).set_index("episode_id")
+    assert len(frame) == 4 and (frame["failure_reason"] != "error").all()

@@ -20,6 +20,7 @@ def main(args: argparse.Namespace) -> int:
         resume_dir=Path(args.resume) if args.resume else None,
         force=bool(getattr(args, "force", False)),
         max_episodes=args.max_episodes or MAX_EPISODES,
+        retry_errors=args.retry_errors,
         out=Path(args.out) if args.out else None,
         backend=args.backend,
         workers=args.workers,

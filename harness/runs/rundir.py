@@ -87,9 +87,10 @@ class RunDir:
         """The InternDataEngine mapping notes (skipped skills, ignored keys, approximations)."""
         return write_notes(self.path, notes)
 
-    def completed_ids(self) -> set[str]:
-        """Episode ids that already have a row (a resumed run skips them)."""
-        return self.store.completed_ids()
+    def completed_ids(self, *, retry_errors: bool = False) -> set[str]:
+        """Episode ids that already have a row (a resumed run skips them); with
+        ``retry_errors``, episodes whose row is an ``error`` are not counted as done."""
+        return self.store.completed_ids(include_errors=not retry_errors)
 
     def append(self, row: dict[str, Any]) -> None:
         """Store one episode's row (crash-safe)."""

@@ -212,13 +212,17 @@ class ResultStore:
                     continue
                 yield row
 
-    def completed_ids(self) -> set[str]:
-        """Episode ids that have a row (whatever their outcome)."""
+    def completed_ids(self, *, include_errors: bool = True) -> set[str]:
+        """Episode ids that have a row; without ``include_errors``, ids whose last row is an
+        ``error`` (a crash or an input problem) count as not done, so a resume runs them again."""
         if self.path.is_file():
-            return {str(row["episode_id"]) for row in self.rows()}
-        if self.exists():
-            return set(self.load()["episode_id"])
-        return set()
+            last = {str(row["episode_id"]): row.get("failure_reason") for row in self.rows()}
+        elif self.exists():
+            frame = self.load()
+            last = dict(zip(frame["episode_id"], frame["failure_reason"], strict=True))
+        else:
+            return set()
+        return {key for key, reason in last.items() if include_errors or reason != "error"}
 
     def load(self) -> pd.DataFrame:
         """All episodes as a typed DataFrame, one row per episode id (the last one written)."""

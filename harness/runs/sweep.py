@@ -62,12 +62,14 @@ def run_sweep(
     limit: int | None = None,
     force: bool = False,
     max_episodes: int = MAX_EPISODES,
+    retry_errors: bool = False,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
-    ``max_episodes`` refuses larger sweeps before expanding them.
+    ``max_episodes`` refuses larger sweeps before expanding them; ``retry_errors`` runs the
+    episodes of a resumed run whose row is an ``error`` again (their new row replaces it).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
@@ -90,7 +92,7 @@ def run_sweep(
             )
             if notes:
                 run.write_notes(notes)
-        done_ids = run.completed_ids()
+        done_ids = run.completed_ids(retry_errors=retry_errors)
         todo = [e for e in episodes if e.resolved_id not in done_ids]
         if limit is not None:
             todo = todo[:limit]
