@@ -1,10 +1,21 @@
-"""pick-harness: which grasp-filter settings make InternDataEngine-style picks succeed."""
+"""pick-harness: which grasp-filter settings make InternDataEngine-style picks succeed.
 
-from importlib.metadata import PackageNotFoundError, version
+The Python API (``harness.load_task``, ``harness.run_episode``, ``harness.sweep``,
+``harness.load_run``; docs/python.md) is imported on first use, so ``import harness`` and the
+command line stay light.
+"""
 
-try:
-    __version__ = version("pick-harness")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+source"
+from typing import Any
 
-__all__ = ["__version__"]
+from harness.version import __version__
+
+API = ("load_task", "run_episode", "sweep", "load_run")
+__all__ = ["__version__", *API]
+
+
+def __getattr__(name: str) -> Any:
+    if name in API:
+        from harness import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'harness' has no attribute {name!r}")

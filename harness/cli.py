@@ -15,8 +15,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TypeAlias
 
-from harness import __version__
 from harness.errors import HarnessError
+from harness.version import __version__
 
 # The object ``add_subparsers`` returns (argparse has no public name for its type).
 Subparsers: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"

@@ -45,7 +45,6 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness import __version__
 from harness.config import PickConfig, TaskConfig
 from harness.episode_ids import episode_id
 from harness.episode_trace import EpisodeTrace, make_trace, planned_tcp
@@ -66,6 +65,7 @@ from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.scene_cache import SceneBundle, get_scene, grasp_file_for
 from harness.sim import ResetState, Scene
 from harness.transforms import invert_T, quat_to_matrix
+from harness.version import __version__
 
 # The reference's episode timeline (simbox_dual_workflow.py, PhysX at 1/30 s per step): place,
 # step once, build the skill (it records obj_init_trans), settle 20 steps, generate the first

@@ -7,11 +7,14 @@ its episode into an ``error`` row and is replaced; Ctrl-C stops the run and keep
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import multiprocessing as mp
 import os
 import signal
+import sys
 import time
+import types
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
@@ -77,6 +80,25 @@ class _Worker:
     episode: EpisodeSpec | None = None
 
 
+@contextlib.contextmanager
+def _main_module_hidden() -> Iterator[None]:
+    """Start a spawned worker without re-running the caller's script.
+
+    A spawned child imports the parent's ``__main__`` by path, which re-runs a script's top level
+    and, without an ``if __name__ == "__main__":`` guard, makes a script that calls
+    ``harness.sweep`` fail. The worker's target lives in this package and needs nothing from
+    ``__main__``, so the main module is hidden from the spawn preparation for the start.
+    """
+    main = sys.modules.get("__main__")
+    stand_in = types.ModuleType("__main__")
+    sys.modules["__main__"] = stand_in
+    try:
+        yield
+    finally:
+        if main is not None:
+            sys.modules["__main__"] = main
+
+
 class _ProcessPool:
     """The pool's workers, the episodes still to hand out, and what happened so far."""
 
@@ -106,7 +128,8 @@ class _ProcessPool:
         if blocked:
             signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
-            process.start()
+            with _main_module_hidden():
+                process.start()
         finally:
             if blocked:
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
