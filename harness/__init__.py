@@ -10,7 +10,7 @@ from typing import Any
 from harness.version import __version__
 
 API = ("load_task", "run_episode", "sweep", "load_run")
-__all__ = ["__version__", "load_task", "load_run", "run_episode", "sweep"]  # noqa: F822 (lazy)
+__all__ = ["__version__", "load_run", "load_task", "run_episode", "sweep"]
 
 
 def __getattr__(name: str) -> Any:
