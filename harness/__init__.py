@@ -5,9 +5,12 @@ The Python API (``harness.load_task``, ``harness.run_episode``, ``harness.sweep`
 command line stay light.
 """
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from harness.version import __version__
+
+if TYPE_CHECKING:  # what the lazy attributes below resolve to
+    from harness.api import load_run, load_task, run_episode, sweep
 
 API = ("load_task", "run_episode", "sweep", "load_run")
 __all__ = ["__version__", "load_run", "load_task", "run_episode", "sweep"]
