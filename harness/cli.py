@@ -166,7 +166,7 @@ def _add_compare(sub: Subparsers) -> None:
 def _add_view(sub: Subparsers) -> None:
     """``harness view FILE.rrd``"""
     p = sub.add_parser("view", help="open a Rerun recording (or say how to)")
-    p.add_argument("file", metavar="FILE.rrd")
+    p.add_argument("file", metavar="FILE.rrd|RUN_DIR", help="a recording, or a run directory")
     p.set_defaults(func=_handler("view", "main"))
 
 

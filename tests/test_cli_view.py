@@ -19,6 +19,16 @@ def test_view_without_display_prints_instructions(tmp_path: Path, monkeypatch, c
     assert "no display" in out and "rerun x.rrd" in out
 
 
+def test_view_a_run_directory_opens_its_recording(tmp_path: Path, monkeypatch, capsys):
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert f"{tmp_path / 'recording.rrd'}" in out
+    assert "--bind 127.0.0.1" in out  # the viewer's server never listens on every interface
+
+
 def test_view_missing_file_is_one_line_error(tmp_path: Path, capsys):
     assert main(["view", str(tmp_path / "missing.rrd")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -217,3 +217,19 @@ def test_an_oversized_yaml_file_is_refused(tmp_path: Path) -> None:
     result = harness_cli("validate", str(path))
     assert result.returncode != 0
     assert "too large for a task or sweep file" in result.stderr + result.stdout
+
+
+@pytest.mark.parametrize(
+    ("command", "path", "hint"),
+    [
+        ("sweep", "tasks/pick/fr3.yaml", "this is a task file; run it with `harness run"),
+        ("run", "tasks/sweeps/demo.yaml", "this is a sweep file; run it with `harness sweep"),
+    ],
+)
+def test_a_file_of_the_other_kind_says_which_command_it_needs(
+    command: str, path: str, hint: str
+) -> None:
+    """Issue 14: ``harness sweep TASK.yaml`` answered "robot: unknown key"."""
+    result = harness_cli(command, str(ROOT / path), "--out", "/nonexistent/never-created")
+    assert result.returncode == 2
+    assert hint in result.stderr and "unknown key" not in result.stderr

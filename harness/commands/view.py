@@ -1,4 +1,4 @@
-"""``harness view FILE.rrd``: open a recording in the Rerun viewer, or say how to."""
+"""``harness view FILE.rrd|RUN_DIR``: open a recording in the Rerun viewer, or say how to."""
 
 from __future__ import annotations
 
@@ -20,6 +20,8 @@ def has_display() -> bool:
 
 def main(args: argparse.Namespace) -> int:
     path = Path(args.file)
+    if path.is_dir():  # a run directory: its sweep overview recording
+        path = path / "recording.rrd"
     if not path.is_file():
         raise HarnessError(f"{path}: no such recording")
     viewer = shutil.which("rerun")

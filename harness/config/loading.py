@@ -66,9 +66,26 @@ def kind_of(data: Any) -> str:
     return "unknown"
 
 
+_INTERNDATA = "this is an InternDataEngine task file; use `harness run --interndata {path}`"
+WRONG_KIND_HINTS = {
+    ("task", "sweep"): "this is a sweep file; run it with `harness sweep {path}`",
+    ("task", "interndata"): _INTERNDATA,
+    ("sweep", "task"): "this is a task file; run it with `harness run {path}`",
+    ("sweep", "interndata"): _INTERNDATA + " or list it in a sweep's tasks",
+}
+
+
+def _check_kind(doc: YamlDocument, expected: str, path: str | Path) -> None:
+    """A task file given where a sweep is expected (or the other way round) says so."""
+    hint = WRONG_KIND_HINTS.get((expected, kind_of(doc.data)))
+    if hint is not None:
+        raise ConfigError(hint.format(path=path), file=path)
+
+
 def load_task(path: str | Path) -> TaskConfig:
     """Load a harness task YAML."""
     doc = read_yaml(path)
+    _check_kind(doc, "task", path)
     data = doc.data
     if isinstance(data, dict):
         data = {**data, "source": str(Path(path))}
@@ -78,6 +95,7 @@ def load_task(path: str | Path) -> TaskConfig:
 def load_sweep(path: str | Path) -> SweepConfig:
     """Load a sweep YAML (the tasks it lists are loaded when the sweep expands)."""
     doc = read_yaml(path)
+    _check_kind(doc, "sweep", path)
     return validate_model(SweepConfig, doc.data, doc)
 
 
