@@ -170,6 +170,18 @@ def _add_view(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("view", "main"))
 
 
+def _add_replay(sub: Subparsers) -> None:
+    """``harness replay RUN_DIR EPISODE_ID [--record FILE.rrd] [--video FILE.mp4]``"""
+    p = sub.add_parser(
+        "replay", help="run one stored episode again; check its row, record it, film it"
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (sweep or run)")
+    p.add_argument("episode_id", metavar="EPISODE_ID", help="the episode_id column of its row")
+    p.add_argument("--record", metavar="FILE.rrd", help="write the episode's Rerun recording")
+    p.add_argument("--video", metavar="FILE.mp4", help="write an offscreen MP4 of the episode")
+    p.set_defaults(func=_handler("replay", "main"))
+
+
 def _add_grasps(sub: Subparsers) -> None:
     """``harness grasps inspect | generate``"""
     grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
@@ -247,6 +259,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_report,
     _add_compare,
     _add_view,
+    _add_replay,
     _add_grasps,
     _add_robots,
     _add_objects,

@@ -1,0 +1,42 @@
+"""``harness replay RUN_DIR EPISODE_ID [--record FILE.rrd] [--video FILE.mp4]``: run one stored
+episode again from its row (task, point, full seed), check the new row equals the stored one,
+and write its Rerun recording and/or an offscreen MP4."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from harness.commands.console import make_console
+from harness.viz.render import use_offscreen_gl
+
+
+def main(args: argparse.Namespace) -> int:
+    use_offscreen_gl()  # before mujoco is first imported
+    from harness.episode import run_episode
+    from harness.runs.replay import find_episode, row_differences
+
+    console = make_console()
+    run_dir = Path(args.run_dir)
+    spec, stored = find_episode(run_dir, args.episode_id)
+    console.print(f"replaying {args.episode_id} (seed {spec.seed}) ...", highlight=False)
+    result = run_episode(spec)
+    differences = row_differences(stored, result.row)
+    outcome = "success" if result.success else f"failure: {result.failure_reason}"
+    if differences:
+        console.print(f"[red]the replay differs from the stored row[/] ({outcome}):")
+        for line in differences:
+            console.print(f"  {line}", highlight=False, markup=False)
+    else:
+        console.print(f"row reproduced exactly ({outcome})", highlight=False)
+    if args.record:
+        from harness.viz.recording import record_episode
+
+        path = record_episode(result, Path(args.record), spec.task)
+        console.print(f"  recording {path}", highlight=False)
+    if args.video:
+        from harness.viz.video import write_episode_video
+
+        frames = write_episode_video(result, Path(args.video))
+        console.print(f"  video     {args.video} ({frames} frames)", highlight=False)
+    return 1 if differences else 0
