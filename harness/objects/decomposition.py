@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import tempfile
 import warnings
@@ -18,6 +19,8 @@ from typing import Any
 
 import numpy as np
 import trimesh
+
+LOG = logging.getLogger(__name__)
 
 CACHE_FORMAT = 1  # bump when the cache file layout changes
 CONVEX_VOLUME_RATIO = 0.995  # a watertight mesh this close to its hull's volume is convex
@@ -159,6 +162,14 @@ def collision_pieces(
     cached = _load_pieces(path) if path.is_file() else None
     if cached:
         return cached, "cache"
+    # The first load of a mesh can take tens of seconds (35 s seen on an InternData bottle):
+    # say so on stderr instead of looking hung (unconfigured logging prints warnings there).
+    LOG.warning(
+        "%s: convex decomposition with CoACD (%d faces; first load only, cached in %s) ...",
+        source_name,
+        len(mesh.faces),
+        cache_dir(),
+    )
     try:
         pieces = [p for p in run_coacd(mesh, params) if len(p[0]) >= 4 and len(p[1]) >= 4]
         if not pieces:

@@ -10,8 +10,11 @@ from typing import Any
 class SweepProgress:
     """Rich progress bar with episodes per second, time left and the running success rate."""
 
-    def __init__(self, total: int, already: int, enabled: bool) -> None:
+    def __init__(self, total: int, already: int, enabled: bool, workers: int | None = None) -> None:
         self.total = total
+        # Until the first row arrives the bar says what is happening (spawning workers, imports
+        # and scene builds take seconds), not "0.00 ep/s".
+        self.starting = f"starting {workers} worker(s)" if workers else "starting"
         self.already = already
         self.enabled = enabled
         self.successes = 0
@@ -30,7 +33,7 @@ class SweepProgress:
         )
 
         self.bar = Progress(
-            TextColumn("[bold]sweep"),
+            TextColumn("[bold]{task.fields[status]}"),
             BarColumn(),
             MofNCompleteColumn(),
             TextColumn("{task.fields[rate]:.2f} ep/s"),
@@ -41,7 +44,12 @@ class SweepProgress:
         )
         self.bar.start()
         self.task_id = self.bar.add_task(
-            "sweep", total=self.total, completed=self.already, rate=0.0, success="-"
+            "sweep",
+            total=self.total,
+            completed=self.already,
+            rate=0.0,
+            success="-",
+            status=self.starting,
         )
         self.start = time.perf_counter()
         return self._advance
@@ -58,6 +66,7 @@ class SweepProgress:
             advance=1,
             rate=self.finished / elapsed,
             success=f"{self.successes}/{self.finished}",
+            status="sweep",
         )
 
     def __exit__(self, *exc: object) -> None:

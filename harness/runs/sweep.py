@@ -97,8 +97,10 @@ def run_sweep(
         if limit is not None:
             todo = todo[:limit]
         workers = workers or sweep.workers or default_workers()
-
-        with SweepProgress(len(episodes), len(episodes) - len(todo), enabled=progress) as on_row:
+        pool = min(workers, len(todo)) if backend != "serial" else None
+        with SweepProgress(
+            len(episodes), len(episodes) - len(todo), enabled=progress, workers=pool
+        ) as on_row:
 
             def on_result(row: dict[str, Any]) -> None:
                 run.append(row)
