@@ -14,7 +14,7 @@ from harness.episode import EpisodeSpec, run_episode
 from harness.pick.commands import IDLE_POP_STEPS, build_commands, pose_reached
 from harness.pick.executor import SERVO_CHUNK_S
 from harness.pick.outcome import PickOutcome
-from harness.pick.semantics import STRICT_TABLE_CLEARANCE, Semantics
+from harness.pick.semantics import REFERENCE_IGNORE_SUBSTRINGS, STRICT_TABLE_CLEARANCE, Semantics
 from harness.pick.verdict import closing_terms, first_failure, reference_terms
 from harness.transforms import quat_to_matrix
 
@@ -49,8 +49,16 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     assert not reference.hold_after_list
     world = reference.planning_world(task, "cube")
     assert world.target == "cube" and world.check_target and world.hold_lift
-    assert world.check_table == task.physics.table_contact  # the table only where it is physical
-    assert world.table_clearance == 0.0 and world.ignore_substring == ("shelf",)
+    # The reference planner never sees the table, physical or not (issue 16, item 1) ...
+    assert not world.check_table
+    physical = task.model_copy(
+        update={"physics": task.physics.model_copy(update={"table_contact": True})}
+    )
+    assert not reference.planning_world(physical, "cube").check_table
+    # ... and leaves out every name its controllers ignore, plus the pick's own list.
+    assert world.table_clearance == 0.0
+    assert world.ignore_substring == (*REFERENCE_IGNORE_SUBSTRINGS, "shelf")
+    assert "table" in world.ignore_substring and "scene" in world.ignore_substring
     strict = Semantics.from_pick(PickConfig(semantics="strict", ignore_substring=["shelf"]))
     assert strict.test_carry and not strict.fall_back_to_last_tested
     assert strict.fixed_orientation_in_test and strict.pregrasp_along_fixed_axis
@@ -58,6 +66,7 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     world = strict.planning_world(task, "cube")
     assert world.check_table and world.table_clearance == STRICT_TABLE_CLEARANCE
     assert world.ignore_substring == ()
+    assert strict.planning_world(physical, "cube").check_table  # strict avoids it either way
 
 
 def test_verdict_terms_first_failure_wins() -> None:

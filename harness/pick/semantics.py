@@ -32,13 +32,16 @@ FORWARD_TEST_PLANS_CARRY = True
 # Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
 # small arms' wrists have kp 10) does not dip a finger into it during execution.
 STRICT_TABLE_CLEARANCE = 0.005
+# The reference workflow's planning-world ignore list (docs/reference-pick-skill.md section 8):
+# names containing any of these are never obstacles for its planner (the table among them).
+REFERENCE_IGNORE_SUBSTRINGS = ("material", "Plane", "conveyor", "scene", "table")
 
 
 @dataclass(frozen=True)
 class Semantics:
     """The reference-vs-strict decisions of one pick (see the module docstring).
 
-    Planning world: ``table_always_in_planning`` (else only where robot-table contact is on),
+    Planning world: ``table_in_planning`` (strict; the reference planner never sees the table),
     ``table_clearance`` (m), ``ignore_substring`` (objects left out of planning).
     Feasibility: ``test_carry`` (a forward test plans the lift and the return too),
     ``fixed_orientation_in_test`` (candidates are tested at ``fixed_orientation``, so the tested
@@ -53,7 +56,7 @@ class Semantics:
     """
 
     name: Literal["reference", "strict"]
-    table_always_in_planning: bool
+    table_in_planning: bool
     table_clearance: float
     ignore_substring: tuple[str, ...]
     test_carry: bool
@@ -71,9 +74,11 @@ class Semantics:
         strict = pick.semantics == "strict"
         return cls(
             name=pick.semantics,
-            table_always_in_planning=strict,
+            table_in_planning=strict,
             table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-            ignore_substring=() if strict else tuple(pick.ignore_substring),
+            ignore_substring=()
+            if strict
+            else (*REFERENCE_IGNORE_SUBSTRINGS, *pick.ignore_substring),
             test_carry=strict or FORWARD_TEST_PLANS_CARRY,
             fixed_orientation_in_test=strict,
             pregrasp_along_fixed_axis=strict,
@@ -87,18 +92,20 @@ class Semantics:
     def planning_world(self, task: TaskConfig, target: str) -> PlanningWorld:
         """What the planner treats as an obstacle while picking ``target``.
 
-        The planning world holds what the robot physically collides with: the table when robot-
-        table contact is on (and always under strict semantics; the reference's planning ignores
-        the table even where it is physical, quirk 21, planning fingers into it), and the target
-        object under both semantics (the fingers may touch it on the approach; the reference
-        removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
-        transport sweep through it and knock it over). Other objects are in it unless the pick's
-        ignore_substring names them (the reference planner's ignore list); strict ignores
-        nothing.
+        ``reference``: the world the reference's planner builds (docs/reference-pick-skill.md
+        section 8, quirk 21): its controllers leave every scene name containing one of
+        ``REFERENCE_IGNORE_SUBSTRINGS`` or the pick's ``ignore_substring`` out of planning, so
+        the table is never an obstacle, even where robot-table contact is physical
+        (``neglect_collision_names`` only sets the physics collision groups) -- the reference
+        plans fingers into a physical table, and so does this. ``strict``: everything physical
+        is an obstacle, the table with a clearance. Under both, the target object stays in the
+        world (fingers may touch it on the approach; the reference removes it while planning the
+        pre-grasp and the grasp, section 6 step 2, which lets a transport sweep through it and
+        knock it over in MuJoCo).
         """
         return PlanningWorld(
             target,
-            check_table=task.physics.table_contact or self.table_always_in_planning,
+            check_table=self.table_in_planning,
             check_target=True,
             table_clearance=self.table_clearance,
             ignore_substring=self.ignore_substring,
