@@ -25,6 +25,7 @@ from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
 from harness.robots.model import RobotModel
 from harness.robots.mujoco_spec import build_robot_spec
+from harness.sim.friction import add_object_contact_pairs
 from harness.sim.masks import ROBOT_BIT, TABLE_BIT
 
 TABLE_NAME = "table"
@@ -64,6 +65,7 @@ def compose(
     _add_table(spec)
     base = Path(base_dir)
     assets: dict[str, ObjectAsset] = {}
+    object_geoms: list[str] = []
     objects = [with_object_defaults(obj) for obj in objects]
     for obj in objects:
         mesh_path = resolve_mesh(obj.mesh, base)
@@ -72,7 +74,8 @@ def compose(
             grasps = str(base / grasps)  # relative to the task file
         asset = ObjectAsset.load(mesh_path, obj.scale, grasps, mass=obj.mass, friction=obj.friction)
         assets[obj.name] = asset
-        _add_object(spec, obj.name, asset)
+        object_geoms.extend(_add_object(spec, obj.name, asset))
+    add_object_contact_pairs(spec, object_geoms, TABLE_NAME)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -126,8 +129,9 @@ def _make_root_mocap(spec: mujoco.MjSpec, robot: RobotModel) -> str:
     return robot.root_frame
 
 
-def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
-    """A free body with one mesh geom per convex piece and the asset's mass properties."""
+def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> list[str]:
+    """A free body with one mesh geom per convex piece and the asset's mass properties; returns
+    the names of its geoms."""
     body = spec.worldbody.add_body(name=name)
     body.add_freejoint(name=f"{name}_free")
     body.mass = asset.mass
@@ -137,6 +141,7 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
         inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]
     ]  # fmt: skip
     body.explicitinertial = True
+    names: list[str] = []
     for index, (vertices, faces) in enumerate(asset.collision_pieces):
         mesh_name = f"{name}_piece{index}"
         spec.add_mesh(
@@ -155,6 +160,8 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
             density=0.0,
             rgba=[0.9, 0.65, 0.15, 1.0],
         )
+        names.append(mesh_name)
+    return names
 
 
 def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
