@@ -160,6 +160,10 @@ def _add_gripper(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
         joint.damping = [arm.gripper.damping, 0.0, 0.0]
         joint.armature = arm.gripper.armature
         joint.frictionloss = arm.gripper.frictionloss
+        # MuJoCo's URDF import turns the URDF effort into a joint actuator force range, which
+        # clamps the servo silently (the Piper URDF's 10 N capped a 20 N servo at a 5 N grasp);
+        # the gripper's force limit below is the one limit on the grip.
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
         # The selected variant's travel (the URDF allows the widest variant's).
         joint.range = [arm.finger_closed_position, arm.finger_open_position]
         # Stiff travel limits: with the default soft limit a large object pried the FR3 fingers
