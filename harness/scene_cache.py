@@ -1,9 +1,9 @@
 """The per-worker scene cache: a built scene with its IK solvers, planners and grasp poses.
 
 Building a MuJoCo scene, an IK model and a planner costs far more than an episode on them, so a
-worker keeps them in ``scene_cache`` (any dict), keyed by (robot and gripper, objects, physics): an episode
-on a cached scene only resets arrays. The grasp files and their post-processed EE poses are
-cached with the scene that uses them.
+worker keeps them in ``scene_cache`` (any dict), keyed by (robot and gripper, objects, physics):
+an episode on a cached scene only resets arrays. The grasp files and their post-processed EE
+poses are cached with the scene that uses them.
 """
 
 from __future__ import annotations

@@ -55,4 +55,7 @@ def apply_overrides(task: TaskConfig, overrides: dict[str, Any]) -> TaskConfig:
     try:
         return TaskConfig.model_validate(data)
     except ValidationError as exc:
-        raise error_from_validation(exc, TaskConfig, None).with_file(task.source) from None
+        error = error_from_validation(exc, TaskConfig, None).with_file(task.source)
+        if error.key and error.key.startswith("gripper"):  # the file and axis spelling
+            error = ConfigError(error.message, file=error.file, key=f"robot.{error.key}")
+        raise error from None
