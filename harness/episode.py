@@ -299,7 +299,9 @@ def _reset(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: Episod
     scene = bundle.scene
     result.scene = scene
     arm = task.arm
-    scene.robot.arm(arm)  # a clear error for an unknown arm
+    gripper = scene.robot.arm(arm).gripper  # a clear error for an unknown arm
+    result.row["grip_force_limit_n"] = gripper.force_limit
+    result.row["gripper_variant"] = scene.robot.gripper_variant
     rng = np.random.default_rng(spec.seed)
 
     reset = scene.reset(task, rng, settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S)

@@ -111,6 +111,12 @@ class EpisodeRow:
     finger_force_right_n: float = field(
         default=math.nan, metadata=_doc("normal force on the right finger after closing (N)")
     )
+    grip_force_limit_n: float = field(
+        default=math.nan, metadata=_doc("the gripper's grasp force limit per pad (N)")
+    )
+    gripper_variant: str = field(
+        default="", metadata=_doc("the robot.yaml gripper variant the episode ran with")
+    )
     lift_height_m: float = field(default=math.nan, metadata=_doc("object z rise over the lift (m)"))
     slip_m: float = field(
         default=math.nan,

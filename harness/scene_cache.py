@@ -1,9 +1,9 @@
 """The per-worker scene cache: a built scene with its IK solvers, planners and grasp poses.
 
 Building a MuJoCo scene, an IK model and a planner costs far more than an episode on them, so a
-worker keeps them in ``scene_cache`` (any dict), keyed by (robot, objects, physics): an episode
-on a cached scene only resets arrays. The grasp files and their post-processed EE poses are
-cached with the scene that uses them.
+worker keeps them in ``scene_cache`` (any dict), keyed by (robot and gripper, objects, physics):
+an episode on a cached scene only resets arrays. The grasp files and their post-processed EE
+poses are cached with the scene that uses them.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from harness.grasps import EEPoses, GraspSet, load_grasp_file, post_process
 from harness.objects.assets import find_grasp_file
 from harness.planning.ik import WholeBodyIK
 from harness.planning.planner import PickPlanner
+from harness.robots import RobotModel
 from harness.sim import Scene, scene_key
 
 
@@ -67,7 +68,8 @@ def get_scene(task: TaskConfig, scene_cache: dict[Any, Any] | None) -> SceneBund
     key = scene_key(task)
     if scene_cache is not None and key in scene_cache:
         return scene_cache[key]
-    scene = Scene.build(task.robot, task.objects, task.physics, task.base_dir())
+    robot = RobotModel.load(task.robot, task.gripper)
+    scene = Scene.build(robot, task.objects, task.physics, task.base_dir())
     bundle = SceneBundle(scene)
     if scene_cache is not None:
         scene_cache[key] = bundle

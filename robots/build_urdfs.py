@@ -424,7 +424,7 @@ PIPER_MASSES = (1.02, 0.71, 1.17, 0.5, 0.38, 0.383)
 PIPER_GRIPPER_MASS = 0.15  # link6 with the gripper housing (older chain)
 PIPER_FINGER_MASS = 0.0265
 PIPER_FINGER_Z = 0.13503  # finger joint origin along link6 z (older chain joint7/joint8)
-PIPER_STROKE = 0.035  # per finger: SDK gripper_range 0.07 total
+PIPER_STROKE = 0.05  # per finger: the reference's piper100 jaw 0.10 (the SDK's 0.07 fits in it)
 PIPER_TCP = 0.12
 
 
@@ -492,11 +492,13 @@ def add_piper(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]
     robot.joint(p + "link6_sdk_joint", "fixed", p + "link6", p + "link6_sdk", rpy=(0, 0, -PI / 2))
     for n, sign in ((7, 1.0), (8, -1.0)):
         finger = robot.link(f"{p}link{n}", PIPER_FINGER_MASS, "grey")
-        # Plate z 0.080-0.135 from link6 (recessed 4 mm), pad z 0.095-0.135 with its inner face
-        # on the finger plane (x = +-opening).
+        # MuJoCo Menagerie agilex_piper/piper.xml (current) finger collision boxes, in this
+        # finger frame (opening along sign * x, approach +z): half-sizes (0.0025 closing,
+        # 0.012 / 0.015 across, 0.015 along z) at 0.015 and 0.045 below the finger origin,
+        # inner faces on the finger plane. Fingertip = the finger origin, 0.13503 past link6.
         finger.shapes = [
-            box((sign * 0.007, 0, -0.0275), (0.006, 0.018, 0.055)),
-            box((sign * 0.002, 0, -0.02), (0.004, 0.018, 0.04), name=f"{p}link{n}_pad"),
+            box((sign * 0.0025, 0, -0.045), (0.005, 0.03, 0.03)),
+            box((sign * 0.0025, 0, -0.015), (0.005, 0.024, 0.03), name=f"{p}link{n}_pad"),
         ]
         robot.joint(
             f"{p}joint{n}",
@@ -526,8 +528,9 @@ Split ALOHA: two AgileX Piper arms side by side facing +x on a mobile base (prim
 Arm chain: piper_no_gripper_description.urdf (newer chain, piper_ros@ac41fcb), SDK limits; the
 URDF's J1 upper limit 2.168 is a typo and is written as 2.618 here. Velocity/effort are the URDF
 placeholders. Arm bases at footprint + (0.2305, +-0.297, 0.782): the Cobot Magic cuRobo
-fixture (0.59 m apart, 0.78 m high; yaw 0.02 dropped). Gripper: two prismatic fingers, 0-0.035
-each (SDK gripper_range 0.07). link6 is the SDK link6 turned +90 deg about z (fingers along x);
+fixture (0.59 m apart, 0.78 m high; yaw 0.02 dropped). Gripper: two prismatic fingers, 0-0.05
+each (the reference's piper100 jaw 0.10; the SDK's 0.07 is a robot.yaml variant), Menagerie
+agilex_piper collision boxes as pads. link6 is the SDK link6 turned +90 deg about z (fingers along x);
 link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
 """,
     )
@@ -629,16 +632,14 @@ def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) 
     fx, fy, fz = R5A_FINGER_XYZ
     for n, sign in ((7, 1.0), (8, -1.0)):
         finger = robot.link(f"{p}link{n}", R5A_FINGER_MASS, "grey")
-        # In the finger frame the closing plane is y = -+0.0249. Plate x 0.0866-0.165 from link6
-        # (recessed 4 mm), pad x 0.105-0.165 (centre 0.135 = the reference tool_head).
-        inner = -sign * fy
+        # MuJoCo Menagerie arx_l5/arx_l5.xml finger collision boxes (finger frame = link6
+        # axes): half-sizes (0.015, 0.002, 0.018) at x 0.015 and the fingertip pad
+        # (0.02, 0.002, 0.00525) at x 0.05, both at y = -+0.023: inner faces on the closing
+        # plane y = -+0.0249, fingertip 0.08657 + 0.07 = 0.15657 past link6.
+        inner = -sign * 0.023
         finger.shapes = [
-            box((0.0392, inner + sign * 0.007, -fz), (0.0784, 0.006, 0.02)),
-            box(
-                (0.135 - fx, inner + sign * 0.002, -fz),
-                (0.06, 0.004, 0.024),
-                name=f"{p}link{n}_pad",
-            ),
+            box((0.015, inner, 0.0), (0.03, 0.004, 0.036)),
+            box((0.05, inner, 0.0), (0.04, 0.004, 0.0105), name=f"{p}link{n}_pad"),
         ]
         robot.joint(
             f"{p}joint{n}",
@@ -672,7 +673,7 @@ base + (0.094118, 0.0010067, 0.27), range 0-0.46 m, 0.15 m/s, 400 N; carriage 14
 at carriage + (0.059949, +-0.25, 0.0245)). The reference holds the lift at 0.46, the top of this
 range. Arms: R5a.urdf chain and ranges (J1 upper 2.168 is a typo, written as 2.618), arx5-sdk
 velocity and torque limits. Gripper: fingers at link6 + (0.08657, +-0.0249, -0.00024) sliding
-along +-y, 0-0.044 each (0.088 total). TCP at link6 + 0.125 x (reference tcp_offset).
+along +-y, 0-0.044 each (0.088 total), Menagerie arx_l5 collision boxes as pads. TCP at link6 + 0.125 x (reference tcp_offset).
 Root 'base' = the chassis origin on the floor.
 """,
     )

@@ -137,7 +137,8 @@ def test_reference_homes_and_widths() -> None:
     assert all(abs(v) < 0.006 for v in lift2.arms["right"].home)
     assert aloha.arms["left"].home_noise_std[1] == pytest.approx(0.24539099)
     widths = {r.name: r.arms["left"].open_width for r in (fr3, lift2, aloha)}
-    assert widths == {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.07}
+    # The reference's jaws; the Split ALOHA default is its piper100 (the SDK's 0.07: sdk070).
+    assert widths == {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10}
     # Known typos fixed: Piper and R5a J1 upper 2.168 -> 2.618.
     assert aloha.joint_limits("left_joint1") == (-2.618, 2.618)
     assert lift2.joint_limits("right_joint1") == (-2.618, 2.618)
@@ -451,7 +452,7 @@ def test_robot_facts_come_from_the_robot_folders() -> None:
     assert robot_arms("fr3") == ("left",) and robot_arms("lift2") == ("left", "right")
     assert interndata_home("fr3", "left") == [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
     assert interndata_home("split_aloha", "right") == [0.0] * 6
-    assert [max_jaw_opening(r) for r in ("fr3", "lift2", "split_aloha")] == [0.08, 0.088, 0.07]
+    assert [max_jaw_opening(r) for r in ("fr3", "lift2", "split_aloha")] == [0.08, 0.088, 0.10]
     for robot in ("fr3", "lift2", "split_aloha"):
         expected = REFERENCE_CONVENTIONS[robot]
         convention = reference_convention(robot)

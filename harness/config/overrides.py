@@ -8,16 +8,15 @@ import yaml
 from pydantic import ValidationError
 
 from harness.config.errors import ConfigError
-from harness.config.sweep import check_dotted_key
+from harness.config.sweep import canonical_key, check_dotted_key
 from harness.config.task import TaskConfig
 from harness.config.validation import error_from_validation
 
 
 def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
-    """Set ``pick.filter_z_dir`` / ``objects.0.mass`` / ``object.friction`` in a nested dict."""
-    parts = key.split(".")
-    if parts[0] == "object":
-        parts = ["objects", "0", *parts[1:]]
+    """Set ``pick.filter_z_dir`` / ``objects.0.mass`` / ``object.friction`` /
+    ``robot.gripper.force_limit`` in a nested dict (a task's ``model_dump``)."""
+    parts = canonical_key(key).split(".")
     node: Any = data
     for index, part in enumerate(parts[:-1]):
         nxt = parts[index + 1]
@@ -56,4 +55,7 @@ def apply_overrides(task: TaskConfig, overrides: dict[str, Any]) -> TaskConfig:
     try:
         return TaskConfig.model_validate(data)
     except ValidationError as exc:
-        raise error_from_validation(exc, TaskConfig, None).with_file(task.source) from None
+        error = error_from_validation(exc, TaskConfig, None).with_file(task.source)
+        if error.key and error.key.startswith("gripper"):  # the file and axis spelling
+            error = ConfigError(error.message, file=error.file, key=f"robot.{error.key}")
+        raise error from None

@@ -9,7 +9,7 @@ from pydantic import Field, field_validator, model_validator
 from harness.config.errors import KeyedValueError
 from harness.config.messages import suggest
 from harness.config.pick import PickConfig
-from harness.config.task import TaskConfig
+from harness.config.task import GripperChoice, TaskConfig
 from harness.config.values import FiniteFloat, StrictModel
 
 
@@ -34,6 +34,18 @@ class RandomAxis(StrictModel):
 
 
 TASK_KEYS = frozenset(TaskConfig.model_fields)
+ROBOT_KEYS = ("name", "gripper")
+
+
+def canonical_key(key: str) -> str:
+    """The key in a task's ``model_dump``: ``object.`` is ``objects.0.``, ``robot.gripper.`` is
+    ``gripper.`` and ``robot.name`` is ``robot`` (a file's ``robot: {name, gripper}``)."""
+    parts = key.split(".")
+    if parts[0] == "object":
+        parts = ["objects", "0", *parts[1:]]
+    elif parts[0] == "robot" and len(parts) > 1:
+        parts = ["robot"] if parts[1:] == ["name"] else parts[1:]
+    return ".".join(parts)
 
 
 def check_dotted_key(key: str) -> str:
@@ -51,6 +63,19 @@ def check_dotted_key(key: str) -> str:
         raise KeyedValueError(
             (key,), f"axis key {key!r}: unknown task key {head!r}{suggest(head, TASK_KEYS)}"
         )
+    if head == "robot" and len(parts) > 1 and parts[1] not in ROBOT_KEYS:
+        raise KeyedValueError(
+            (key,),
+            f"axis key {key!r}: unknown robot key {parts[1]!r}{suggest(parts[1], ROBOT_KEYS)}",
+        )
+    if (head == "robot" and len(parts) > 2) or (head == "gripper" and len(parts) > 1):
+        field = parts[2] if head == "robot" else parts[1]
+        if field not in GripperChoice.model_fields:
+            raise KeyedValueError(
+                (key,),
+                f"axis key {key!r}: unknown gripper key {field!r}"
+                f"{suggest(field, GripperChoice.model_fields)}",
+            )
     if head == "pick" and len(parts) > 1 and parts[1] not in PickConfig.model_fields:
         raise KeyedValueError(
             (key,),

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from harness.config.errors import KeyedValueError
 from harness.config.messages import suggest
@@ -87,11 +87,59 @@ class PhysicsConfig(StrictModel):
     )
 
 
+class GripperChoice(StrictModel):
+    """The task's gripper (``robot: {name: ..., gripper: {...}}``): a robot.yaml variant and
+    overrides of its grip physics, each None = the robot.yaml value."""
+
+    variant: str | None = Field(default=None, description="A gripper variant of robot.yaml.")
+    force_limit: FiniteFloat | None = Field(default=None, gt=0.0, le=10_000.0)
+    pad_friction: FiniteFloat | None = Field(default=None, gt=0.0, le=10.0)
+    kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
+    kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
+
+    def overrides(self) -> dict[str, float]:
+        """The grip physics values this task sets (robot.yaml keys)."""
+        return {
+            key: value
+            for key in ("force_limit", "pad_friction", "kp", "kv")
+            if (value := getattr(self, key)) is not None
+        }
+
+
+def _split_robot_mapping(data: Any) -> Any:
+    """``robot: {name: fr3, gripper: {...}}`` -> ``robot: fr3`` + ``gripper: {...}``."""
+    if not isinstance(data, dict) or not isinstance(data.get("robot"), dict):
+        return data
+    robot, data = dict(data["robot"]), dict(data)
+    for key in robot:
+        if key not in ("name", "gripper"):
+            raise KeyedValueError(
+                ("robot", key), f"unknown key{suggest(str(key), ['name', 'gripper'])}"
+            )
+    if "name" not in robot:
+        raise KeyedValueError("robot", "a robot mapping needs name (robots/<name> or a robot.yaml)")
+    data["robot"] = robot["name"]
+    if "gripper" in robot:
+        if data.get("gripper") is not None:
+            raise KeyedValueError(("robot", "gripper"), "gripper is given twice")
+        try:
+            data["gripper"] = GripperChoice.model_validate(robot["gripper"] or {})
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            loc = tuple(p for p in err["loc"] if isinstance(p, (str, int)))
+            raise KeyedValueError(("robot", "gripper", *loc), err["msg"]) from None
+    return data
+
+
 class TaskConfig(StrictModel):
     """One pick task: robot arm, objects, physics and the pick block."""
 
     name: str = Field(default="task", min_length=1)
     robot: str = Field(min_length=1, description="Robot name (robots/<name>) or robot.yaml path.")
+    gripper: GripperChoice = Field(
+        default_factory=GripperChoice,
+        description="Gripper variant and grip physics; in a file: robot: {name, gripper}.",
+    )
     arm: Literal["left", "right"] = "left"
     robot_placement: Placement | None = Field(
         default=None, description="Robot root placement; default from robot.yaml."
@@ -107,8 +155,14 @@ class TaskConfig(StrictModel):
     )
     source: str | None = Field(default=None, description="File this task was loaded from.")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_mapping(cls, data: Any) -> Any:
+        return _split_robot_mapping(data)
+
     @model_validator(mode="after")
     def _consistent(self) -> TaskConfig:
+        self._check_gripper_variant()
         names = [obj.name for obj in self.objects]
         for index, name in enumerate(names):
             if name in names[:index]:
@@ -137,6 +191,18 @@ class TaskConfig(StrictModel):
                 f"home_noise_std has {len(noise)} values but home has {len(home)}",
             )
         return self
+
+    def _check_gripper_variant(self) -> None:
+        from harness.robots.registry import gripper_variant_names
+
+        variant = self.gripper.variant
+        names = gripper_variant_names(self.robot) if variant is not None else None
+        if variant is not None and names is not None and variant not in names:
+            raise KeyedValueError(
+                ("robot", "gripper", "variant"),
+                f"robot {self.robot!r} has no gripper variant {variant!r}{suggest(variant, names)}"
+                f" (variants: {', '.join(names)})",
+            )
 
     @property
     def target_object(self) -> ObjectConfig:

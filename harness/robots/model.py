@@ -24,9 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from harness.config import Placement, read_yaml, validate_model
+from harness.config.task import GripperChoice
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
 from harness.robots.facts import gripper_convention
+from harness.robots.gripper import resolve_arm, variant_name
 from harness.robots.registry import resolve_robot_yaml
 from harness.robots.spec import ArmSpec, LiftSpec, RobotFile
 from harness.robots.urdf import UrdfInfo, UrdfJoint, read_urdf
@@ -57,7 +59,14 @@ class RobotModel:
     Build it with :meth:`load`. Arms are ``left`` / ``right`` (fr3 has only ``left``).
     """
 
-    def __init__(self, spec: RobotFile, yaml_path: Path, urdf: UrdfInfo, urdf_path: Path) -> None:
+    def __init__(
+        self,
+        spec: RobotFile,
+        yaml_path: Path,
+        urdf: UrdfInfo,
+        urdf_path: Path,
+        gripper: GripperChoice | None = None,
+    ) -> None:
         self.spec = spec
         self.yaml_path = yaml_path
         self.urdf_path = urdf_path
@@ -66,8 +75,10 @@ class RobotModel:
         self.description = spec.description
         self.root_frame = spec.root_frame
         self.placement: Placement = spec.placement
+        self.gripper_variant = variant_name(spec, gripper)
         self.arms: dict[str, ArmSpec] = {
-            name: arm.model_copy(update={"name": name}) for name, arm in spec.arms.items()
+            name: resolve_arm(spec, arm.model_copy(update={"name": name}), gripper)
+            for name, arm in spec.arms.items()
         }
         self.convention: GripperConvention = gripper_convention(spec.convention)
         self.lift: LiftSpec | None = spec.lift
@@ -78,8 +89,9 @@ class RobotModel:
     # ---- loading
 
     @classmethod
-    def load(cls, name_or_path: str | Path) -> RobotModel:
-        """Load a bundled robot by name (``fr3``) or a robot.yaml path (or its folder)."""
+    def load(cls, name_or_path: str | Path, gripper: GripperChoice | None = None) -> RobotModel:
+        """Load a bundled robot by name (``fr3``) or a robot.yaml path (or its folder), with the
+        gripper variant and grip overrides of ``gripper`` (default: robot.yaml's gripper)."""
         yaml_path = resolve_robot_yaml(name_or_path)
         doc = read_yaml(yaml_path)
         spec = validate_model(RobotFile, doc.data, doc)
@@ -89,7 +101,7 @@ class RobotModel:
         urdf = read_urdf(urdf_path)
         check_against_urdf(spec, urdf, doc)
         check_interndata_block(spec, doc)
-        return cls(spec, yaml_path, urdf, urdf_path)
+        return cls(spec, yaml_path, urdf, urdf_path, gripper)
 
     # ---- joints and limits
 
@@ -209,4 +221,7 @@ class RobotModel:
         return out
 
     def __repr__(self) -> str:
-        return f"RobotModel({self.name!r}, arms={list(self.arms)}, urdf={self.urdf_path.name})"
+        return (
+            f"RobotModel({self.name!r}, arms={list(self.arms)}, gripper={self.gripper_variant!r}, "
+            f"urdf={self.urdf_path.name})"
+        )

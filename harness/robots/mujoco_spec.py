@@ -12,11 +12,11 @@ MuJoCo Menagerie gripper recipe (../shared/reference/robots.md sections 7-8):
 - per gripper: the two finger slides coupled by a joint equality (finger 2 = finger 1) and ONE
   force-limited position servo ``<arm>_gripper`` on finger 1. **Its ctrl is the per-finger
   opening in m** (0 = closed, ``open_width / 2`` = open). Closing (ctrl 0) on an object of width
-  w, the servo pushes ``kp * w / 2`` (capped by its force limit), shared by the two pads: about
-  ``kp * w / 4`` normal force each (5 N per pad on a 4 cm cube with kp 500). Gains are moderate on
-  purpose: a saturating stiff servo ejects objects. The servo closes fast (~1 m/s); ramp the ctrl
-  at the robot's ``gripper.speed`` for realistic timing;
-- box pads (geoms ``<finger>_pad``) with high friction (1.5), condim 4 (torsional friction
+  w, the servo pushes ``kp * w / 2``, shared by the two pads: ``kp * w / 4`` normal force each,
+  capped at the gripper's grasp force ``force_limit`` (the servo's force range is twice it).
+  The finger travel is the selected gripper variant's (``harness.robots.gripper``);
+- the fingers' collision boxes are pads (the one named ``<finger>_pad`` is the fingertip pad
+  whose gap ``pad_gap`` reports): the gripper's ``pad_friction``, condim 4 (torsional friction
   against pivoting) and a stiffer solref; finger-finger contacts are excluded (the pads meet when
   closed), and so are contacts across each joint (links that overlap by construction; MuJoCo's
   own parent-child filter does not apply when the parent is welded to the world).
@@ -47,7 +47,7 @@ import numpy as np
 from harness.robots.model import RobotModel
 from harness.robots.spec import ArmSpec
 
-PAD_FRICTION = (1.5, 0.01, 0.0001)
+PAD_TORSION_ROLL = (0.01, 0.0001)  # torsional / rolling friction of the pads (m)
 PAD_CONDIM = 4
 PAD_SOLREF = (0.01, 1.0)
 FINGER_EQUALITY_SOLREF = (0.005, 1.0)
@@ -97,10 +97,6 @@ def _name_and_group_geoms(spec: mujoco.MjSpec) -> None:
         geom.group = COLLISION_GROUP
         if not geom.name:
             geom.name = f"{body}_col{index}"
-        if geom.name.endswith("_pad"):
-            geom.friction = list(PAD_FRICTION)
-            geom.condim = PAD_CONDIM
-            geom.solref = list(PAD_SOLREF)
 
 
 def _exclude_adjacent_contacts(spec: mujoco.MjSpec, robot: RobotModel) -> None:
@@ -163,6 +159,13 @@ def _add_gripper(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
         joint = spec.joint(name)
         joint.damping = [arm.gripper.damping, 0.0, 0.0]
         joint.armature = arm.gripper.armature
+        joint.frictionloss = arm.gripper.frictionloss
+        # MuJoCo's URDF import turns the URDF effort into a joint actuator force range, which
+        # clamps the servo silently (the Piper URDF's 10 N capped a 20 N servo at a 5 N grasp);
+        # the gripper's force limit below is the one limit on the grip.
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        # The selected variant's travel (the URDF allows the widest variant's).
+        joint.range = [arm.finger_closed_position, arm.finger_open_position]
         # Stiff travel limits: with the default soft limit a large object pried the FR3 fingers
         # open to 14.6 cm against a 4 cm stroke; 2 ms limit stiffness holds them near it.
         joint.solref_limit = list(FINGER_LIMIT_SOLREF)
@@ -184,8 +187,21 @@ def _add_gripper(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
         arm.gripper.kv,
         (arm.finger_closed_position, arm.finger_open_position),
     )
-    _force_limit(actuator, arm.gripper.force_limit)
+    # Finger 1's servo squeezes against finger 2 held by the coupling: each pad presses with
+    # half the servo force, so the grasp force limit is half the servo's force range.
+    _force_limit(actuator, 2.0 * arm.gripper.force_limit)
     spec.add_exclude(bodyname1=arm.finger_bodies[0], bodyname2=arm.finger_bodies[1])
+    _pad_contacts(spec, arm)
+
+
+def _pad_contacts(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
+    """Every collision geom of the fingers is a pad: the arm's pad friction, condim 4
+    (torsional friction against pivoting) and a stiffer solref."""
+    for geom in spec.geoms:
+        if geom.parent.name in arm.finger_bodies and geom.group == COLLISION_GROUP:
+            geom.friction = [arm.gripper.pad_friction, *PAD_TORSION_ROLL]
+            geom.condim = PAD_CONDIM
+            geom.solref = list(PAD_SOLREF)
 
 
 def gripper_actuator_name(arm: str) -> str:

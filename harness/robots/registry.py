@@ -38,3 +38,21 @@ def resolve_robot_yaml(name_or_path: str | Path) -> Path:
     raise HarnessError(
         f"unknown robot {text!r}; available robots: {', '.join(available_robots()) or 'none'}"
     )
+
+
+def gripper_variant_names(name_or_path: str) -> list[str] | None:
+    """The gripper variants of a robot.yaml (default first), or None if it cannot be read.
+
+    Read without validating the file, so task validation can check a variant name without
+    loading the robot (robot.yaml problems are reported when the robot is loaded).
+    """
+    import yaml
+
+    try:
+        data = yaml.safe_load(resolve_robot_yaml(name_or_path).read_text(encoding="utf-8"))
+    except (HarnessError, OSError, yaml.YAMLError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    variants = data.get("gripper_variants") or {}
+    return [str(data.get("gripper_variant", "default")), *map(str, variants)]

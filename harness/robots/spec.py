@@ -45,14 +45,44 @@ class TimingLimits(_Strict):
 
 
 class GripperActuator(_Strict):
-    """The one position servo driving both fingers (ctrl = per-finger opening in m)."""
+    """The gripper of an arm: one position servo on finger 1 (finger 2 follows by an equality).
+
+    ``ctrl`` is the per-finger opening in m. ``force_limit`` is the grasp force: the largest
+    normal force each pad presses an object with (a datasheet's "grasping force"); the servo's
+    own force range is twice that, because finger 1's servo squeezes against finger 2 held by
+    the coupling (``harness.robots.mujoco_spec``).
+    """
 
     kp: Positive
     kv: NonNegative
-    force_limit: Positive
+    force_limit: Positive = Field(description="Grasp force limit per pad (N).")
     damping: NonNegative = 0.0
     armature: NonNegative = 0.0
+    frictionloss: NonNegative = 0.0
     speed: Positive = Field(description="Finger speed used to time open / close (m/s).")
+    pad_friction: Positive = Field(
+        default=1.0, description="Sliding friction of the finger collision geoms (pads)."
+    )
+
+
+GRIPPER_FIELDS = ("kp", "kv", "force_limit", "damping", "armature", "frictionloss", "speed",
+                  "pad_friction")  # fmt: skip
+
+
+class GripperVariant(_Strict):
+    """An alternative gripper of the robot: the values that differ from the arms' blocks."""
+
+    description: str = ""
+    open_width: Positive | None = None
+    closed_width: NonNegative | None = None
+    kp: Positive | None = None
+    kv: NonNegative | None = None
+    force_limit: Positive | None = None
+    damping: NonNegative | None = None
+    armature: NonNegative | None = None
+    frictionloss: NonNegative | None = None
+    speed: Positive | None = None
+    pad_friction: Positive | None = None
 
 
 class ArmSpec(_Strict):
@@ -173,3 +203,23 @@ class RobotFile(_Strict):
     arms: dict[Literal["left", "right"], ArmSpec] = Field(min_length=1)
     lift: LiftSpec | None = None
     interndata: InternDataSpec | None = None
+    gripper_variant: str = Field(
+        default="default", min_length=1, description="Name of the gripper the arms describe."
+    )
+    gripper_variants: dict[str, GripperVariant] = Field(
+        default_factory=dict,
+        description="Alternative grippers a task selects with robot.gripper.variant.",
+    )
+
+    @model_validator(mode="after")
+    def _variant_names(self) -> RobotFile:
+        if self.gripper_variant in self.gripper_variants:
+            raise ValueError(
+                f"gripper_variants repeats the default gripper {self.gripper_variant!r}"
+            )
+        return self
+
+    @property
+    def variant_names(self) -> list[str]:
+        """The default gripper first, then the alternatives."""
+        return [self.gripper_variant, *self.gripper_variants]

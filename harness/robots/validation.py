@@ -83,6 +83,7 @@ def check_against_urdf(spec: RobotFile, urdf: UrdfInfo, doc: YamlDocument) -> No
                     (*prefix, "gripper", "speed"),
                     f"{arm.gripper.speed} m/s exceeds the URDF velocity {joint.velocity} of {name}",
                 )
+    _check_variant_widths(spec, urdf, doc)
     if spec.lift is not None:
         joint = need_joint(("lift", "joint"), spec.lift.joint, ("prismatic",))
         if not joint.lower <= spec.lift.home <= joint.upper:
@@ -97,6 +98,27 @@ def check_against_urdf(spec: RobotFile, urdf: UrdfInfo, doc: YamlDocument) -> No
             raise located_error(
                 doc, ("lift", "force_limit"), f"exceeds the URDF effort {joint.effort}"
             )
+
+
+def _check_variant_widths(spec: RobotFile, urdf: UrdfInfo, doc: YamlDocument) -> None:
+    """Each gripper variant's widths fit every arm's finger joint limits."""
+    for name, variant in spec.gripper_variants.items():
+        for key in ("open_width", "closed_width"):
+            width = getattr(variant, key)
+            if width is None:
+                continue
+            for arm in spec.arms.values():
+                for finger in arm.finger_joints:
+                    joint = urdf.joints.get(finger)
+                    if joint is not None and not (
+                        joint.lower - 1e-12 <= width / 2.0 <= joint.upper + 1e-12
+                    ):
+                        raise located_error(
+                            doc,
+                            ("gripper_variants", name, key),
+                            f"{width} m needs {width / 2} m per finger, outside {finger} limits "
+                            f"[{joint.lower}, {joint.upper}]",
+                        )
 
 
 def _check_joint_numbers(

@@ -181,8 +181,9 @@ def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
 
 
 def scene_key(task: TaskConfig) -> str:
-    """Cache key of the scene a task needs: the robot, each object's resolved mesh file and
-    physical properties, and the physics options (not placements: those are per episode)."""
+    """Cache key of the scene a task needs: the robot and its gripper (variant, grip physics),
+    each object's resolved mesh file and physical properties, and the physics options (not
+    placements: those are per episode)."""
     base = task.base_dir()
     objects = []
     for obj in map(with_object_defaults, task.objects):
@@ -194,4 +195,5 @@ def scene_key(task: TaskConfig) -> str:
         if grasps and not Path(grasps).is_absolute():
             grasps = str((base / grasps).resolve()) if (base / grasps).exists() else grasps
         objects.append([obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction])
-    return json.dumps([task.robot, objects, task.physics.model_dump(mode="json")], sort_keys=True)
+    robot = [task.robot, task.gripper.model_dump(mode="json")]
+    return json.dumps([robot, objects, task.physics.model_dump(mode="json")], sort_keys=True)
