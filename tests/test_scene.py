@@ -289,3 +289,31 @@ def test_dual_arm_scene_has_both_arms_and_the_lift() -> None:
     for handles in scene.arms.values():
         assert handles.active_names[0] == "lift_joint"
         assert len(handles.active_names) == 7
+
+
+def test_object_contacts_use_the_average_friction() -> None:
+    """Issue 16 item 4: object-pad and object-table contacts are explicit pairs whose friction is
+    the average of the two coefficients (PhysX's default), so the object's friction matters."""
+    from harness.config import apply_overrides, load_task
+    from harness.sim.friction import combined_friction
+    from harness.sim.scene import Scene
+
+    assert combined_friction((0.1, 0.005, 0.0001), (1.5, 0.01, 0.0001)) == pytest.approx(
+        [0.8, 0.8, 0.0075, 0.0001, 0.0001]
+    )
+    task = apply_overrides(
+        load_task(Path(__file__).resolve().parents[1] / "tasks" / "pick" / "fr3.yaml"),
+        {"object.friction": 0.2},
+    )
+    scene = Scene.build(task.robot, task.objects, task.physics, task.base_dir())
+    model = scene.model
+    names = [
+        (model.geom(a).name, model.geom(b).name)
+        for a, b in zip(model.pair_geom1, model.pair_geom2, strict=True)
+    ]
+    pieces = {b for _, b in names}
+    assert pieces and all(name.startswith("cube_piece") for name in pieces)
+    for (first, _), friction in zip(names, model.pair_friction, strict=True):
+        other = 1.0  # the table's and the FR3 pads' sliding friction
+        assert first == "table" or "finger" in first or "_pad" in first or "_col" in first
+        assert friction[0] == pytest.approx((0.2 + other) / 2)

@@ -204,6 +204,16 @@ def _pad_contacts(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
             geom.solref = list(PAD_SOLREF)
 
 
+def finger_pad_geoms(spec: mujoco.MjSpec, robot: RobotModel) -> list[str]:
+    """Names of every finger collision geom (the pads) of every arm in ``spec``."""
+    fingers = {body for arm in robot.arms.values() for body in arm.finger_bodies}
+    return [
+        geom.name
+        for geom in spec.geoms
+        if geom.parent.name in fingers and geom.group == COLLISION_GROUP and geom.name
+    ]
+
+
 def gripper_actuator_name(arm: str) -> str:
     return f"{arm}_gripper"
 

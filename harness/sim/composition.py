@@ -24,7 +24,7 @@ from harness.config import ObjectConfig, PhysicsConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
 from harness.robots.model import RobotModel
-from harness.robots.mujoco_spec import build_robot_spec
+from harness.robots.mujoco_spec import build_robot_spec, finger_pad_geoms
 from harness.sim.friction import add_object_contact_pairs
 from harness.sim.masks import ROBOT_BIT, TABLE_BIT
 
@@ -75,7 +75,7 @@ def compose(
         asset = ObjectAsset.load(mesh_path, obj.scale, grasps, mass=obj.mass, friction=obj.friction)
         assets[obj.name] = asset
         object_geoms.extend(_add_object(spec, obj.name, asset))
-    add_object_contact_pairs(spec, object_geoms, TABLE_NAME)
+    add_object_contact_pairs(spec, object_geoms, finger_pad_geoms(spec, robot_model), TABLE_NAME)
     try:
         model = spec.compile()
     except ValueError as exc:

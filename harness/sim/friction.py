@@ -16,7 +16,6 @@ from collections.abc import Iterable, Sequence
 
 import mujoco
 
-PAD_SUFFIX = "_pad"  # finger pad geoms (harness.robots.mujoco_spec)
 PAIR_CONDIM = 4  # sliding + torsional friction, as the pads and the objects
 
 
@@ -28,12 +27,12 @@ def combined_friction(a: Sequence[float], b: Sequence[float]) -> list[float]:
 
 
 def add_object_contact_pairs(
-    spec: mujoco.MjSpec, object_geoms: Iterable[str], table_geom: str
+    spec: mujoco.MjSpec, object_geoms: Iterable[str], pad_geoms: Iterable[str], table_geom: str
 ) -> int:
     """Explicit pairs for each object geom with every finger pad and the table; returns how
     many were added."""
     geoms = {geom.name: geom for geom in spec.geoms if geom.name}
-    pads = [geom for name, geom in geoms.items() if name.endswith(PAD_SUFFIX)]
+    pads = [geoms[name] for name in pad_geoms]
     table = geoms[table_geom]
     added = 0
     for name in object_geoms:
