@@ -355,7 +355,7 @@ def _feasibility(planning: _Planning) -> _Choice:
     task, pick, semantics, planner, row = (
         setup.task, setup.pick, setup.semantics, setup.planner, setup.row
     )  # fmt: skip
-    world = semantics.planning_world(task, task.target_object.name)
+    world = semantics.planning_world(task.target_object.name)
     planner.sync(world)
     q_now = setup.scene.active_q(setup.arm)
     order = planning.selection.order

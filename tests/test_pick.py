@@ -14,7 +14,7 @@ from harness.episode import EpisodeSpec, run_episode
 from harness.pick.commands import IDLE_POP_STEPS, build_commands, pose_reached
 from harness.pick.executor import SERVO_CHUNK_S
 from harness.pick.outcome import PickOutcome
-from harness.pick.semantics import STRICT_TABLE_CLEARANCE, Semantics
+from harness.pick.semantics import REFERENCE_IGNORE_SUBSTRING, STRICT_TABLE_CLEARANCE, Semantics
 from harness.pick.verdict import closing_terms, first_failure, reference_terms
 from harness.transforms import quat_to_matrix
 
@@ -47,15 +47,16 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     assert not (reference.fixed_orientation_in_test or reference.pregrasp_along_fixed_axis)
     assert not (reference.check_collisions or reference.check_closing_forces)
     assert not reference.hold_after_list
-    world = reference.planning_world(task, "cube")
+    world = reference.planning_world("cube")
     assert world.target == "cube" and world.check_target and world.hold_lift
-    assert world.check_table == task.physics.table_contact  # the table only where it is physical
-    assert world.table_clearance == 0.0 and world.ignore_substring == ("shelf",)
+    assert not world.check_table  # the reference never plans around the table
+    assert world.table_clearance == 0.0
+    assert world.ignore_substring == (*REFERENCE_IGNORE_SUBSTRING, "shelf")
     strict = Semantics.from_pick(PickConfig(semantics="strict", ignore_substring=["shelf"]))
     assert strict.test_carry and not strict.fall_back_to_last_tested
     assert strict.fixed_orientation_in_test and strict.pregrasp_along_fixed_axis
     assert strict.check_collisions and strict.check_closing_forces and strict.hold_after_list
-    world = strict.planning_world(task, "cube")
+    world = strict.planning_world("cube")
     assert world.check_table and world.table_clearance == STRICT_TABLE_CLEARANCE
     assert world.ignore_substring == ()
 

@@ -16,11 +16,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from harness.config import PickConfig, TaskConfig
+from harness.config import PickConfig
 from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_hold_terms
 from harness.planning.world import PlanningWorld
+from harness.sim.composition import TABLE_NAME
 
 # A forward test plans the carry (lift, return) too, under both semantics, so a candidate whose
 # lift cannot be planned is skipped. The reference tests only the pre-grasp and the grasp, and
@@ -32,14 +33,23 @@ FORWARD_TEST_PLANS_CARRY = True
 # Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
 # small arms' wrists have kp 10) does not dip a finger into it during execution.
 STRICT_TABLE_CLEARANCE = 0.005
+# The reference controllers' default planning-world ignore list: the workflow passes
+# ["material", "Plane", "conveyor", "scene", "table"] plus the robot's name
+# (docs/reference-pick-skill.md section 8, "Settings outside the pick block"). Any prim whose
+# name contains one of them is absent from cuRobo's world, so the table is never planned around,
+# whatever the task's neglect_collision_names (which only sets PhysX collision groups). The
+# robot's name needs no entry here: the robot is never an obstacle object in the harness (its
+# self-collisions are checked separately, docs/semantics.md).
+REFERENCE_IGNORE_SUBSTRING: tuple[str, ...] = ("material", "Plane", "conveyor", "scene", "table")
 
 
 @dataclass(frozen=True)
 class Semantics:
     """The reference-vs-strict decisions of one pick (see the module docstring).
 
-    Planning world: ``table_always_in_planning`` (else only where robot-table contact is on),
-    ``table_clearance`` (m), ``ignore_substring`` (objects left out of planning).
+    Planning world: ``table_in_planning`` (the table is an obstacle, whatever
+    ``physics.table_contact`` says), ``table_clearance`` (m), ``ignore_substring`` (objects left
+    out of planning: the reference defaults plus the pick's under reference, none under strict).
     Feasibility: ``test_carry`` (a forward test plans the lift and the return too),
     ``fixed_orientation_in_test`` (candidates are tested at ``fixed_orientation``, so the tested
     plan is the executed one), ``pregrasp_along_fixed_axis`` (the pre-grasp backs off along the
@@ -53,7 +63,7 @@ class Semantics:
     """
 
     name: Literal["reference", "strict"]
-    table_always_in_planning: bool
+    table_in_planning: bool
     table_clearance: float
     ignore_substring: tuple[str, ...]
     test_carry: bool
@@ -69,11 +79,13 @@ class Semantics:
     def from_pick(cls, pick: PickConfig) -> Semantics:
         """The policy of ``pick.semantics`` (with the pick's own ignore list under reference)."""
         strict = pick.semantics == "strict"
+        ignore = () if strict else _reference_ignore_list(pick.ignore_substring)
         return cls(
             name=pick.semantics,
-            table_always_in_planning=strict,
+            # absent as the reference makes it absent: its name matches the ignore list
+            table_in_planning=not any(part in TABLE_NAME for part in ignore),
             table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-            ignore_substring=() if strict else tuple(pick.ignore_substring),
+            ignore_substring=ignore,
             test_carry=strict or FORWARD_TEST_PLANS_CARRY,
             fixed_orientation_in_test=strict,
             pregrasp_along_fixed_axis=strict,
@@ -84,21 +96,24 @@ class Semantics:
             candidates=CandidateRule(order=pick.semantics, reject_impossible_filters=strict),
         )
 
-    def planning_world(self, task: TaskConfig, target: str) -> PlanningWorld:
-        """What the planner treats as an obstacle while picking ``target``.
+    def planning_world(self, target: str) -> PlanningWorld:
+        """What the planner treats as an obstacle while picking ``target``: the one place that
+        decides it, per semantics.
 
-        The planning world holds what the robot physically collides with: the table when robot-
-        table contact is on (and always under strict semantics; the reference's planning ignores
-        the table even where it is physical, quirk 21, planning fingers into it), and the target
-        object under both semantics (the fingers may touch it on the approach; the reference
-        removes it while planning the pre-grasp and the grasp, section 6 step 2, which lets a
-        transport sweep through it and knock it over). Other objects are in it unless the pick's
-        ignore_substring names them (the reference planner's ignore list); strict ignores
-        nothing.
+        ``reference`` builds the world as the reference controllers do: the table is absent
+        (the default ignore list holds ``table``) even where the robot physically collides with
+        it (``physics.table_contact``, which only sets the physics collision groups, as
+        ``neglect_collision_names`` sets PhysX's), and so is every other object whose name
+        contains a default entry (``REFERENCE_IGNORE_SUBSTRING``) or one of the pick's
+        ``ignore_substring``. ``strict`` plans around everything physical: the table always, at
+        ``STRICT_TABLE_CLEARANCE``, and every object. Under both the target object stays in the
+        world (the fingers may touch it on the approach; the reference removes it while
+        planning the pre-grasp and the grasp, section 6 step 2, which lets a transport sweep
+        through it and knock it over in MuJoCo).
         """
         return PlanningWorld(
             target,
-            check_table=task.physics.table_contact or self.table_always_in_planning,
+            check_table=self.table_in_planning,
             check_target=True,
             table_clearance=self.table_clearance,
             ignore_substring=self.ignore_substring,
@@ -110,3 +125,8 @@ class Semantics:
         if self.hold_after_list:
             return strict_hold_terms(pick, out)
         return reference_terms(pick, out)
+
+
+def _reference_ignore_list(own: list[str]) -> tuple[str, ...]:
+    """The reference defaults followed by the pick's own substrings (no repeats)."""
+    return (*REFERENCE_IGNORE_SUBSTRING, *(s for s in own if s not in REFERENCE_IGNORE_SUBSTRING))
