@@ -298,6 +298,7 @@ def _reset(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: Episod
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
+    result.row["object_friction"] = scene.objects[task.target_object.name].asset.friction
     arm = task.arm
     scene.robot.arm(arm)  # a clear error for an unknown arm
     rng = np.random.default_rng(spec.seed)

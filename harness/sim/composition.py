@@ -7,6 +7,17 @@ friction) are added, and the physics options set (timestep, integrator, elliptic
 noslip). The robot root body is made a **mocap** body: an episode moves the whole robot by
 writing ``data.mocap_pos / mocap_quat`` -- the model is never recompiled between episodes.
 
+Friction (docs/config.md, "Friction"): MuJoCo combines two geoms' friction by maximum unless
+their ``priority`` differs (the higher one's parameters are used) or an explicit contact pair
+sets them. So that ``object.friction`` means what it says, every contact of an object with the
+robot or the table uses the object's sliding friction: object geoms have a higher priority
+(``OBJECT_PRIORITY``) than the robot's and the table's, and each gripper pad has an explicit
+pair with each object geom whose sliding friction is the object's while everything else
+(condim, torsional and rolling friction, solref, solimp) is MuJoCo's default combination of the
+two geoms, so the grip's stiffness is what it was. The pads' own friction stays a robot
+property: it governs their contacts with the table and the rest of the robot. Two objects
+touching combine by maximum (equal priority).
+
 :func:`scene_key` names the composition a task needs, so scenes can be cached and reused.
 """
 
@@ -31,6 +42,8 @@ TABLE_NAME = "table"
 TABLE_HALF_SIZE = (0.8, 0.6, 0.025)  # m; top at z = 0
 OBJECT_CONDIM = 4  # sliding + torsional friction
 OBJECT_FRICTION_SPIN_ROLL = (0.005, 0.0001)
+OBJECT_PRIORITY = 1  # above the robot's and the table's 0: an object's contacts use its friction
+PAD_SUFFIX = "_pad"  # gripper pad geoms (harness.robots.mujoco_spec names them <finger>_pad)
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
@@ -65,6 +78,7 @@ def compose(
     base = Path(base_dir)
     assets: dict[str, ObjectAsset] = {}
     objects = [with_object_defaults(obj) for obj in objects]
+    object_geoms: list[mujoco.MjsGeom] = []
     for obj in objects:
         mesh_path = resolve_mesh(obj.mesh, base)
         grasps = obj.grasps
@@ -72,7 +86,8 @@ def compose(
             grasps = str(base / grasps)  # relative to the task file
         asset = ObjectAsset.load(mesh_path, obj.scale, grasps, mass=obj.mass, friction=obj.friction)
         assets[obj.name] = asset
-        _add_object(spec, obj.name, asset)
+        object_geoms += _add_object(spec, obj.name, asset)
+    _add_pad_pairs(spec, object_geoms)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -126,8 +141,9 @@ def _make_root_mocap(spec: mujoco.MjSpec, robot: RobotModel) -> str:
     return robot.root_frame
 
 
-def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
-    """A free body with one mesh geom per convex piece and the asset's mass properties."""
+def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> list[mujoco.MjsGeom]:
+    """A free body with one mesh geom per convex piece and the asset's mass properties; returns
+    the geoms."""
     body = spec.worldbody.add_body(name=name)
     body.add_freejoint(name=f"{name}_free")
     body.mass = asset.mass
@@ -137,6 +153,7 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
         inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]
     ]  # fmt: skip
     body.explicitinertial = True
+    geoms = []
     for index, (vertices, faces) in enumerate(asset.collision_pieces):
         mesh_name = f"{name}_piece{index}"
         spec.add_mesh(
@@ -144,7 +161,7 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
             uservert=np.asarray(vertices, dtype=np.float32).reshape(-1).tolist(),
             userface=np.asarray(faces, dtype=np.int32).reshape(-1).tolist(),
         )
-        body.add_geom(
+        geom = body.add_geom(
             name=mesh_name,
             type=mujoco.mjtGeom.mjGEOM_MESH,
             meshname=mesh_name,
@@ -152,9 +169,37 @@ def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> None:
             conaffinity=ROBOT_BIT | TABLE_BIT,
             condim=OBJECT_CONDIM,
             friction=[asset.friction, *OBJECT_FRICTION_SPIN_ROLL],
+            priority=OBJECT_PRIORITY,
             density=0.0,
             rgba=[0.9, 0.65, 0.15, 1.0],
         )
+        geoms.append(geom)
+    return geoms
+
+
+def _add_pad_pairs(spec: mujoco.MjSpec, object_geoms: Sequence[mujoco.MjsGeom]) -> None:
+    """One explicit contact pair per (gripper pad, object geom): the object's sliding friction,
+    the rest combined as MuJoCo combines two geoms of equal priority (maximum condim and
+    torsional / rolling friction, solmix-weighted solref and solimp, maximum margin and gap)."""
+    pads = [geom for geom in spec.geoms if geom.name.endswith(PAD_SUFFIX)]
+    for pad in pads:
+        for geom in object_geoms:
+            total = pad.solmix + geom.solmix
+            mix = 0.5 if total <= 0.0 else pad.solmix / total
+            sliding = geom.friction[0]
+            spin = max(pad.friction[1], geom.friction[1])
+            roll = max(pad.friction[2], geom.friction[2])
+            spec.add_pair(
+                name=f"{pad.name}__{geom.name}",
+                geomname1=pad.name,
+                geomname2=geom.name,
+                condim=max(pad.condim, geom.condim),
+                friction=[sliding, sliding, spin, roll, roll],
+                solref=list(mix * np.asarray(pad.solref) + (1 - mix) * np.asarray(geom.solref)),
+                solimp=list(mix * np.asarray(pad.solimp) + (1 - mix) * np.asarray(geom.solimp)),
+                margin=max(pad.margin, geom.margin),
+                gap=max(pad.gap, geom.gap),
+            )
 
 
 def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
