@@ -298,6 +298,7 @@ def _reset(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None, result: Episod
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
+    result.row["object_friction"] = scene.objects[task.target_object.name].asset.friction
     arm = task.arm
     gripper = scene.robot.arm(arm).gripper  # a clear error for an unknown arm
     result.row["grip_force_limit_n"] = gripper.force_limit
@@ -357,7 +358,7 @@ def _feasibility(planning: _Planning) -> _Choice:
     task, pick, semantics, planner, row = (
         setup.task, setup.pick, setup.semantics, setup.planner, setup.row
     )  # fmt: skip
-    world = semantics.planning_world(task, task.target_object.name)
+    world = semantics.planning_world(task.target_object.name)
     planner.sync(world)
     q_now = setup.scene.active_q(setup.arm)
     order = planning.selection.order

@@ -130,6 +130,13 @@ class EpisodeRow:
         default=math.nan,
         metadata=_doc("executed vs planned TCP at grasp (m), NaN if not reached"),
     )
+    object_friction: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "sliding friction of the target's contacts with the pads and the table (the "
+            "object's friction, object.yaml default applied; docs/config.md, Friction)"
+        ),
+    )
     # Verdict
     success: bool = field(default=False, metadata=_doc("the pick succeeded under its semantics"))
     failure_reason: str = field(

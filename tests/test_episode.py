@@ -104,7 +104,7 @@ def test_reference_plans_through_a_physical_table_strict_does_not() -> None:
         assert result.success, result.row["error_message"]
         assert result.row["lift_height_m"] > 0.02
     strict = apply_overrides(task, {"pick.semantics": "strict"})
-    world = Semantics.from_pick(strict.pick).planning_world(strict, "cube")
+    world = Semantics.from_pick(strict.pick).planning_world("cube")
     assert world.check_table and world.table_clearance > 0
 
 
@@ -121,6 +121,7 @@ def test_object_friction_decides_a_heavy_pick() -> None:
         task = apply_overrides(base, {"object.mass": 0.8, "object.friction": friction})
         outcomes[friction] = [episode(task, episode_seed(0, index), cache) for index in (1, 2)]
     for low, high in zip(outcomes[0.1], outcomes[1.5], strict=True):
+        assert (low.row["object_friction"], high.row["object_friction"]) == (0.1, 1.5)
         assert low.row["failure_reason"] == "dropped" and low.row["lift_height_m"] < 0.01
         assert high.success and high.row["lift_height_m"] > 0.02
 

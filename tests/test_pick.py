@@ -47,14 +47,12 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     assert not (reference.fixed_orientation_in_test or reference.pregrasp_along_fixed_axis)
     assert not (reference.check_collisions or reference.check_closing_forces)
     assert not reference.hold_after_list
-    world = reference.planning_world(task, "cube")
+    world = reference.planning_world("cube")
     assert world.target == "cube" and world.check_target and world.hold_lift
     # The reference planner never sees the table, physical or not (issue 16, item 1) ...
     assert not world.check_table
-    physical = task.model_copy(
-        update={"physics": task.physics.model_copy(update={"table_contact": True})}
-    )
-    assert not reference.planning_world(physical, "cube").check_table
+    # (the rule takes no physics setting: tests/test_planning_world.py checks a scene with the
+    # table physical)
     # ... and leaves out every name its controllers ignore, plus the pick's own list.
     assert world.table_clearance == 0.0
     assert world.ignore_substring == (*REFERENCE_IGNORE_SUBSTRINGS, "shelf")
@@ -63,10 +61,9 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     assert strict.test_carry and not strict.fall_back_to_last_tested
     assert strict.fixed_orientation_in_test and strict.pregrasp_along_fixed_axis
     assert strict.check_collisions and strict.check_closing_forces and strict.hold_after_list
-    world = strict.planning_world(task, "cube")
+    world = strict.planning_world("cube")
     assert world.check_table and world.table_clearance == STRICT_TABLE_CLEARANCE
     assert world.ignore_substring == ()
-    assert strict.planning_world(physical, "cube").check_table  # strict avoids it either way
 
 
 def test_verdict_terms_first_failure_wins() -> None:

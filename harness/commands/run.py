@@ -23,6 +23,7 @@ from rich.live import Live
 from rich.table import Table
 
 from harness.commands.console import make_console
+from harness.commands.validate import print_warnings
 from harness.config import (
     ConfigError,
     SweepConfig,
@@ -30,6 +31,7 @@ from harness.config import (
     apply_overrides,
     load_task,
     parse_set_value,
+    warning_lines,
 )
 from harness.errors import HarnessError
 
@@ -126,7 +128,9 @@ def main(args: argparse.Namespace) -> int:
     tasks = [absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
     overrides = parse_overrides(args.overrides)
     for task in tasks:  # fail early, with the task file named, on a bad override
-        apply_overrides(task, overrides)
+        configured = apply_overrides(task, overrides)
+        set_physics = any(key.startswith("physics.") for key in overrides)
+        print_warnings(warning_lines(configured, context="--set" if set_physics else ""))
     sweep = SweepConfig(
         name=run_name(tasks),
         tasks=[task.model_dump(mode="json") for task in tasks],

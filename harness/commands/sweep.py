@@ -15,6 +15,11 @@ from harness.runs.sweep import run_sweep
 
 def main(args: argparse.Namespace) -> int:
     console = make_console()
+    if args.sweep:
+        from harness.commands.validate import print_warnings, sweep_warning_lines
+        from harness.config import load_sweep
+
+        print_warnings(sweep_warning_lines(load_sweep(args.sweep), args.sweep))
     outcome = run_sweep(
         Path(args.sweep) if args.sweep else None,
         resume_dir=Path(args.resume) if args.resume else None,

@@ -4,9 +4,19 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-from harness.config import ConfigError, SweepConfig, TaskConfig, load_any
+from harness.config import (
+    ConfigError,
+    SweepConfig,
+    TaskConfig,
+    load_any,
+    physics_warnings,
+    warning_lines,
+)
+from harness.config.physics_warnings import WARNING_INPUTS
+from harness.errors import HarnessError
 
 if TYPE_CHECKING:
     from harness.config.interndata import InternDataPick
@@ -50,6 +60,49 @@ def describe_pick(pick: InternDataPick) -> str:
     )
 
 
+def sweep_warning_lines(sweep: SweepConfig, path: str) -> list[str]:
+    """Physics warnings of every (task, point) of a sweep, once each: a warning the task file
+    causes names the task file; one a swept key causes names the sweep file and the point."""
+    from harness.config import apply_overrides
+    from harness.runs.expansion import load_sweep_tasks, point_overrides, sweep_points
+
+    lines: list[str] = []
+    points = sweep_points(sweep)
+    for task in load_sweep_tasks(sweep, Path(path)):
+        for point_id, point in enumerate(points):
+            try:
+                configured = apply_overrides(task, point_overrides(task, point))
+            except ConfigError:
+                continue  # the expansion reports it
+            for key, message in physics_warnings(configured.physics):
+                if any(cause in point for cause in WARNING_INPUTS[key]):
+                    where, context = path, f"task {task.name!r}, point {point_id} {point}"
+                else:
+                    where, context = task.source or task.name, f"task {task.name!r}"
+                line = f"warning: {where}: {key}: {message} ({context})"
+                if line not in lines:
+                    lines.append(line)
+    return lines
+
+
+def print_warnings(lines: list[str]) -> None:
+    for line in lines:
+        print(line, file=sys.stderr)
+
+
+def _file_warnings(path: str, loaded: object) -> list[str]:
+    """The physics warnings of a validated task or sweep file (none when its tasks do not
+    load: validate reports only the file itself)."""
+    if isinstance(loaded, TaskConfig):
+        return warning_lines(loaded, path)
+    if isinstance(loaded, SweepConfig):
+        try:
+            return sweep_warning_lines(loaded, path)
+        except HarnessError:
+            return []
+    return []
+
+
 def main(args: argparse.Namespace) -> int:
     failed = 0
     for path in args.files:
@@ -62,10 +115,13 @@ def main(args: argparse.Namespace) -> int:
                 print(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")
                 for pick in picks:
                     print(f"  {describe_pick(pick)}")
+                for pick in picks:
+                    print_warnings(warning_lines(pick.task, path, f"pick {pick.order}"))
                 continue
         except ConfigError as exc:
             print(f"error: {exc.one_line()}", file=sys.stderr)
             failed += 1
             continue
         print(f"ok {path}: {describe(kind, loaded)}")
+        print_warnings(_file_warnings(path, loaded))
     return 1 if failed else 0

@@ -20,6 +20,7 @@ from harness.config.filters import (
 )
 from harness.config.loading import kind_of, load_any, load_sweep, load_task, parse_text, read_yaml
 from harness.config.overrides import apply_overrides, parse_set_value, set_dotted
+from harness.config.physics_warnings import physics_warnings, warning_lines
 from harness.config.pick import PickConfig
 from harness.config.sweep import RandomAxis, SweepConfig, check_dotted_key
 from harness.config.task import ObjectConfig, PhysicsConfig, Placement, TaskConfig
@@ -58,8 +59,10 @@ __all__ = [
     "load_task",
     "parse_set_value",
     "parse_text",
+    "physics_warnings",
     "read_yaml",
     "reversed_band_message",
     "set_dotted",
     "validate_model",
+    "warning_lines",
 ]

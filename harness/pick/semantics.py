@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from harness.config import PickConfig, TaskConfig
+from harness.config import PickConfig
 from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_hold_terms
@@ -78,7 +78,8 @@ class Semantics:
             table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
             ignore_substring=()
             if strict
-            else (*REFERENCE_IGNORE_SUBSTRINGS, *pick.ignore_substring),
+            # the pick's own list adds to the controllers' (each substring once)
+            else tuple(dict.fromkeys((*REFERENCE_IGNORE_SUBSTRINGS, *pick.ignore_substring))),
             test_carry=strict or FORWARD_TEST_PLANS_CARRY,
             fixed_orientation_in_test=strict,
             pregrasp_along_fixed_axis=strict,
@@ -89,7 +90,7 @@ class Semantics:
             candidates=CandidateRule(order=pick.semantics, reject_impossible_filters=strict),
         )
 
-    def planning_world(self, task: TaskConfig, target: str) -> PlanningWorld:
+    def planning_world(self, target: str) -> PlanningWorld:
         """What the planner treats as an obstacle while picking ``target``.
 
         ``reference``: the world the reference's planner builds (docs/reference-pick-skill.md

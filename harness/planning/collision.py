@@ -13,11 +13,11 @@ contacts. What counts as a collision depends on the phase of the motion:
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
   is checked against the target object.
 
-What the planning world holds is set per episode (``sync``, a ``PlanningWorld``): the table
-(the episode puts it in only where the robot physically collides with it, or under strict
-semantics: the reference's planning always ignores it, quirk 21) and the target object (the
-episode always puts it in; the reference removes it while planning the pre-grasp and the grasp,
-docs/reference-pick-skill.md section 6).
+What the planning world holds is set per episode (``sync``, a ``PlanningWorld`` that
+``harness.pick.semantics.Semantics.planning_world`` decides): the table (out under reference
+semantics, as the reference's default ignore list leaves it out, quirk 21; in under strict) and
+the target object (always in; the reference removes it while planning the pre-grasp and the
+grasp, docs/reference-pick-skill.md section 6).
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ class CollisionChecker:
         planner's ignore list); the target object follows ``check_target`` alone.
 
         ``check_table`` False leaves the table out of the planning world (the reference's
-        planning ignore list always holds it); ``check_target`` False leaves the target object
+        default ignore list holds it); ``check_target`` False leaves the target object
         out (the reference removes it before testing and planning the pre-grasp and the grasp,
         docs/reference-pick-skill.md section 6 step 2).
         Contacts present in the current state (a first
