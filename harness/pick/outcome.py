@@ -1,4 +1,4 @@
-"""What one pick execution measured and concluded (``PickOutcome``).
+"""What one pick execution measured and concluded (``PickOutcome``, ``ValidityMeasure``).
 
 Its own module so that the verdict terms (``harness.pick.verdict``) read the measurements
 without importing the control loop that fills them.
@@ -6,10 +6,71 @@ without importing the control loop that fills them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from harness.failures import FailureReason
 from harness.pick.recorder import ExecutionTrace
+
+NAN = math.nan
+
+
+@dataclass
+class TugRecord:
+    """One rung of the tug ladder: a force along one world direction for ``TUG_TIME_S``."""
+
+    direction: str  # "+x", "-x", "+y", "-y", "+z", "-z"
+    level_g: float  # k: the force is k x g x mass
+    force_n: np.ndarray  # (3,) world force on the object's centre of mass (N)
+    t_start: float  # s of execution time (the trace's clock)
+    t_end: float
+    slip_m: float  # object motion relative to the TCP since the end of the hold
+    between_fingers: bool
+    survived: bool
+
+
+@dataclass
+class ValidityTrace:
+    """The validity phase for a viewer: the slip series (hold and tug) and the tug rungs."""
+
+    time: np.ndarray  # (K,) s of execution time
+    slip_m: np.ndarray  # (K,) object motion relative to the TCP since the hold started / ended
+    stage: np.ndarray  # (K,) str: settle, hold, tug
+    tugs: list[TugRecord] = field(default_factory=list)
+
+
+@dataclass
+class ValidityMeasure:
+    """What the validity phase measured (``harness.pick.validity``); the inputs of the validity
+    terms (``harness.pick.verdict.validity_terms``). ``ran`` is False when the phase did not run
+    (then only ``table_penetration_m`` of the executed part is known)."""
+
+    ran: bool = False
+    table_penetration_m: float = NAN  # deepest robot geom below the table top (m)
+    lift_height_m: float = NAN  # object rise over obj_init_trans at the end of the hold (m)
+    finger_forces: tuple[float, float] = (NAN, NAN)  # at the end of the hold (N)
+    hold_slip_m: float = NAN
+    robustness_g: float = NAN  # largest tug level survived in every direction (0: none)
+    tug_message: str = ""  # the first rung that failed
+    object_speed: float = NAN  # object speed at the end of the hold (m/s)
+    joint_speed: float = NAN  # max |robot joint speed| at the end of the hold
+    trace: ValidityTrace | None = None
+
+    @property
+    def min_finger_force_n(self) -> float:
+        return min(self.finger_forces)
+
+
+@dataclass
+class ValidityResult:
+    """The validity verdict of an episode: the row's validity columns."""
+
+    valid: bool = False
+    invalid_reason: str = ""
+    message: str = ""
+    measure: ValidityMeasure = field(default_factory=ValidityMeasure)
 
 
 @dataclass
@@ -37,3 +98,6 @@ class PickOutcome:
     contact_during_close: bool = False
     collisions: list[str] = field(default_factory=list)
     trace: ExecutionTrace | None = None
+    # Deepest robot geom below the table top during the motion (m), measured geometrically.
+    table_penetration_m: float = 0.0
+    validity: ValidityResult | None = None  # None when the phase is off
