@@ -369,6 +369,8 @@ class PickExecutor:
             self._validity_phase(verdict_reached=done)
         if self.recorder is not None:
             out.trace = self.recorder.finish()
+            if out.validity is not None:
+                out.trace.validity = out.validity.measure.trace
         return out
 
     # -- verdicts -------------------------------------------------------------------------------
@@ -428,6 +430,9 @@ class PickExecutor:
 
     def object_speed(self) -> float:
         return self._object_speed()
+
+    def event(self, text: str) -> None:
+        self._event(text)
 
     def object_in_tcp(self) -> np.ndarray:
         return self._object_in_tcp()

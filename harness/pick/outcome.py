@@ -9,36 +9,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from harness.failures import FailureReason
-from harness.pick.recorder import ExecutionTrace
+from harness.pick.recorder import ExecutionTrace, ValidityTrace
 
 NAN = math.nan
-
-
-@dataclass
-class TugRecord:
-    """One rung of the tug ladder: a force along one world direction for ``TUG_TIME_S``."""
-
-    direction: str  # "+x", "-x", "+y", "-y", "+z", "-z"
-    level_g: float  # k: the force is k x g x mass
-    force_n: np.ndarray  # (3,) world force on the object's centre of mass (N)
-    t_start: float  # s of execution time (the trace's clock)
-    t_end: float
-    slip_m: float  # object motion relative to the TCP since the end of the hold
-    between_fingers: bool
-    survived: bool
-
-
-@dataclass
-class ValidityTrace:
-    """The validity phase for a viewer: the slip series (hold and tug) and the tug rungs."""
-
-    time: np.ndarray  # (K,) s of execution time
-    slip_m: np.ndarray  # (K,) object motion relative to the TCP since the hold started / ended
-    stage: np.ndarray  # (K,) str: settle, hold, tug
-    tugs: list[TugRecord] = field(default_factory=list)
 
 
 @dataclass

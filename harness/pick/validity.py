@@ -14,8 +14,8 @@ phase), the episode goes on in the same simulation:
    object's centre of mass (``xfrc_applied``) for ``TUG_TIME_S``, along +x, -x, +y, -y, +z, -z
    (DexGraspNet's six gravity directions), k in 0.5, 1, 2, 4 (GraspDataGen's multiples of g x
    mass). Every rung starts from the held state (saved with ``mj_getState`` at the end of the
-   hold, restored with ``mj_setState``). A rung is survived when the object's centre of mass is
-   still between the fingers and its slip since the end of the hold is under ``TUG_MAX_SLIP``.
+   hold, restored with ``mj_setState``). A rung is survived when the object is still between the
+   fingers (both still touch it) and its slip since the end of the hold is under ``TUG_MAX_SLIP``.
    ``robustness_g`` is the largest k survived in every direction (0 when some direction fails at
    0.5). Cost: each direction tries the levels from the best one every earlier direction
    survived downwards and stops at the first it survives, taking a grasp that holds k g to hold
@@ -35,7 +35,8 @@ import mujoco
 import numpy as np
 
 from harness.config import PickConfig
-from harness.pick.outcome import TugRecord, ValidityMeasure, ValidityResult, ValidityTrace
+from harness.pick.outcome import ValidityMeasure, ValidityResult
+from harness.pick.recorder import TugRecord, ValidityTrace
 from harness.sim import ArmHandles, Scene, SceneObject
 
 REST_SPEED = 0.02  # m/s: the object is "at rest" below this
@@ -51,7 +52,6 @@ TUG_DIRECTIONS: tuple[tuple[str, tuple[float, float, float]], ...] = (
     ("+z", (0.0, 0.0, 1.0)),
     ("-z", (0.0, 0.0, -1.0)),
 )
-BETWEEN_TOLERANCE = 0.002  # m beyond the finger bodies along the closing axis
 # The state a tug direction starts from: physics, time, controls, applied forces, warm start.
 SAVED_STATE = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_WARMSTART
 
@@ -80,6 +80,8 @@ class PhaseHost(Protocol):
         ...
 
     def object_speed(self) -> float: ...
+
+    def event(self, text: str) -> None: ...
 
     def object_in_tcp(self) -> np.ndarray: ...
 
@@ -110,6 +112,7 @@ class ValidityPhase:
             waited += host.control_dt
             self._sample("rest", 0.0)
         reference = host.object_in_tcp()
+        host.event("validity: hold")
         for _ in range(max(0, math.ceil(self.hold_time / host.control_dt - 1e-9))):
             host.hold_step("validity:hold")
             self._sample("hold", float(np.linalg.norm(host.object_in_tcp() - reference)))
@@ -148,6 +151,7 @@ class ValidityPhase:
         state = np.empty(mujoco.mj_stateSize(m, SAVED_STATE))
         mujoco.mj_getState(m, d, state, SAVED_STATE)
         reference = host.object_in_tcp()
+        host.event("validity: tug")
         best = TUG_LEVELS_G[-1]
         message = ""
         rung_steps = max(1, round(TUG_TIME_S / host.control_dt))
@@ -182,17 +186,10 @@ class ValidityPhase:
         return best, message
 
     def _between_fingers(self) -> bool:
-        """The object's centre of mass lies between the two finger bodies along their axis."""
-        d = self.scene.data
-        left, right = self.host.handles.finger_bodies
-        p_left, p_right = d.xpos[left], d.xpos[right]
-        axis = p_right - p_left
-        length = float(np.linalg.norm(axis))
-        if length < 1e-9:
-            return False
-        s = float(np.dot(d.xipos[self.host.obj.body_id] - p_left, axis / length))
-        return -BETWEEN_TOLERANCE <= s <= length + BETWEEN_TOLERANCE
-
+        """The object is still between the fingers: each finger still touches it. (A test on
+        the centre of mass would fail grasps that hold a mug by its rim.)"""
+        forces = self.scene.finger_forces(self.host.handles.name, self.host.obj.name)
+        return min(forces) > 0.0
 
 def validity_columns(
     enabled: bool, penetration_m: float, result: ValidityResult | None
