@@ -441,7 +441,10 @@ class PickExecutor:
         """After the verdict: the validity phase and its verdict (strict's success); the
         command list's columns (steps, peak speeds) stay those of the list."""
         out = self.out
-        measure = ValidityMeasure(table_penetration_m=out.table_penetration_m)
+        measure = ValidityMeasure(
+            table_penetration_m=out.table_penetration_m,
+            closing_forces=(out.finger_force_left_n, out.finger_force_right_n),
+        )
         if not verdict_reached:  # stopped before the verdict: only the motion's facts count
             too_deep = not measure.table_penetration_m < MAX_TABLE_PENETRATION
             reason = "table_penetration" if too_deep else ""

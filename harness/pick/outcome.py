@@ -24,6 +24,7 @@ class ValidityMeasure:
     ran: bool = False
     table_penetration_m: float = NAN  # deepest robot geom below the table top (m)
     lift_height_m: float = NAN  # object rise over obj_init_trans at the end of the hold (m)
+    closing_forces: tuple[float, float] = (NAN, NAN)  # when the closing ended (N)
     finger_forces: tuple[float, float] = (NAN, NAN)  # at the end of the hold (N)
     hold_slip_m: float = NAN
     robustness_g: float = NAN  # largest tug level survived in every direction (0: none)
@@ -34,7 +35,9 @@ class ValidityMeasure:
 
     @property
     def min_finger_force_n(self) -> float:
-        return min(self.finger_forces)
+        """The weaker finger when the grasp closed and after the hold (NaN counts as 0)."""
+        forces = [*self.closing_forces, *self.finger_forces]
+        return min(0.0 if force != force else force for force in forces)
 
 
 @dataclass

@@ -191,6 +191,7 @@ class ValidityPhase:
         forces = self.scene.finger_forces(self.host.handles.name, self.host.obj.name)
         return min(forces) > 0.0
 
+
 def validity_columns(
     enabled: bool, penetration_m: float, result: ValidityResult | None
 ) -> dict[str, object]:

@@ -12,7 +12,7 @@ pipeline order, so the first cause wins). Which terms apply is the semantics' ca
 - validity (``validity_terms``, after the reference verdict, measured by
   ``harness.pick.validity``): no robot geom more than 2 mm inside the table top during the
   motion; the object lifted more than ``lift_th``; both fingers carry >= ``min_finger_force`` N
-  at the lifted pose; slip (object motion relative to the TCP) under ``max_slip`` over a
+  when the closing ends and after the hold; slip (object motion relative to the TCP) under ``max_slip`` over a
   ``hold_time`` s hold; the tug ladder survived at 0.5 g in every direction. A term's name is the
   row's ``invalid_reason``.
 - ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends (the same
@@ -111,7 +111,7 @@ def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, .
     Each term's name is the row's ``invalid_reason`` and its reason the failure strict reports
     (strict's success is this verdict)."""
     closes = pick.final_gripper_state == -1
-    forces = v.finger_forces
+    closing, held = v.closing_forces, v.finger_forces
     return (
         VerdictTerm(
             "table_penetration",
@@ -130,9 +130,9 @@ def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, .
         VerdictTerm(
             "one_finger",
             "no_contact",
-            not (closes and not min(forces) >= pick.min_finger_force),
-            f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after the hold, below "
-            f"{pick.min_finger_force} N",
+            not (closes and not v.min_finger_force_n >= pick.min_finger_force),
+            f"finger forces {closing[0]:.2f} / {closing[1]:.2f} N after closing, "
+            f"{held[0]:.2f} / {held[1]:.2f} N after the hold: one below {pick.min_finger_force} N",
         ),
         VerdictTerm(
             "slipped_in_hold",
