@@ -90,6 +90,7 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument("--record", help="none|failures|all|sample:N (overrides the sweep)")
     p.add_argument("--episodes-per-point", type=int, help="override episodes_per_point")
     p.add_argument("--no-progress", action="store_true")
+    _add_objective(p)
     p.set_defaults(func=_handler("sweep", "main"))
 
 
@@ -97,7 +98,17 @@ def _add_report(sub: Subparsers) -> None:
     """``harness report RUN_DIR``"""
     p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
     p.add_argument("run_dir", metavar="RUN_DIR")
+    _add_objective(p)
     p.set_defaults(func=_handler("report", "main"))
+
+
+def _add_objective(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--objective",
+        choices=["reference", "valid"],
+        default="reference",
+        help="rank the best settings by the reference success rate or by the valid rate",
+    )
 
 
 def _add_compare(sub: Subparsers) -> None:

@@ -37,6 +37,8 @@ VALIDITY_REASONS: tuple[str, ...] = (
     "lost_in_tug",
     "not_run",
 )
+# The tug levels (x g x mass) of the validity phase; robustness_g is 0 or one of them.
+ROBUSTNESS_LEVELS_G: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
 KEY_COLUMNS: tuple[str, ...] = ("task", "robot", "arm", "object")
 
 

@@ -37,11 +37,12 @@ import numpy as np
 from harness.config import PickConfig
 from harness.pick.outcome import ValidityMeasure, ValidityResult
 from harness.pick.recorder import TugRecord, ValidityTrace
+from harness.row import ROBUSTNESS_LEVELS_G
 from harness.sim import ArmHandles, Scene, SceneObject
 
 REST_SPEED = 0.02  # m/s: the object is "at rest" below this
 REST_WAIT_S = 1.0  # how long the phase waits for the object to come to rest
-TUG_LEVELS_G = (0.5, 1.0, 2.0, 4.0)
+TUG_LEVELS_G = ROBUSTNESS_LEVELS_G
 TUG_TIME_S = 0.5
 TUG_MAX_SLIP = 0.01  # m
 TUG_DIRECTIONS: tuple[tuple[str, tuple[float, float, float]], ...] = (
