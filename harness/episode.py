@@ -446,6 +446,7 @@ def _execute(
     )  # fmt: skip
     outcome = executor.run()
     result.timings["sim_s"] = time.perf_counter() - clock
+    result.timings["validity_s"] = outcome.validity_time_s
     if executor.ctrl_log is not None:
         result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
     planning.finish_trace(outcome, targets, planned)

@@ -15,6 +15,7 @@ the timed trajectory with velocity feed-forward ``ctrl = q + (kv / kp) * qd``.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -366,7 +367,9 @@ class PickExecutor:
         if not self.semantics.hold_after_list:
             self._event(f"verdict: {'success' if out.success else out.failure_reason}")
         if self.validity:
+            clock = time.perf_counter()
             self._validity_phase(verdict_reached=done)
+            out.validity_time_s = time.perf_counter() - clock
         if self.recorder is not None:
             out.trace = self.recorder.finish()
             if out.validity is not None:
@@ -422,6 +425,8 @@ class PickExecutor:
 
     def hold_step(self, label: str) -> None:
         """One control step with every servo holding its setpoint."""
+        if self.ctrl_log is not None:
+            self.ctrl_log.append((self.substeps, self.data.ctrl.copy()))
         self.scene.step(self.substeps)
         self.out.sim_steps += self.substeps
         if self.recorder is not None:

@@ -78,3 +78,4 @@ class PickOutcome:
     # Deepest robot geom below the table top during the motion (m), measured geometrically.
     table_penetration_m: float = 0.0
     validity: ValidityResult | None = None  # None when the phase is off
+    validity_time_s: float = 0.0  # wall time of the validity phase
