@@ -65,7 +65,7 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
         _best_table(best, params),
         _points_table(summary, params),
     ]
-    if "n_judged" in summary and int(summary["n_judged"].sum()):
+    if "n_judged" in summary and column(summary, "n_judged").to_numpy().sum() > 0:
         tables += [_gap_table(summary, params), _robustness_table(summary)]
     totals = failure_totals(frame)
     if totals.shape[1]:
@@ -170,7 +170,11 @@ def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
 
 
 def _gap_table(summary: pd.DataFrame, params: list[str]) -> Table:
-    reasons = [c for c in summary.columns if c.startswith(GAP_PREFIX) and summary[c].sum() > 0]
+    reasons = [
+        str(c)
+        for c in summary.columns
+        if str(c).startswith(GAP_PREFIX) and column(summary, c).to_numpy().sum() > 0
+    ]
     return Table(
         "Validity gap: reference successes that are not valid, by reason",
         [

@@ -15,7 +15,7 @@ import pandas as pd
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
-from harness.report.frames import column, frame_of
+from harness.report.frames import column, frame_of, series_of
 from harness.report.stats import wilson_interval
 from harness.row import KEY_COLUMNS, ROBUSTNESS_LEVELS_G, VALIDITY_REASONS, param_columns
 from harness.runs.store import JSONL_NAME, ResultStore
@@ -87,16 +87,18 @@ def _valid_rate_columns(valid: pd.Series, judged: pd.Series) -> pd.DataFrame:
 
 def judged_mask(frame: pd.DataFrame) -> pd.Series:
     """Rows the validity phase judged: valid, or invalid with a reason ('' means off)."""
-    valid = frame["valid"].astype(bool) if "valid" in frame else pd.Series(False, frame.index)
-    reason = frame["invalid_reason"] if "invalid_reason" in frame else pd.Series("", frame.index)
-    return valid | (reason.fillna("") != "")
+    if "valid" not in frame or "invalid_reason" not in frame:
+        return pd.Series(False, index=frame.index)
+    reason = column(frame, "invalid_reason").fillna("").astype(str)
+    return series_of(column(frame, "valid").astype(bool) | (reason != ""))
 
 
 def _validity_counts(group: pd.DataFrame) -> dict[str, Any]:
     """Per point: judged and valid counts, the validity gap per reason, robustness levels."""
     judged = judged_mask(group)
-    valid = group["valid"].astype(bool) if "valid" in group else judged & False
-    out: dict[str, Any] = {"n_judged": int(judged.sum()), "valid": int((valid & judged).sum())}
+    valid = column(group, "valid").astype(bool) if "valid" in group else judged & False
+    n_judged, n_valid = judged.to_numpy().sum(), (valid & judged).to_numpy().sum()
+    out: dict[str, Any] = {"n_judged": int(n_judged), "valid": int(n_valid)}
     gap = group.loc[column(group, "success").astype(bool) & judged & ~valid, "invalid_reason"]
     counts = gap.value_counts()
     for reason in VALIDITY_REASONS:
