@@ -144,6 +144,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
+    _add_objective(p)
     p.set_defaults(func=_handler("sweep", "main"))
 
 
@@ -151,7 +152,17 @@ def _add_report(sub: Subparsers) -> None:
     """``harness report RUN_DIR``"""
     p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
     p.add_argument("run_dir", metavar="RUN_DIR")
+    _add_objective(p)
     p.set_defaults(func=_handler("report", "main"))
+
+
+def _add_objective(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--objective",
+        choices=["reference", "valid"],
+        default="reference",
+        help="rank the best settings by the reference success rate or by the valid rate",
+    )
 
 
 def _add_compare(sub: Subparsers) -> None:

@@ -57,6 +57,7 @@ from harness.pick.outcome import PickOutcome
 from harness.pick.selection import walk_candidates
 from harness.pick.semantics import Semantics
 from harness.pick.targets import CandidatePoses, PickTargets
+from harness.pick.validity import validity_columns, validity_enabled
 from harness.planning.chain_timing import time_plan
 from harness.planning.planner import PickPlanner
 from harness.planning.plans import CandidateVerdict
@@ -199,6 +200,8 @@ def run_episode(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None = None) ->
             f"{type(exc).__name__}: {exc} (at {where.filename.rsplit('/', 1)[-1]}:{where.lineno})"
         )
     row["success"] = row["failure_reason"] == ""
+    if validity_enabled(spec.task.pick) and not row["valid"] and not row["invalid_reason"]:
+        row["invalid_reason"] = "not_run"  # ended before the execution's verdict
     row["wall_time_s"] = time.perf_counter() - wall_start
     return result
 
@@ -446,6 +449,7 @@ def _execute(
     )  # fmt: skip
     outcome = executor.run()
     result.timings["sim_s"] = time.perf_counter() - clock
+    result.timings["validity_s"] = outcome.validity_time_s
     if executor.ctrl_log is not None:
         result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
     planning.finish_trace(outcome, targets, planned)
@@ -462,5 +466,6 @@ def _execute(
             "tcp_grasp_error_m": outcome.tcp_grasp_error_m,
         }
     )
+    row.update(validity_columns(executor.validity, outcome.table_penetration_m, outcome.validity))
     if outcome.failure_reason:
         raise _EpisodeStopError(outcome.failure_reason, outcome.message)

@@ -14,6 +14,7 @@ import numpy as np
 
 from harness.grasps import CandidateSelection
 from harness.pick.outcome import PickOutcome
+from harness.pick.recorder import ValidityTrace
 from harness.pick.targets import PickTargets
 from harness.planning.ik import WholeBodyIK
 from harness.planning.plans import CandidateVerdict
@@ -60,6 +61,7 @@ class EpisodeTrace:
     T_world_grasp: np.ndarray | None = None  # planned EE pose at the grasp
     T_world_pregrasp: np.ndarray | None = None
     T_world_lift: np.ndarray | None = None
+    validity: ValidityTrace | None = None  # the validity phase: slip series, tug rungs
 
 
 def planned_tcp(
@@ -146,4 +148,5 @@ def make_trace(
         T_world_grasp=targets.T_world_grasp if targets else None,
         T_world_pregrasp=targets.T_world_pregrasp if targets else None,
         T_world_lift=targets.T_world_lift if targets else None,
+        validity=ex.validity if ex else None,
     )

@@ -26,6 +26,19 @@ if TYPE_CHECKING:
 Dtype = Literal["str", "int", "float", "bool"]
 PARAM_PREFIX = "param."
 FILTER_OUTCOMES: tuple[str, ...] = ("ok", "fallback", "filter_empty")
+# The validity causes in the order the phase meets them (first cause wins); ``not_run``: the
+# episode ended before its verdict (no candidate, no plan, timeout, instability, error, a strict
+# stop), so the phase did not run.
+VALIDITY_REASONS: tuple[str, ...] = (
+    "table_penetration",
+    "not_lifted",
+    "one_finger",
+    "slipped_in_hold",
+    "lost_in_tug",
+    "not_run",
+)
+# The tug levels (x g x mass) of the validity phase; robustness_g is 0 or one of them.
+ROBUSTNESS_LEVELS_G: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
 KEY_COLUMNS: tuple[str, ...] = ("task", "robot", "arm", "object")
 
 
@@ -143,6 +156,31 @@ class EpisodeRow:
         default="", metadata=_doc("first failure cause (FAILURE_REASONS), '' on success")
     )
     error_message: str = field(default="", metadata=_doc("message of an error or of the failure"))
+    # Validity (harness.pick.validity): after the reference verdict; see docs/semantics.md
+    valid: bool = field(
+        default=False,
+        metadata=_doc("the grasp really holds: no table penetration, two fingers, hold, tug"),
+    )
+    invalid_reason: str = field(
+        default="",
+        metadata=_doc("first validity cause (VALIDITY_REASONS); '' when valid or validity is off"),
+    )
+    robustness_g: float = field(
+        default=math.nan,
+        metadata=_doc("largest tug (x g x mass) survived in all six directions, 0 for none"),
+    )
+    hold_slip_m: float = field(
+        default=math.nan,
+        metadata=_doc("object motion relative to the TCP over the validity hold (m)"),
+    )
+    min_finger_force_n: float = field(
+        default=math.nan,
+        metadata=_doc("smaller finger normal force on the object after the validity hold (N)"),
+    )
+    table_penetration_m: float = field(
+        default=math.nan,
+        metadata=_doc("deepest robot geom below the table top during the motion (m), geometric"),
+    )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))
     # Added by the sweep executors

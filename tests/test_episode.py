@@ -57,7 +57,9 @@ def check_pick(result) -> None:
     """Success, with the object really lifted and the TCP at grasp within 1 cm of the plan."""
     row, trace = result.row, result.trace
     assert result.success, f"{row['failure_reason']}: {row['error_message']}"
-    z_before, z_after = trace.object_pose[0, 2], trace.object_pose[-1, 2]
+    # At the verdict: the last row before the validity phase (which tugs the object after it).
+    last = int(np.flatnonzero(~np.char.startswith(trace.phase.astype(str), "validity"))[-1])
+    z_before, z_after = trace.object_pose[0, 2], trace.object_pose[last, 2]
     assert z_after - z_before > 0.02, (z_before, z_after)
     assert row["lift_height_m"] > 0.02
     assert row["tcp_grasp_error_m"] < 0.01
@@ -188,7 +190,8 @@ def test_object_out_of_reach_reference_proceeds_with_the_last(cube: Path, cache:
 
 def test_object_wider_than_the_gripper_is_not_held(tmp_path: Path) -> None:
     """A 12 x 12 x 4 cm box against the FR3's 8 cm opening: the fingers land on its top, close
-    on nothing, and lift nothing (dropped: they touched it, then not; or no_contact)."""
+    on nothing, and lift nothing (dropped: they touched it, then not; or no_contact; strict,
+    whose verdict is the validity verdict: not_lifted, i.e. lift_below_threshold)."""
     box = write_box(tmp_path, (0.12, 0.12, 0.04), "wide_box")
     centre = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
     reasons = set()
@@ -199,7 +202,7 @@ def test_object_wider_than_the_gripper_is_not_held(tmp_path: Path) -> None:
             assert not result.success
             assert result.row["lift_height_m"] < 0.005
             reasons.add(result.failure_reason)
-    assert reasons <= {"no_contact", "dropped"}, reasons
+    assert reasons <= {"no_contact", "dropped", "lift_below_threshold"}, reasons
 
 
 def test_unstable_physics_is_sim_unstable_not_a_crash(cube: Path) -> None:
@@ -247,10 +250,13 @@ def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
     result = episode(task, 5, cache)
     trace = result.trace
     n = len(trace.time)
+    # The command list's rows (one per servo chunk), then the validity phase's.
+    in_list = np.flatnonzero(~np.char.startswith(trace.phase.astype(str), "validity"))
     substeps = round(task.control_dt / 0.002)
     chunks = math.ceil(substeps * 0.002 / SERVO_CHUNK_S - 1e-9)  # servo chunks per step
-    assert n == chunks * result.row["sim_steps"] // round(task.control_dt / 0.002)
-    assert trace.time[-1] == pytest.approx(result.row["sim_time_s"])
+    assert len(in_list) == chunks * result.row["sim_steps"] // round(task.control_dt / 0.002)
+    assert trace.time[in_list[-1]] == pytest.approx(result.row["sim_time_s"])
+    assert trace.validity is not None and len(trace.validity.tugs) >= 6
     assert trace.qpos.shape == (n, result.scene.model.nq)
     for name in ("tcp_pose", "ee_pose", "object_pose"):
         assert getattr(trace, name).shape == (n, 7)
@@ -263,7 +269,7 @@ def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
     assert trace.candidate_T_world_ee.shape == (len(trace.candidate_index), 4, 4)
     # The planned TCP path ends at the lift target's TCP; the executed one comes close.
     assert len(trace.planned_tcp) > 10
-    assert np.linalg.norm(trace.planned_tcp[-1] - trace.tcp_pose[-1, :3]) < 0.02
+    assert np.linalg.norm(trace.planned_tcp[-1] - trace.tcp_pose[in_list[-1], :3]) < 0.02
     assert np.all(np.diff(trace.planned_time) >= 0)
 
 
@@ -360,8 +366,8 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     """One reference step, obj_init_trans, 20 settle steps, selection, 10 warm-up steps,
     execution; one Generator drawn in a fixed order: reset, candidate draw, lift offset. A
     replay of the reset and the selection with the same seed gives the same lift reference,
-    candidates and lift offset."""
-    task = make_task("fr3", "left", cube, object=CENTRE)
+    candidates and lift offset. (Validity off: the phase after the verdict steps on.)"""
+    task = make_task("fr3", "left", cube, object=CENTRE, pick={"validity": False})
     result = episode(task, 7, cache)
     row, trace, scene = result.row, result.trace, result.scene
     assert result.success, row["error_message"]

@@ -355,3 +355,40 @@ def test_report_and_compare_commands(fixture_run: Path, tmp_path: Path, capsys) 
     assert cli_main(["report", str(tmp_path / "missing")]) == 2
     assert "missing: run directory not found" in capsys.readouterr().err
     assert cli_main(["compare", str(fixture_run), str(tmp_path / "missing")]) == 2
+
+
+def test_valid_rate_gap_and_objective(fixture_run: Path, tmp_path: Path) -> None:
+    """Validity columns by hand: fr3 point 2 is 5/5 reference but 1/5 valid (four fingers in
+    the table), point 0 is 4/5 reference and 4/5 valid. The valid objective picks point 0;
+    rows without the columns (the original fixture) have no valid rate."""
+
+    def edit(frame: pd.DataFrame) -> pd.DataFrame:
+        frame["valid"] = frame["success"].astype(str) == "True"
+        frame["invalid_reason"] = ["" if v else "not_run" for v in frame["valid"]]
+        frame["robustness_g"] = [4.0 if v else float("nan") for v in frame["valid"]]
+        fr3_2 = (frame["robot"] == "fr3") & (frame["point_id"] == 2)
+        through = fr3_2 & (frame.groupby(fr3_2).cumcount() < 4)
+        frame.loc[through, "valid"] = False
+        frame.loc[through, "invalid_reason"] = "table_penetration"
+        frame.loc[through, "robustness_g"] = 2.0
+        return frame
+
+    run = modified_run(fixture_run, tmp_path / "valid-run", edit)
+    summary = summarize(load_episodes(run)).set_index(["robot", "arm", "point_id"])
+    point = summary.loc[("fr3", "left", 2)]
+    assert (point["successes"], point["valid"], point["n_judged"]) == (5, 1, 5)
+    assert point["valid_rate"] == pytest.approx(0.2)
+    assert (point["valid_ci_low"], point["valid_ci_high"]) == pytest.approx(
+        WILSON[(1, 5)], abs=5e-5
+    )
+    assert point["gap.table_penetration"] == 4 and point["robustness.2"] == 4
+    assert point["robustness.4"] == 1
+    flat = summarize(load_episodes(run))
+    assert best_settings(flat).set_index("robot").loc["fr3", "point_id"] == 2
+    assert best_settings(flat, "valid").set_index("robot").loc["fr3", "point_id"] == 0
+    paths = build_report(run, objective="valid")
+    text = paths.report_md.read_text()
+    assert "Validity gap" in text and "robustness_g" in text and "valid rate" in text
+    assert {"valid_rate", "valid_ci_low", "valid_ci_high"} <= set(pd.read_csv(paths.summary_csv))
+    plain = summarize(load_episodes(fixture_run))
+    assert plain["valid_rate"].isna().all() and (plain["n_judged"] == 0).all()

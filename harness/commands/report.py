@@ -27,7 +27,7 @@ SIGNIFICANCE = 0.05
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
-    paths = build_report(run_dir, export=True)
+    paths = build_report(run_dir, export=True, objective=args.objective)
     console = make_console()
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
@@ -36,7 +36,9 @@ def main(args: argparse.Namespace) -> int:
         console.print(
             f"best for [bold]{row['robot']}[/]: {point_label(row, params)} — "
             f"{row['successes']}/{row['n']} ({row['rate']:.0%}, 95% CI "
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f})",
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}; valid {row['valid_rate']:.0%}, "
+            f"95% CI {row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}; ranked by "
+            f"{args.objective})",
             soft_wrap=True,
         )
     for label, path in (

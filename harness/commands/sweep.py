@@ -35,6 +35,10 @@ def main(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
     )
     stats = outcome.stats
+    if args.objective != "reference":  # the run's report ranked by the reference rate
+        from harness.report import build_report
+
+        build_report(outcome.run_dir, objective=args.objective)
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(

@@ -75,15 +75,36 @@ class PickConfig(StrictModel):
     )
     timing: Literal["toppra", "ruckig"] = "toppra"
     speed_scale: FiniteFloat = Field(default=1.0, gt=0.0, le=1.0)
+    validity: bool = Field(
+        default=True,
+        description="on: after the reference verdict, the validity phase (penetration, two "
+        "fingers, hold, tug) fills the row's validity columns; off skips it (strict always "
+        "runs it: it is strict's verdict).",
+    )
     min_finger_force: FiniteFloat = Field(
-        default=0.5, ge=0.0, description="strict: normal force each finger must carry (N)."
+        default=0.5,
+        ge=0.0,
+        description="validity and strict: normal force each finger must carry (N).",
     )
     hold_time: FiniteFloat = Field(
-        default=1.0, ge=0.0, le=60.0, description="strict: hold after the lift (s)."
+        default=1.0,
+        ge=0.0,
+        le=60.0,
+        description="validity and strict: hold at the lifted pose (s).",
     )
     max_slip: FiniteFloat = Field(
-        default=0.005, gt=0.0, description="strict: object slip allowed in the hold (m)."
+        default=0.005,
+        gt=0.0,
+        description="validity and strict: object slip allowed in the hold (m).",
     )
+
+    @field_validator("validity", mode="before")
+    @classmethod
+    def _on_off(cls, value: object) -> object:
+        """``on`` / ``off`` (YAML 1.1 reads them as booleans already; strings from ``--set``)."""
+        if isinstance(value, str) and value.strip().lower() in ("on", "off"):
+            return value.strip().lower() == "on"
+        return value
 
     @field_validator("fixed_orientation")
     @classmethod

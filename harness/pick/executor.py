@@ -15,6 +15,7 @@ the timed trajectory with velocity feed-forward ``ctrl = q + (kv / kp) * qd``.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -28,19 +29,26 @@ from harness.pick.commands import (
     pose_reached,
     target_moved,
 )
-from harness.pick.outcome import PickOutcome
+from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
+from harness.pick.penetration import TablePenetration
 from harness.pick.recorder import TraceRecorder
 from harness.pick.semantics import Semantics
 from harness.pick.targets import PickTargets
-from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
+from harness.pick.validity import ValidityPhase, phase_steps, validity_enabled
+from harness.pick.verdict import (
+    MAX_TABLE_PENETRATION,
+    VerdictTerm,
+    closing_terms,
+    first_failure,
+    validity_terms,
+)
 from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.sim import Scene
 from harness.transforms import invert_T
 
 SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
-STATIC_SPEED = 0.02  # m/s: the object is "at rest" below this (strict)
-STATIC_WAIT_S = 1.0  # strict: how long to wait for the object to come to rest
+FINISH_STEPS = 300  # recorder rows kept for the motion still playing after the list empties
 # Strict: a robot-environment contact during execution is a collision beyond this penetration
 # (m). Plans keep 0.1 mm; tracking lag lets a finger planned to graze the table dip a little.
 EXECUTION_PENETRATION = 0.002
@@ -94,7 +102,13 @@ class PickExecutor:
         self.feedforward = np.where(kp > 0, kv / np.maximum(kp, 1e-12), 0.0)
         self.ctrl_lower = m.actuator_ctrlrange[active, 0].copy()
         self.ctrl_upper = m.actuator_ctrlrange[active, 1].copy()
+        # The validity phase runs after the reference verdict (always under strict, whose
+        # success it is); its steps are recorded too.
+        self.validity = validity_enabled(task.pick)
         capacity = (task.max_episode_length + 2) * len(self.chunk_sizes)
+        if self.validity:
+            capacity += FINISH_STEPS * len(self.chunk_sizes)
+            capacity += phase_steps(task.pick.hold_time, self.control_dt)
         self.recorder = (
             TraceRecorder(scene, self.arm, self.object_name, capacity) if record else None
         )
@@ -113,10 +127,10 @@ class PickExecutor:
         self.gripper_plan: np.ndarray | None = None
         self.gripper_row = 0
         self.gripper_state: str | None = None
-        self.post: str | None = None  # strict, after the list: "finish", "settle", "hold"
-        self.post_start = 0
-        self.hold_reference: np.ndarray | None = None
+        self.post: str | None = None  # the phase label once the list is empty
+        self.failed_term = ""  # the name of the verdict term that failed the episode
         self.forces: tuple[float, float] = (0.0, 0.0)
+        self.penetration = TablePenetration(scene)
 
     # -- timing helpers -------------------------------------------------------------------------
 
@@ -326,6 +340,7 @@ class PickExecutor:
         done = False
         while not done and not out.failure_reason:
             self._control_step()
+            self._track_penetration()
             reason = self.scene.unstable()
             if reason is not None:
                 self._fail("sim_unstable", reason)
@@ -333,16 +348,11 @@ class PickExecutor:
             forces = self.forces
             if self.checker is not None:
                 self._check_collisions()
-            if self.head < len(self.commands):
-                if self._progress(forces):
-                    if self.semantics.hold_after_list:
-                        self.post = "finish"
-                    else:
-                        self._measure()
-                        self._judge(self.semantics.verdict_terms(self.pick, out))
-                        done = True
-            else:
-                done = self._strict_post_step()
+            if self._progress(forces):
+                self._measure()
+                if not self.semantics.hold_after_list:
+                    self._judge(self.semantics.verdict_terms(self.pick, out))
+                done = True
             if not done and not out.failure_reason and self.step >= self.task.max_episode_length:
                 self._fail(
                     "timeout",
@@ -354,9 +364,16 @@ class PickExecutor:
         if not np.isfinite(out.lift_height_m):
             self._measure()
         out.success = not out.failure_reason
-        self._event(f"verdict: {'success' if out.success else out.failure_reason}")
+        if not self.semantics.hold_after_list:
+            self._event(f"verdict: {'success' if out.success else out.failure_reason}")
+        if self.validity:
+            clock = time.perf_counter()
+            self._validity_phase(verdict_reached=done)
+            out.validity_time_s = time.perf_counter() - clock
         if self.recorder is not None:
             out.trace = self.recorder.finish()
+            if out.validity is not None:
+                out.trace.validity = out.validity.measure.trace
         return out
 
     # -- verdicts -------------------------------------------------------------------------------
@@ -376,6 +393,8 @@ class PickExecutor:
         """Fail with the first term that did not pass (``harness.pick.verdict``); True if one."""
         failed = first_failure(terms)
         if failed is not None:
+            if not self.out.failure_reason:
+                self.failed_term = failed.name
             self._fail(failed.reason, failed.message)
         return failed is not None
 
@@ -387,30 +406,72 @@ class PickExecutor:
         T_tcp = self.scene.T_world_body(self.handles.tcp_body)
         return (invert_T(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
 
-    def _strict_post_step(self) -> bool:
-        """Strict, after the list: finish the motion, wait for rest, hold; True when decided."""
-        out, pick = self.out, self.pick
-        if out.collisions:
-            self._fail("collision", f"robot collided: {out.collisions[0]}")
+    # -- the validity phase (harness.pick.validity) ----------------------------------------------
+
+    def _track_penetration(self) -> None:
+        depth = self.penetration.depth(self.data)
+        if depth > self.out.table_penetration_m:
+            self.out.table_penetration_m = depth
+
+    def finish_step(self) -> bool:
+        """One control step of the planned motion still playing; True when none is left."""
+        if self.arm_plan is None and self.pending_segment is None and self.gripper_plan is None:
             return True
-        if self.post == "finish":
-            if self.arm_plan is None and self.pending_segment is None and self.gripper_plan is None:
-                self.post, self.post_start = "settle", self.step
-            return False
-        if self.post == "settle":
-            if self._object_speed() < STATIC_SPEED:
-                self.post, self.post_start = "hold", self.step
-                self.hold_reference = self._object_in_tcp()
-                self._event("object at rest: hold")
-            elif (self.step - self.post_start) * self.control_dt > STATIC_WAIT_S:
-                self._measure()
-                self._fail("dropped", "the object did not come to rest after the lift")
-                return True
-            return False
-        if (self.step - self.post_start) * self.control_dt + 1e-9 < pick.hold_time:
-            return False
-        assert self.hold_reference is not None
-        out.slip_m = float(np.linalg.norm(self._object_in_tcp() - self.hold_reference))
-        self._measure()
-        self._judge(self.semantics.verdict_terms(pick, out))
-        return True
+        self._control_step()
+        self._track_penetration()
+        if self.checker is not None:
+            self._check_collisions()
+        return False
+
+    def hold_step(self, label: str) -> None:
+        """One control step with every servo holding its setpoint."""
+        if self.ctrl_log is not None:
+            self.ctrl_log.append((self.substeps, self.data.ctrl.copy()))
+        self.scene.step(self.substeps)
+        self.out.sim_steps += self.substeps
+        if self.recorder is not None:
+            forces = self.scene.finger_forces(self.arm, self.object_name)
+            self.recorder.record(self.time, label, forces)
+
+    def object_speed(self) -> float:
+        return self._object_speed()
+
+    def event(self, text: str) -> None:
+        self._event(text)
+
+    def object_in_tcp(self) -> np.ndarray:
+        return self._object_in_tcp()
+
+    def _validity_phase(self, verdict_reached: bool) -> None:
+        """After the verdict: the validity phase and its verdict (strict's success); the
+        command list's columns (steps, peak speeds) stay those of the list."""
+        out = self.out
+        measure = ValidityMeasure(
+            table_penetration_m=out.table_penetration_m,
+            closing_forces=(out.finger_force_left_n, out.finger_force_right_n),
+        )
+        if not verdict_reached:  # stopped before the verdict: only the motion's facts count
+            too_deep = not measure.table_penetration_m < MAX_TABLE_PENETRATION
+            reason = "table_penetration" if too_deep else ""
+            reason = reason or (self.failed_term if self.failed_term == "one_finger" else "")
+            out.validity = ValidityResult(False, reason or "not_run", out.message, measure)
+            return
+        kept = (out.sim_steps, out.max_joint_vel, out.max_object_vel)
+        self.post = "validity:finish"
+        ValidityPhase(self, self.pick.hold_time, float(self.object_init_position[2])).run(measure)
+        measure.table_penetration_m = out.table_penetration_m
+        failed = first_failure(validity_terms(self.pick, measure))
+        out.validity = ValidityResult(
+            failed is None, failed.name if failed else "", failed.message if failed else "", measure
+        )
+        self._event(
+            f"validity: {'valid' if failed is None else failed.name}, robustness "
+            f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm"
+        )
+        if self.semantics.hold_after_list:  # strict: this is the verdict
+            out.slip_m, out.lift_height_m = measure.hold_slip_m, measure.lift_height_m
+            out.verdict_forces = measure.finger_forces
+            self._judge(self.semantics.verdict_terms(self.pick, out))
+            out.success = not out.failure_reason
+            self._event(f"verdict: {'success' if out.success else out.failure_reason}")
+        out.sim_steps, out.max_joint_vel, out.max_object_vel = kept

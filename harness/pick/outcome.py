@@ -1,4 +1,4 @@
-"""What one pick execution measured and concluded (``PickOutcome``).
+"""What one pick execution measured and concluded (``PickOutcome``, ``ValidityMeasure``).
 
 Its own module so that the verdict terms (``harness.pick.verdict``) read the measurements
 without importing the control loop that fills them.
@@ -6,10 +6,48 @@ without importing the control loop that fills them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from harness.failures import FailureReason
-from harness.pick.recorder import ExecutionTrace
+from harness.pick.recorder import ExecutionTrace, ValidityTrace
+
+NAN = math.nan
+
+
+@dataclass
+class ValidityMeasure:
+    """What the validity phase measured (``harness.pick.validity``); the inputs of the validity
+    terms (``harness.pick.verdict.validity_terms``). ``ran`` is False when the phase did not run
+    (then only ``table_penetration_m`` of the executed part is known)."""
+
+    ran: bool = False
+    table_penetration_m: float = NAN  # deepest robot geom below the table top (m)
+    lift_height_m: float = NAN  # object rise over obj_init_trans at the end of the hold (m)
+    closing_forces: tuple[float, float] = (NAN, NAN)  # when the closing ended (N)
+    finger_forces: tuple[float, float] = (NAN, NAN)  # at the end of the hold (N)
+    hold_slip_m: float = NAN
+    robustness_g: float = NAN  # largest tug level survived in every direction (0: none)
+    tug_message: str = ""  # the first rung that failed
+    object_speed: float = NAN  # object speed at the end of the hold (m/s)
+    joint_speed: float = NAN  # max |robot joint speed| at the end of the hold
+    trace: ValidityTrace | None = None
+
+    @property
+    def min_finger_force_n(self) -> float:
+        """The weaker finger when the grasp closed and after the hold (NaN counts as 0)."""
+        forces = [*self.closing_forces, *self.finger_forces]
+        return min(0.0 if force != force else force for force in forces)
+
+
+@dataclass
+class ValidityResult:
+    """The validity verdict of an episode: the row's validity columns."""
+
+    valid: bool = False
+    invalid_reason: str = ""
+    message: str = ""
+    measure: ValidityMeasure = field(default_factory=ValidityMeasure)
 
 
 @dataclass
@@ -37,3 +75,7 @@ class PickOutcome:
     contact_during_close: bool = False
     collisions: list[str] = field(default_factory=list)
     trace: ExecutionTrace | None = None
+    # Deepest robot geom below the table top during the motion (m), measured geometrically.
+    table_penetration_m: float = 0.0
+    validity: ValidityResult | None = None  # None when the phase is off
+    validity_time_s: float = 0.0  # wall time of the validity phase

@@ -15,6 +15,30 @@ from harness.sim import Scene
 
 
 @dataclass
+class TugRecord:
+    """One rung of the tug ladder: a force along one world direction for ``TUG_TIME_S``."""
+
+    direction: str  # "+x", "-x", "+y", "-y", "+z", "-z"
+    level_g: float  # k: the force is k x g x mass
+    force_n: np.ndarray  # (3,) world force on the object's centre of mass (N)
+    t_start: float  # s of execution time (the trace's clock)
+    t_end: float
+    slip_m: float  # object motion relative to the TCP since the end of the hold
+    between_fingers: bool
+    survived: bool
+
+
+@dataclass
+class ValidityTrace:
+    """The validity phase for a viewer: the slip series (hold and tug) and the tug rungs."""
+
+    time: np.ndarray  # (K,) s of execution time
+    slip_m: np.ndarray  # (K,) object motion relative to the TCP since the hold started / ended
+    stage: np.ndarray  # (K,) str: settle, hold, tug
+    tugs: list[TugRecord] = field(default_factory=list)
+
+
+@dataclass
 class ExecutionTrace:
     """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
 
@@ -28,6 +52,7 @@ class ExecutionTrace:
     object_pose: np.ndarray  # (T, 7) world pose of the target object
     phase: np.ndarray  # (T,) str: the head command's function / target
     events: list[tuple[float, str]] = field(default_factory=list)
+    validity: ValidityTrace | None = None  # the validity phase (its rows are in the arrays too)
 
 
 class TraceRecorder:

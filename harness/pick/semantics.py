@@ -19,7 +19,7 @@ from typing import Literal
 from harness.config import PickConfig
 from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
-from harness.pick.verdict import VerdictTerm, reference_terms, strict_hold_terms
+from harness.pick.verdict import VerdictTerm, reference_terms, strict_terms
 from harness.planning.world import PlanningWorld
 
 # A forward test plans the carry (lift, return) too, under both semantics, so a candidate whose
@@ -114,7 +114,8 @@ class Semantics:
         )
 
     def verdict_terms(self, pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
-        """The final checks: the reference's when the list empties, strict's after the hold."""
+        """The final checks: the reference's when the list empties, strict's (the validity
+        verdict) after the validity phase."""
         if self.hold_after_list:
-            return strict_hold_terms(pick, out)
+            return strict_terms(pick, out)
         return reference_terms(pick, out)

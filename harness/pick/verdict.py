@@ -9,14 +9,21 @@ pipeline order, so the first cause wins). Which terms apply is the semantics' ca
   the object with force > 0 (when the final command closes), max |joint velocity| < 5 and max
   |object linear velocity component| < 5 (``process_valid``), and lift > ``lift_th`` measured from
   the object's position before settling (``obj_init_trans``).
-- ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends; no robot
-  collision with the environment during the motion; after the lift the trajectory finishes, the
-  object comes to rest, then is held for ``hold_time`` s with slip (object motion relative to the
-  TCP) below ``max_slip``; both fingers still carry the force; lift > ``lift_th``.
+- validity (``validity_terms``, after the reference verdict, measured by
+  ``harness.pick.validity``): no robot geom more than 2 mm inside the table top during the
+  motion; the object lifted more than ``lift_th``; both fingers carry >= ``min_finger_force`` N
+  when the closing ends and after the hold; slip (object motion relative to the TCP) under
+  ``max_slip`` over a ``hold_time`` s hold; the tug survived at 0.5 g in every direction. A
+  term's name is the row's ``invalid_reason``.
+- ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends (the same
+  ``one_finger`` check, early); then no robot collision with the environment during the motion,
+  the validity terms, and the velocity bound after the hold (``strict_terms``): strict's success
+  IS the validity verdict, its failure reasons the validity causes' (``table_penetration`` ->
+  ``collision``, ``not_lifted`` -> ``lift_below_threshold``, ``one_finger`` -> ``no_contact``,
+  ``slipped_in_hold`` and ``lost_in_tug`` -> ``dropped``).
 
-The terms read only the measurements in ``PickOutcome`` (and the forces at closing), so they
-can be checked without a simulation; the collision, rest and timing parts of strict are the
-executor's state machine.
+The terms read only the measurements in ``PickOutcome`` / ``ValidityMeasure`` (and the forces at
+closing), so they can be checked without a simulation.
 """
 
 from __future__ import annotations
@@ -26,9 +33,13 @@ from dataclasses import dataclass
 
 from harness.config import PickConfig
 from harness.failures import FailureReason
-from harness.pick.outcome import PickOutcome
+from harness.pick.outcome import PickOutcome, ValidityMeasure
 
 MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the reference)
+# Validity: a robot geom deeper than this inside the table top makes the grasp non-physical (m).
+MAX_TABLE_PENETRATION = 0.002
+# Validity: the lowest tug level (x g x mass) the grasp must survive in every direction.
+MIN_ROBUSTNESS_G = 0.5
 
 
 @dataclass(frozen=True)
@@ -58,7 +69,7 @@ def closing_terms(pick: PickConfig, forces: tuple[float, float]) -> tuple[Verdic
     closes = pick.final_gripper_state == -1
     return (
         VerdictTerm(
-            "fingers_closed_on_object",
+            "one_finger",
             "no_contact",
             not (closes and min(forces) < pick.min_finger_force),
             f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after closing, "
@@ -93,33 +104,70 @@ def reference_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ..
     )
 
 
-def strict_hold_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
-    """Strict, after the hold: forces, slip, velocities and lift, on the measurements then."""
-    forces = out.verdict_forces
+def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, ...]:
+    """The validity verdict (``harness.pick.validity`` measures it), in the order the phase meets
+    its causes: the motion, the lift, the grasp at the lifted pose, the hold, the tug.
+
+    Each term's name is the row's ``invalid_reason`` and its reason the failure strict reports
+    (strict's success is this verdict)."""
+    closes = pick.final_gripper_state == -1
+    closing, held = v.closing_forces, v.finger_forces
     return (
         VerdictTerm(
-            "fingers_hold_object",
-            "dropped",
-            not (pick.final_gripper_state == -1 and min(forces) < pick.min_finger_force),
-            f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after the hold, below "
-            f"{pick.min_finger_force} N",
+            "table_penetration",
+            "collision",
+            v.table_penetration_m < MAX_TABLE_PENETRATION,
+            f"a robot geom went {v.table_penetration_m * 1e3:.1f} mm into the table "
+            f"(bound {MAX_TABLE_PENETRATION * 1e3:.0f} mm)",
         ),
         VerdictTerm(
-            "no_slip",
-            "dropped",
-            not out.slip_m > pick.max_slip,
-            f"the object slipped {out.slip_m * 1e3:.1f} mm in the hold",
+            "not_lifted",
+            "lift_below_threshold",
+            v.lift_height_m > pick.lift_th,
+            f"lifted {v.lift_height_m * 1e3:.1f} mm after the hold, threshold "
+            f"{pick.lift_th * 1e3:.1f} mm",
         ),
+        VerdictTerm(
+            "one_finger",
+            "no_contact",
+            not (closes and not v.min_finger_force_n >= pick.min_finger_force),
+            f"finger forces {closing[0]:.2f} / {closing[1]:.2f} N after closing, "
+            f"{held[0]:.2f} / {held[1]:.2f} N after the hold: one below {pick.min_finger_force} N",
+        ),
+        VerdictTerm(
+            "slipped_in_hold",
+            "dropped",
+            v.hold_slip_m <= pick.max_slip,
+            f"the object slipped {v.hold_slip_m * 1e3:.1f} mm in the hold "
+            f"(bound {pick.max_slip * 1e3:.1f} mm)",
+        ),
+        VerdictTerm(
+            "lost_in_tug",
+            "dropped",
+            v.robustness_g >= MIN_ROBUSTNESS_G,
+            f"lost in the tug: {v.tug_message}",
+        ),
+    )
+
+
+def strict_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
+    """Strict, after the validity phase: no collision during the motion, the validity verdict
+    (``validity_terms``), and the reference's velocity bound at the end of the hold."""
+    assert out.validity is not None
+    v = out.validity.measure
+    return (
+        VerdictTerm(
+            "collision",
+            "collision",
+            not out.collisions,
+            f"robot collided: {out.collisions[0] if out.collisions else ''}",
+        ),
+        *validity_terms(pick, v),
         VerdictTerm(
             "velocity_valid",
             "velocity_invalid",
-            velocity_valid(pick, out),
+            not pick.process_valid
+            or (v.joint_speed < MAX_VELOCITY and v.object_speed < MAX_VELOCITY),
             "velocities above the bound after the hold",
-        ),
-        VerdictTerm(
-            "lifted",
-            "lift_below_threshold",
-            out.lift_height_m > pick.lift_th,
-            f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
         ),
     )

@@ -38,18 +38,21 @@ class ReportPaths:
     plots: dict[str, Path] = field(default_factory=dict)
 
 
-def build_report(run_dir: str | Path, export: bool = False) -> ReportPaths:
+def build_report(
+    run_dir: str | Path, export: bool = False, objective: str = "reference"
+) -> ReportPaths:
     """Rebuild summary.csv, best.csv, plots/, report.md and report.html of ``run_dir``.
 
     With ``export`` the store is also re-exported to episodes.csv / episodes.parquet (only when
-    it has an ``episodes.jsonl``; a hand-made episodes.csv is never overwritten).
+    it has an ``episodes.jsonl``; a hand-made episodes.csv is never overwritten). ``objective``
+    ranks the best settings by the reference success rate or by the valid rate.
     """
     run_dir = Path(run_dir)
     frame = load_episodes(run_dir)
     if export and (run_dir / JSONL_NAME).is_file():
         ResultStore(run_dir).export()
     summary = summarize(frame)
-    best = best_settings(summary)
+    best = best_settings(summary, objective)
     summary_csv = run_dir / SUMMARY_NAME
     best_csv = run_dir / BEST_NAME
     summary.to_csv(summary_csv, index=False)

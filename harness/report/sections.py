@@ -17,8 +17,10 @@ from harness.report.frames import column, series_rows, tuple_rows
 from harness.report.labels import point_label, varying_params
 from harness.report.tables import (
     FAIL_PREFIX,
+    GAP_PREFIX,
     MAX_MESSAGES,
     MESSAGE_CHARS,
+    ROBUSTNESS_PREFIX,
     error_messages,
     failure_totals,
     funnel,
@@ -63,6 +65,8 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
         _best_table(best, params),
         _points_table(summary, params),
     ]
+    if "n_judged" in summary and column(summary, "n_judged").to_numpy().sum() > 0:
+        tables += [_gap_table(summary, params), _robustness_table(summary)]
     totals = failure_totals(frame)
     if totals.shape[1]:
         tables.append(_failures_table(totals))
@@ -94,9 +98,20 @@ def _overall_table(summary: pd.DataFrame) -> Table:
 
 
 def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
+    objective = best.attrs.get("objective", "reference")
     return Table(
         "Best settings per robot",
-        ["robot", "setting", "n", "successes", "rate", "95% CI", "points compared"],
+        [
+            "robot",
+            "setting",
+            "n",
+            "successes",
+            "rate",
+            "95% CI",
+            "valid rate",
+            "valid CI",
+            "points compared",
+        ],
         [
             [
                 str(r["robot"]),
@@ -105,19 +120,34 @@ def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
                 str(int(r["successes"])),
                 _percent(r["rate"]),
                 _ci(r["wilson_lo"], r["wilson_hi"]),
+                _percent(r["valid_rate"]),
+                "" if math.isnan(r["valid_ci_low"]) else _ci(r["valid_ci_low"], r["valid_ci_high"]),
                 str(int(r["points_compared"])),
             ]
             for r in series_rows(best)
         ],
-        "Ranked by the lower bound of the 95% Wilson interval, pooled over the robot's arms "
-        "and objects.",
+        f"Ranked by the lower bound of the 95% Wilson interval of the {objective} rate "
+        "(--objective), pooled over the robot's arms and objects.",
     )
 
 
 def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
+    judged = "n_judged" in summary
     return Table(
-        "Success per point",
-        ["robot", "arm", "object", "setting", "n", "rate", "95% CI", "top failures"],
+        "Success per point: reference rate and valid rate",
+        [
+            "robot",
+            "arm",
+            "object",
+            "setting",
+            "n",
+            "reference rate",
+            "95% CI",
+            "valid",
+            "valid rate",
+            "95% CI",
+            "top failures",
+        ],
         [
             [
                 str(r["robot"]),
@@ -127,10 +157,62 @@ def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
                 f"{int(r['successes'])}/{int(r['n'])}",
                 _percent(r["rate"]),
                 _ci(r["wilson_lo"], r["wilson_hi"]),
+                f"{int(r['valid'])}/{int(r['n_judged'])}" if judged and r["n_judged"] else "",
+                _percent(r["valid_rate"]) if judged else "",
+                _ci(r["valid_ci_low"], r["valid_ci_high"]) if judged and r["n_judged"] else "",
                 _top_failures(r),
             ]
             for r in series_rows(summary)
         ],
+        "Valid: the grasp really holds (validity phase: no table penetration, two fingers, "
+        "1 s hold, tug at 0.5 g in six directions), over the episodes it judged.",
+    )
+
+
+def _gap_table(summary: pd.DataFrame, params: list[str]) -> Table:
+    reasons = [
+        str(c)
+        for c in summary.columns
+        if str(c).startswith(GAP_PREFIX) and column(summary, c).to_numpy().sum() > 0
+    ]
+    return Table(
+        "Validity gap: reference successes that are not valid, by reason",
+        [
+            "robot",
+            "arm",
+            "object",
+            "setting",
+            "reference successes",
+            "not valid",
+            *[c.removeprefix(GAP_PREFIX) for c in reasons],
+        ],
+        [
+            [
+                str(r["robot"]),
+                str(r["arm"]),
+                str(r["object"]),
+                point_label(r, params),
+                str(int(r["successes"])),
+                str(int(sum(r[c] for c in reasons))),
+                *[str(int(r[c])) for c in reasons],
+            ]
+            for r in series_rows(summary)
+        ],
+    )
+
+
+def _robustness_table(summary: pd.DataFrame) -> Table:
+    overall = pooled(summary, ["robot", "arm", "object"])
+    levels = [c for c in summary.columns if c.startswith(ROBUSTNESS_PREFIX)]
+    return Table(
+        "Distribution of robustness_g (judged episodes, all points pooled)",
+        ["robot", "arm", "object", *[f"{c.removeprefix(ROBUSTNESS_PREFIX)} g" for c in levels]],
+        [
+            [str(r["robot"]), str(r["arm"]), str(r["object"]), *[str(int(r[c])) for c in levels]]
+            for r in series_rows(overall.sort_values(["robot", "arm", "object"]))
+        ],
+        "robustness_g: the largest tug (x g x mass) the grasp survived in all six directions; "
+        "0: it failed at 0.5 g or the object was not held.",
     )
 
 

@@ -15,15 +15,18 @@ import pandas as pd
 
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS
-from harness.report.frames import column, frame_of
+from harness.report.frames import column, frame_of, series_of
 from harness.report.stats import wilson_interval
-from harness.row import KEY_COLUMNS, param_columns
+from harness.row import KEY_COLUMNS, ROBUSTNESS_LEVELS_G, VALIDITY_REASONS, param_columns
 from harness.runs.store import JSONL_NAME, ResultStore
 
 POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")
 
 
 FAIL_PREFIX = "fail."
+GAP_PREFIX = "gap."  # reference successes that are not valid, per invalid_reason
+ROBUSTNESS_PREFIX = "robustness."  # episodes per robustness_g level (judged episodes)
+OBJECTIVES: tuple[str, ...] = ("reference", "valid")
 
 
 MAX_MESSAGES = 10
@@ -67,6 +70,46 @@ def _rate_columns(successes: pd.Series, n: pd.Series) -> pd.DataFrame:
     )
 
 
+def _valid_rate_columns(valid: pd.Series, judged: pd.Series) -> pd.DataFrame:
+    """Valid rate over the episodes the validity phase judged, with its Wilson interval (NaN
+    when none was: validity off, or rows written before it existed)."""
+    rates = _rate_columns(valid, judged)
+    none = judged == 0
+    return pd.DataFrame(
+        {
+            "valid_rate": rates["rate"],
+            "valid_ci_low": rates["wilson_lo"].mask(none),
+            "valid_ci_high": rates["wilson_hi"].mask(none),
+        },
+        index=valid.index,
+    )
+
+
+def judged_mask(frame: pd.DataFrame) -> pd.Series:
+    """Rows the validity phase judged: valid, or invalid with a reason ('' means off)."""
+    if "valid" not in frame or "invalid_reason" not in frame:
+        return pd.Series(False, index=frame.index)
+    reason = column(frame, "invalid_reason").fillna("").astype(str)
+    return series_of(column(frame, "valid").astype(bool) | (reason != ""))
+
+
+def _validity_counts(group: pd.DataFrame) -> dict[str, Any]:
+    """Per point: judged and valid counts, the validity gap per reason, robustness levels."""
+    judged = judged_mask(group)
+    valid = column(group, "valid").astype(bool) if "valid" in group else judged & False
+    n_judged, n_valid = judged.to_numpy().sum(), (valid & judged).to_numpy().sum()
+    out: dict[str, Any] = {"n_judged": int(n_judged), "valid": int(n_valid)}
+    gap = group.loc[column(group, "success").astype(bool) & judged & ~valid, "invalid_reason"]
+    counts = gap.value_counts()
+    for reason in VALIDITY_REASONS:
+        out[GAP_PREFIX + reason] = int(counts.get(reason, 0))
+    robustness = group.loc[judged, "robustness_g"] if "robustness_g" in group else None
+    for level in (0.0, *ROBUSTNESS_LEVELS_G):
+        hits = 0 if robustness is None else int((robustness == level).sum())
+        out[f"{ROBUSTNESS_PREFIX}{level:g}"] = hits
+    return out
+
+
 def failure_reasons_in(frame: pd.DataFrame) -> list[str]:
     """The taxonomy, plus any other reason found in failed rows (``unknown`` for blanks)."""
     failed = frame.loc[~frame["success"], "failure_reason"].replace("", "unknown")
@@ -95,12 +138,18 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         row["median_n_passed_filter"] = float(column(group, "n_passed_filter").median())
         row["median_n_feasible"] = float(column(group, "n_feasible").median())
         row["median_wall_time_s"] = float(column(group, "wall_time_s").median())
+        row.update(_validity_counts(group))
         rows.append(row)
     summary = pd.DataFrame(rows)
     if summary.empty:
         return summary
     rates = _rate_columns(column(summary, "successes"), column(summary, "n"))
+    valid_rates = _valid_rate_columns(column(summary, "valid"), column(summary, "n_judged"))
     fail_columns = [FAIL_PREFIX + reason for reason in reasons]
+    validity = [
+        "n_judged", "valid", *valid_rates.columns,
+        *[c for c in summary.columns if c.startswith((GAP_PREFIX, ROBUSTNESS_PREFIX))],
+    ]  # fmt: skip
     medians = ["median_n_passed_filter", "median_n_feasible", "median_wall_time_s"]
     ordered = [
         *KEY_COLUMNS,
@@ -110,10 +159,11 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         "n",
         "successes",
         *rates.columns,
+        *validity,
         *fail_columns,
         *medians,
     ]
-    summary = frame_of(pd.concat([summary, rates], axis=1)[ordered])
+    summary = frame_of(pd.concat([summary, rates, valid_rates], axis=1)[ordered])
     return summary.sort_values(["robot", "arm", "object", "task", "point_id"], kind="stable")
 
 
@@ -121,27 +171,42 @@ def pooled(summary: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     """Sum n and successes of summary rows over everything but ``by``; rate and Wilson again."""
     params = param_columns(summary.columns)
     aggregations: dict[str, Any] = {"n": "sum", "successes": "sum"}
+    if "n_judged" in summary:
+        aggregations.update(n_judged="sum", valid="sum")
     if "point_id" not in by:
         aggregations["point_id"] = "min"
     for name in params:
         if name not in by:
             aggregations[name] = "first"
-    fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
+    fail_columns = [
+        c for c in summary.columns if c.startswith((FAIL_PREFIX, GAP_PREFIX, ROBUSTNESS_PREFIX))
+    ]
     for name in fail_columns:
         aggregations[name] = "sum"
     out = summary.groupby(by, sort=False, dropna=False).agg(aggregations).reset_index()
-    return pd.concat([out, _rate_columns(column(out, "successes"), column(out, "n"))], axis=1)
+    parts = [out, _rate_columns(column(out, "successes"), column(out, "n"))]
+    if "n_judged" in out:
+        parts.append(_valid_rate_columns(column(out, "valid"), column(out, "n_judged")))
+    return pd.concat(parts, axis=1)
 
 
-def best_settings(summary: pd.DataFrame) -> pd.DataFrame:
-    """Per robot, the point with the highest Wilson lower bound over its arms and objects.
+def best_settings(summary: pd.DataFrame, objective: str = "reference") -> pd.DataFrame:
+    """Per robot, the point with the highest Wilson lower bound over its arms and objects, of
+    the reference success rate (``objective="reference"``) or of the valid rate (``"valid"``).
 
     Ties go to the higher rate, then the larger sample, then the earlier point.
     """
+    if objective not in OBJECTIVES:
+        raise HarnessError(f"objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
     per_point = pooled(summary, ["robot", "point"])
     per_point["points_compared"] = per_point.groupby("robot")["point"].transform("count")
+    if "valid_rate" not in per_point:
+        per_point = per_point.assign(
+            valid_rate=math.nan, valid_ci_low=math.nan, valid_ci_high=math.nan
+        )
+    lo, rate = ("valid_ci_low", "valid_rate") if objective == "valid" else ("wilson_lo", "rate")
     ranked = per_point.sort_values(
-        ["robot", "wilson_lo", "rate", "n", "point_id"],
+        ["robot", lo, rate, "n", "point_id"],
         ascending=[True, False, False, False, True],
         kind="stable",
     )
@@ -157,9 +222,14 @@ def best_settings(summary: pd.DataFrame) -> pd.DataFrame:
         "rate",
         "wilson_lo",
         "wilson_hi",
+        "valid_rate",
+        "valid_ci_low",
+        "valid_ci_high",
         "points_compared",
     ]
-    return frame_of(best[columns]).reset_index(drop=True)
+    out = frame_of(best[columns]).reset_index(drop=True)
+    out.attrs["objective"] = objective
+    return out
 
 
 def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:

@@ -202,6 +202,7 @@ def episode_blueprint():
                 rrb.TimeSeriesView(name="object height", origin="/plots/object_z"),
                 rrb.TimeSeriesView(name="finger forces", origin="/plots/finger_force"),
                 rrb.TimeSeriesView(name="gripper width", origin="/plots/gripper_width"),
+                rrb.TimeSeriesView(name="validity: slip", origin="/plots/validity_slip"),
                 rrb.TimeSeriesView(name="joints", origin="/plots/joints"),
                 rrb.TextLogView(name="events", origin="/events"),
             ),
@@ -269,6 +270,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
 
     times = np.asarray(trace.time, dtype=float)
     _log_plots(rec, trace, times)
+    _log_validity(rec, trace)
     for t, text in trace.events:
         rec.set_time("sim_time", duration=float(t))
         rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
@@ -339,6 +341,38 @@ def _log_plots(rec: Any, trace: Any, times: np.ndarray) -> None:
         log_series(rec, "/plots/joints", times, trace.q, list(trace.joint_names))
 
 
+TUG_ARROW_M_PER_G = 0.03  # length of a tug arrow per g of pull
+
+
+def _log_validity(rec: Any, trace: Any) -> None:
+    """The validity phase: the slip series, and each tug rung as an arrow at the object (green
+    survived, red lost) for the rung's duration."""
+    rr = _rr()
+    validity = getattr(trace, "validity", None)
+    if validity is None or not len(validity.time):
+        return
+    log_series(rec, "/plots/validity_slip", validity.time, validity.slip_m, ["slip (m)"])
+    times = np.asarray(trace.time, dtype=float)
+    for tug in validity.tugs:
+        index = min(int(np.searchsorted(times, tug.t_start)), len(times) - 1)
+        origin = trace.object_pose[index, :3]
+        norm = float(np.linalg.norm(tug.force_n)) or 1.0
+        vector = tug.force_n / norm * tug.level_g * TUG_ARROW_M_PER_G
+        rec.set_time("sim_time", duration=float(tug.t_start))
+        rec.log(
+            "/world/validity/tug",
+            rr.Arrows3D(
+                origins=[origin],
+                vectors=[vector],
+                colors=[(60, 220, 90) if tug.survived else (240, 60, 60)],
+                radii=[0.004],
+                labels=[f"{tug.direction} {tug.level_g:g} g ({norm:.1f} N)"],
+            ),
+        )
+        rec.set_time("sim_time", duration=float(tug.t_end))
+        rec.log("/world/validity/tug", rr.Clear(recursive=False))
+
+
 def _log_verdict(rec: Any, row: dict[str, Any], times: np.ndarray) -> None:
     """The verdict as the last event at the episode's end, and as a text document."""
     rr = _rr()
@@ -400,6 +434,12 @@ def _verdict_markdown(row: dict[str, Any], verdict: str) -> str:
         "finger_force_right_n",
         "slip_m",
         "tcp_grasp_error_m",
+        "valid",
+        "invalid_reason",
+        "robustness_g",
+        "hold_slip_m",
+        "min_finger_force_n",
+        "table_penetration_m",
         "error_message",
     )
     lines = [f"# {verdict}", "", "| key | value |", "|---|---|"]
