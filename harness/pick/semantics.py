@@ -53,6 +53,7 @@ class Semantics:
     ends), ``hold_after_list`` (after the list: finish, come to rest, hold, then judge; else
     judge at once, as the reference).
     Candidates: ``candidates`` (the order rule and whether impossible filters are errors).
+    Verdict: ``validity_is_verdict`` (the validity phase always runs and is the success).
     """
 
     name: Literal["reference", "strict"]
@@ -67,6 +68,7 @@ class Semantics:
     check_closing_forces: bool
     hold_after_list: bool
     candidates: CandidateRule
+    validity_is_verdict: bool = False
 
     @classmethod
     def from_pick(cls, pick: PickConfig) -> Semantics:
@@ -87,6 +89,7 @@ class Semantics:
             check_collisions=strict,
             check_closing_forces=strict,
             hold_after_list=strict,
+            validity_is_verdict=strict,
             candidates=CandidateRule(order=pick.semantics, reject_impossible_filters=strict),
         )
 

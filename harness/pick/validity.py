@@ -37,6 +37,7 @@ import numpy as np
 from harness.config import PickConfig
 from harness.pick.outcome import ValidityMeasure, ValidityResult
 from harness.pick.recorder import TugRecord, ValidityTrace
+from harness.pick.semantics import Semantics
 from harness.row import ROBUSTNESS_LEVELS_G
 from harness.sim import ArmHandles, Scene, SceneObject
 
@@ -221,4 +222,4 @@ def validity_columns(
 
 def validity_enabled(pick: PickConfig) -> bool:
     """The phase runs with ``validity: on``, and always under strict (its verdict)."""
-    return pick.validity or pick.semantics == "strict"
+    return pick.validity or Semantics.from_pick(pick).validity_is_verdict
