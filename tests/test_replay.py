@@ -13,7 +13,7 @@ import pytest
 
 from harness.episode import run_episode
 from harness.runs.replay import find_episode, row_differences
-from harness.viz.video import frame_times
+from harness.viz.video import frame_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -65,7 +65,7 @@ def test_replay_reproduces_a_stored_row_and_writes_a_playable_mp4(tmp_path: Path
     trace = run_episode(spec).trace
     assert trace is not None
     assert (
-        len(frames) == len(frame_times(trace.time)) > 30 * float(executed.iloc[0]["sim_time_s"]) - 2
+        len(frames) == len(frame_indices(trace.time)) > 30 * float(executed.iloc[0]["sim_time_s"]) - 2
     )
     assert frames.std() > 10  # a picture, not a blank frame
 

@@ -15,7 +15,7 @@ from typing import Any
 import yaml
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
-from harness.config.interndata import write_notes
+from harness.config.interndata import NOTES_FILE, write_notes
 from harness.runs.safety import (
     RunLock,
     check_sweep_hash,
@@ -23,9 +23,24 @@ from harness.runs.safety import (
     refuse_symlinks,
     safe_file_name,
 )
-from harness.runs.store import ResultStore
+from harness.runs.store import CSV_NAME, JSONL_NAME, PARQUET_NAME, ResultStore
 
 SWEEP_YAML = "sweep.yaml"
+# Everything a run writes at its top level: a planted symlink among them is refused. The report's
+# and the recording's names are spelled here (importing them would load matplotlib and rerun).
+RUN_OUTPUTS = (
+    SWEEP_YAML,
+    NOTES_FILE,
+    JSONL_NAME,
+    *(name for base in (CSV_NAME, PARQUET_NAME) for name in (base, f".{base}.tmp")),
+    "summary.csv",
+    "best.csv",
+    "report.md",
+    "report.html",
+    "recording.rrd",
+    "episodes",
+    "plots",
+)
 
 
 def resolved_sweep_document(sweep: SweepConfig, tasks: list[TaskConfig]) -> dict[str, Any]:
@@ -57,7 +72,7 @@ class RunDir:
         run = cls(path)
         if not run.sweep_yaml.is_file():
             raise ConfigError("not a run directory (no sweep.yaml)", file=path)
-        refuse_symlinks(path)
+        refuse_symlinks(path, RUN_OUTPUTS)
         check_sweep_hash(path, run.sweep_yaml, force)
         run.lock.acquire()
         return run
@@ -74,7 +89,7 @@ class RunDir:
         """Write ``sweep.yaml`` and lock the directory for this process; a directory that
         already holds a run raises ``taken``, one with symlinked outputs is refused."""
         if self.path.exists():
-            refuse_symlinks(self.path)
+            refuse_symlinks(self.path, RUN_OUTPUTS)
         self.lock.acquire()
         if self.sweep_yaml.exists():
             self.lock.release()

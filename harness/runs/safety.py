@@ -13,6 +13,7 @@ import fcntl
 import hashlib
 import os
 import re
+from collections.abc import Iterable
 from pathlib import Path
 from typing import IO
 
@@ -20,24 +21,6 @@ from harness.config import ConfigError
 
 LOCK_NAME = ".lock"
 HASH_NAME = ".sweep.sha256"
-# Everything a run writes at its top level (files and the episodes/ and plots/ folders).
-RUN_OUTPUTS = (
-    "sweep.yaml",
-    "episodes.jsonl",
-    "episodes.csv",
-    "episodes.parquet",
-    ".episodes.csv.tmp",
-    "summary.csv",
-    "best.csv",
-    "report.md",
-    "report.html",
-    "recording.rrd",
-    "skipped.txt",
-    "episodes",
-    "plots",
-    LOCK_NAME,
-    HASH_NAME,
-)
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 MAX_NAME = 120
 
@@ -61,11 +44,12 @@ def inside(run_dir: Path, path: Path) -> Path:
     return path
 
 
-def refuse_symlinks(run_dir: Path) -> None:
-    """A run directory whose outputs include a symlink is refused (a write would follow it)."""
+def refuse_symlinks(run_dir: Path, outputs: Iterable[str]) -> None:
+    """A run directory whose ``outputs`` (top-level names a run writes) include a symlink is
+    refused (a write would follow it)."""
     if run_dir.is_symlink():
         raise ConfigError("the run directory is a symlink; give its real path", file=run_dir)
-    for name in RUN_OUTPUTS:
+    for name in (*outputs, LOCK_NAME, HASH_NAME):
         if (run_dir / name).is_symlink():
             raise ConfigError(
                 f"{name} in the run directory is a symlink; remove it (a run never follows one)",

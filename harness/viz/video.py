@@ -20,7 +20,7 @@ FPS = 30
 WIDTH, HEIGHT = 640, 480
 
 
-def frame_times(trace_time: np.ndarray, fps: int = FPS) -> np.ndarray:
+def frame_indices(trace_time: np.ndarray, fps: int = FPS) -> np.ndarray:
     """Indices into the trace, one per video frame (the last trace row at or before each frame)."""
     if len(trace_time) == 0:
         return np.zeros(0, dtype=int)
@@ -53,7 +53,7 @@ def write_episode_video(
     data.mocap_pos[:] = trace.mocap_pos
     data.mocap_quat[:] = trace.mocap_quat
     if len(trace.time):
-        qposes = [trace.qpos[i] for i in frame_times(np.asarray(trace.time), fps)]
+        qposes = [trace.qpos[i] for i in frame_indices(np.asarray(trace.time), fps)]
     else:  # stopped before executing (no feasible plan): the scene as it was posed, 1 s
         qposes = [result.scene.data.qpos.copy()] * fps
     # Between the object and the robots (which stand at -y, facing +y), a little above the table.
