@@ -139,6 +139,12 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
     p.add_argument(
+        "--no-share",
+        action="store_true",
+        help="evaluate every point on its own instead of sharing each seed's candidate "
+        "evaluations between points that differ only in filters (same rows, slower)",
+    )
+    p.add_argument(
         "--max-episodes",
         type=_bounded_int(1, 10**9),
         help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",

@@ -19,6 +19,7 @@ from harness.episode import (
     run_episode,
 )
 from harness.episode_ids import episode_seed
+from harness.episode_streams import EpisodeStreams
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
 from harness.pick import semantics as semantics_module
@@ -364,7 +365,7 @@ def test_command_targets_fixed_orientation_reference_and_strict() -> None:
 
 def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     """One reference step, obj_init_trans, 20 settle steps, selection, 10 warm-up steps,
-    execution; one Generator drawn in a fixed order: reset, candidate draw, lift offset. A
+    execution; one stream per purpose from the seed: reset, candidate draw, lift offset. A
     replay of the reset and the selection with the same seed gives the same lift reference,
     candidates and lift offset. (Validity off: the phase after the verdict steps on.)"""
     task = make_task("fr3", "left", cube, object=CENTRE, pick={"validity": False})
@@ -379,8 +380,10 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     assert scene.data.time == pytest.approx(physics_steps * timestep)
     final_z = trace.object_pose[-1, 2]
 
-    rng = np.random.default_rng(7)
-    state = scene.reset(task, rng, settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S)
+    streams = EpisodeStreams(7)
+    state = scene.reset(
+        task, streams.scene(), settle_time=SETTLE_TIME_S, init_record_time=INIT_RECORD_TIME_S
+    )
     assert row["lift_height_m"] == pytest.approx(final_z - state.object_init_position[2])
     T_world_obj = scene.T_world_object("target")
     assert np.allclose(T_world_obj, trace.T_world_object_start)
@@ -388,12 +391,14 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     poses = bundle.poses(task, grasp_file_for(task, scene))
     T_base_obj = invert_T(scene.T_world_base("left")) @ T_world_obj
     selection = select_candidates(
-        poses, scene.robot.convention, task.pick, T_base_obj, rng,
+        poses, scene.robot.convention, task.pick, T_base_obj, streams.candidates(),
         Semantics.from_pick(task.pick).candidates,
     )  # fmt: skip
     assert len(selection.order) == 20 and selection.order.outcome == "ok"
     assert row["chosen_index"] in selection.order.indices.tolist()
-    lift_offset = rng.uniform(task.pick.post_grasp_offset_min, task.pick.post_grasp_offset_max)
+    lift_offset = streams.lift().uniform(
+        task.pick.post_grasp_offset_min, task.pick.post_grasp_offset_max
+    )
     assert row["post_grasp_offset"] == lift_offset
 
 

@@ -33,6 +33,7 @@ def main(args: argparse.Namespace) -> int:
         record=args.record,
         episodes_per_point=args.episodes_per_point,
         progress=not args.no_progress,
+        share=False if getattr(args, "no_share", False) else None,
     )
     stats = outcome.stats
     if args.objective != "reference":  # the run's report ranked by the reference rate

@@ -102,6 +102,12 @@ class SweepConfig(StrictModel):
     seed: int = Field(default=0, ge=0)
     workers: int | None = Field(default=None, ge=1, le=1024)
     record: str = Field(default="failures", pattern=r"^(none|failures|all|sample:\d+)$")
+    share: bool = Field(
+        default=True,
+        description="Points that differ only in selection keys (filters, direction_to_obj) "
+        "share each seed's candidate evaluations (harness.candidate_cache); the rows are the "
+        "same either way. false evaluates every point on its own.",
+    )
 
     @field_validator("axes")
     @classmethod

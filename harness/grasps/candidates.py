@@ -13,6 +13,7 @@ from typing import Literal
 import numpy as np
 
 from harness.grasps.arrays import FloatArray
+from harness.grasps.race import draw_with_replacement, draw_without_replacement, race_key
 
 CANDIDATE_BATCH = 20  # the reference's CUROBO_BATCH_SIZE (sample_ee_pose max_length)
 SCORE_EPSILON = 1e-8  # weights are 1 / (score + 1e-8)
@@ -74,6 +75,9 @@ def reference_order(
 ) -> CandidateOrder:
     """The reference's ``sample_ee_pose``: top 20, 20 weighted draws with replacement, sorted.
 
+    The draws have the reference's law (weights 1/score); the numbers come from an exponential
+    race keyed by pose index (``harness.grasps.race``) instead of ``random.choices``.
+
     When nothing passes, the candidates are poses 0..19 of the unfiltered array in index order
     (``fallback``); with fewer than 20 poses the reference would raise IndexError there, which is
     reported as ``filter_empty`` instead.
@@ -103,7 +107,9 @@ def reference_order(
             f"0..{max_candidates - 1} of the unfiltered array",
         )
     top = top_by_score(scores, passing, max_candidates)
-    drawn = rng.choice(top, size=max_candidates, replace=True, p=_weights(scores[top]))
+    # Each draw is an exponential race keyed by the global pose index (harness.grasps.race):
+    # the reference's law, coupled across filter settings of the same seed.
+    drawn = draw_with_replacement(race_key(rng), top, _weights(scores[top]), max_candidates)
     drawn = _sort_by_score(scores, drawn)
     return CandidateOrder(
         indices=drawn,
@@ -145,7 +151,7 @@ def strict_order(
         if rng is None:
             raise ValueError("strict sampling needs a numpy Generator")
         count = min(max_candidates, passing.shape[0])
-        drawn = rng.choice(passing, size=count, replace=False, p=_weights(scores[passing]))
+        drawn = draw_without_replacement(race_key(rng), passing, _weights(scores[passing]), count)
         chosen = _sort_by_score(scores, np.asarray(drawn, dtype=np.int64))
     return CandidateOrder(
         indices=chosen,

@@ -11,55 +11,43 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
-
-from harness.config import PickConfig
-from harness.planning.planner import PickPlanner
 from harness.planning.plans import CandidateVerdict
+
+# Test one candidate: (position in the order, pose index, score) -> its verdict.
+CandidateTest = Callable[[int, int, float], CandidateVerdict]
 
 
 def walk_candidates(
-    planner: PickPlanner,
-    pick: PickConfig,
     indices: list[int],
     scores: list[float],
-    targets_of: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
-    q_now: np.ndarray,
-    rng: np.random.Generator,
-    return_to_pregrasp: bool = False,
-) -> tuple[list[CandidateVerdict], CandidateVerdict | None]:
-    """Walk the ordered candidates until one passes ``pick.test_mode``; (verdicts, chosen).
+    test: CandidateTest,
+    known: dict[int, CandidateVerdict] | None = None,
+) -> tuple[list[CandidateVerdict], CandidateVerdict | None, int]:
+    """Walk the ordered candidates until one passes; (verdicts, chosen, answers reused).
 
-    ``targets_of(position)`` gives the world pre-grasp, grasp and lift poses of a candidate
-    (the lift None when the test plans none); a ``forward`` test plans the return to the
-    pre-grasp only with ``return_to_pregrasp``.
-    A duplicate (the reference draws with replacement) reuses the first answer: the reference
-    re-tests it and gets the same one.
+    ``test`` runs the feasibility test (``pick.test_mode``) of one candidate. ``known`` holds
+    the verdicts already found for this scene and seed, by pose index, and receives the new
+    ones: a candidate's verdict depends only on (task physics, seed, candidate)
+    (``harness.episode_streams``), so a known one is reused instead of re-tested. That covers
+    duplicates too: the reference draws with replacement, re-tests and gets the same answer.
+    A reused verdict takes its position in this order and no test time.
     """
-    tested: dict[int, CandidateVerdict] = {}
+    memory: dict[int, CandidateVerdict] = {} if known is None else known
     verdicts: list[CandidateVerdict] = []
+    reused = 0
     for position, pose_index in enumerate(indices):
         score = float(scores[position])
-        if pose_index in tested:
-            previous = tested[pose_index]
+        previous = memory.get(pose_index)
+        if previous is not None:
+            reused += 1
             verdict = CandidateVerdict(
                 position, pose_index, score, previous.feasible, previous.stage, previous.detail,
                 previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
             )  # fmt: skip
         else:
-            T_pre, T_grasp, T_lift = targets_of(position)
-            if pick.test_mode == "ik":
-                verdict = planner.test_ik(
-                    position, pose_index, score, q_now, T_pre, T_grasp,
-                    pick.pre_grasp_offset > 0, rng,
-                )  # fmt: skip
-            else:
-                verdict = planner.plan_chain(
-                    position, pose_index, score, q_now, T_pre, T_grasp, T_lift,
-                    return_to_pregrasp, rng,
-                )  # fmt: skip
-            tested[pose_index] = verdict
+            verdict = test(position, pose_index, score)
+            memory[pose_index] = verdict
         verdicts.append(verdict)
         if verdict.feasible:
-            return verdicts, verdict
-    return verdicts, None
+            return verdicts, verdict, reused
+    return verdicts, None, reused

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
+from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
@@ -45,13 +46,18 @@ class RunStats:
 
 
 def run_serial(
-    episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    share: bool = True,
 ) -> RunStats:
+    """Every episode in this process, share groups back to back (``harness.runs.scheduling``)."""
     stats = RunStats()
     start = time.perf_counter()
     try:
-        for episode in episodes:
-            on_result(execute(episode, str(run_dir), record))
+        for episode in shared_order(episodes) if share else episodes:
+            on_result(execute(episode, str(run_dir), record, share))
             stats.finished += 1
     except KeyboardInterrupt:
         stats.interrupted = True
@@ -59,7 +65,7 @@ def run_serial(
     return stats
 
 
-def _worker_main(conn: Connection, run_dir: str, record: str) -> None:
+def _worker_main(conn: Connection, run_dir: str, record: str, share: bool) -> None:
     """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -70,7 +76,7 @@ def _worker_main(conn: Connection, run_dir: str, record: str) -> None:
             return
         if episode is None:
             return
-        conn.send(execute(episode, run_dir, record))
+        conn.send(execute(episode, run_dir, record, share))
 
 
 @dataclass
@@ -78,6 +84,7 @@ class _Worker:
     process: Any
     conn: Connection
     episode: EpisodeSpec | None = None
+    group: list[EpisodeSpec] = field(default_factory=list)  # the rest of its share group
 
 
 @contextlib.contextmanager
@@ -103,14 +110,23 @@ class _ProcessPool:
     """The pool's workers, the episodes still to hand out, and what happened so far."""
 
     def __init__(
-        self, episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+        self,
+        episodes: list[EpisodeSpec],
+        run_dir: Path,
+        record: str,
+        on_result: OnResult,
+        share: bool = True,
     ) -> None:
         self.context = mp.get_context("spawn")
         self.run_dir = run_dir
         self.record = record
+        self.share = share
         self.on_result = on_result
         self.stats = RunStats()
-        self.pending: Iterator[EpisodeSpec] = iter(episodes)
+        # A worker runs a whole share group before taking the next (its cache answers the rest
+        # of the group); without sharing every episode is a group of its own.
+        groups = share_groups(episodes) if share else [[e] for e in episodes]
+        self.pending: Iterator[list[EpisodeSpec]] = iter(groups)
         self.requeued: list[EpisodeSpec] = []  # episodes of dead workers, run again first
         self.attempts: dict[str, int] = {}
         self.workers: list[_Worker] = []
@@ -118,7 +134,9 @@ class _ProcessPool:
     def spawn(self) -> _Worker:
         parent, child = self.context.Pipe()
         process = self.context.Process(
-            target=_worker_main, args=(child, str(self.run_dir), self.record), daemon=True
+            target=_worker_main,
+            args=(child, str(self.run_dir), self.record, self.share),
+            daemon=True,
         )
         # Ctrl-C goes to the whole terminal process group. The worker ignores SIGINT once its
         # main runs, but a signal during its start-up (imports) would kill it and look like a
@@ -143,7 +161,12 @@ class _ProcessPool:
         self.assign(worker)
 
     def assign(self, worker: _Worker) -> bool:
-        episode = self.requeued.pop() if self.requeued else next(self.pending, None)
+        if self.requeued:
+            episode: EpisodeSpec | None = self.requeued.pop()
+        else:
+            if not worker.group:
+                worker.group = list(reversed(next(self.pending, [])))
+            episode = worker.group.pop() if worker.group else None
         worker.episode = episode
         if episode is None:
             return False
@@ -172,6 +195,8 @@ class _ProcessPool:
             )
             assert worker.episode is not None
             self.workers.remove(worker)
+            self.requeued.extend(reversed(worker.group))  # the rest of its group, in order
+            worker.group = []
             self.retry_or_fail(worker.episode, reason)
             self.start()
 
@@ -211,9 +236,10 @@ def run_process_pool(
     record: str,
     on_result: OnResult,
     workers: int,
+    share: bool = True,
 ) -> RunStats:
     """One process per worker, one episode in flight per worker; dead workers are replaced."""
-    pool = _ProcessPool(episodes, run_dir, record, on_result)
+    pool = _ProcessPool(episodes, run_dir, record, on_result, share)
     stats = pool.stats
     start = time.perf_counter()
     try:
@@ -239,8 +265,11 @@ def run_ray(
     on_result: OnResult,
     workers: int,
     address: str | None = None,
+    share: bool = True,
 ) -> RunStats:
-    """Ray actors (one scene cache each); a dead actor's episode becomes an error row."""
+    """Ray actors (one scene and candidate cache each); a dead actor's episode becomes an error
+    row. Share groups are submitted back to back; a free actor takes the next episode, so a
+    group may spread over actors (each shares what it holds)."""
     try:
         import ray
     except ImportError as exc:  # pragma: no cover - depends on the extra
@@ -260,11 +289,11 @@ def run_ray(
     @ray.remote(num_cpus=1, max_restarts=-1)
     class EpisodeActor:
         def run(self, episode: EpisodeSpec) -> dict[str, Any]:
-            return execute(episode, str(run_dir), record)
+            return execute(episode, str(run_dir), record, share)
 
     stats = RunStats()
     start = time.perf_counter()
-    pending = iter(episodes)
+    pending = iter(shared_order(episodes) if share else episodes)
     actors = [EpisodeActor.remote() for _ in range(max(1, min(workers, len(episodes))))]
     in_flight: dict[Any, tuple[Any, EpisodeSpec]] = {}
 
@@ -301,10 +330,16 @@ def run_ray(
 
 class Executor(Protocol):
     """Runs ``episodes`` (recordings under ``run_dir`` per the ``record`` policy), passing each
-    row to ``on_result`` as it arrives; returns how the run went."""
+    row to ``on_result`` as it arrives; returns how the run went. With ``share`` the points that
+    differ only in selection keys share candidate evaluations (``harness.candidate_cache``)."""
 
     def __call__(
-        self, episodes: list[EpisodeSpec], run_dir: Path, record: str, on_result: OnResult
+        self,
+        episodes: list[EpisodeSpec],
+        run_dir: Path,
+        record: str,
+        on_result: OnResult,
+        share: bool = True,
     ) -> RunStats: ...
 
 

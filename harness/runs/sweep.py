@@ -63,13 +63,16 @@ def run_sweep(
     force: bool = False,
     max_episodes: int = MAX_EPISODES,
     retry_errors: bool = False,
+    share: bool | None = None,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
     ``max_episodes`` refuses larger sweeps before expanding them; ``retry_errors`` runs the
-    episodes of a resumed run whose row is an ``error`` again (their new row replaces it).
+    episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
+    ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
+    differ only in selection keys; the rows are the same either way).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
@@ -107,7 +110,8 @@ def run_sweep(
                 on_row(row)
 
             executor = executor_for(backend, workers, address)
-            stats = executor(todo, run.path, sweep.record, on_result)
+            shared = sweep.share if share is None else share
+            stats = executor(todo, run.path, sweep.record, on_result, share=shared)
 
         run.finalize()
     finally:

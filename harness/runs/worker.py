@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from harness.candidate_cache import CandidateCache
 from harness.row import identity_columns
 from harness.runs.safety import inside, safe_file_name
 
@@ -19,11 +20,24 @@ if TYPE_CHECKING:
     from harness.episode import EpisodeSpec
 
 _SCENE_CACHE: dict[Any, Any] = {}
+_CANDIDATE_CACHE: CandidateCache | None = None  # made on the first shared episode
 
 
-def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str, Any]:
+def _candidate_cache() -> CandidateCache:
+    global _CANDIDATE_CACHE
+    if _CANDIDATE_CACHE is None:
+        _CANDIDATE_CACHE = CandidateCache()
+    return _CANDIDATE_CACHE
+
+
+def execute(
+    episode: EpisodeSpec, run_dir: str, record_policy: str, share: bool = True
+) -> dict[str, Any]:
     """Run one episode and return its flat row; writes its recording when chosen.
 
+    With ``share`` the episode uses this process's candidate cache (``harness.candidate_cache``).
+    An episode answered partly from it has no trace; when its recording is wanted it runs
+    again without the cache (same row) to make one.
     Never raises for episode-level problems: ``run_episode`` turns them into failure reasons,
     and anything that escapes it becomes an ``error`` row here.
     """
@@ -32,7 +46,11 @@ def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str,
     start = time.perf_counter()
     _inject_fault(episode.resolved_id)
     try:
-        result = run_episode(episode, scene_cache=_SCENE_CACHE)
+        cache = _candidate_cache() if share else None
+        result = run_episode(episode, scene_cache=_SCENE_CACHE, candidate_cache=cache)
+        failed = not bool(result.row.get("success"))
+        if result.shared and (episode.record or (record_policy == "failures" and failed)):
+            result = run_episode(episode, scene_cache=_SCENE_CACHE)  # for its trace
         row = dict(result.row)
     except Exception as exc:  # the last line of defence; run_episode already catches
         result = None
