@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from harness.config import TaskConfig
+from harness.config.memo import per_task
 
 if TYPE_CHECKING:  # the planners load only where episodes run
     from harness.planning.plans import CandidateVerdict
@@ -44,6 +45,7 @@ WALL_TIME_COLUMNS = frozenset({"plan_time_s", "ik_time_s", "wall_time_s"})
 DEFAULT_CAPACITY = 16
 
 
+@per_task
 def physics_key(task: TaskConfig) -> str:
     """The task without its selection keys, as a canonical string (with its base directory,
     which relative mesh and grasp paths depend on)."""

@@ -33,7 +33,7 @@ from harness.benchmarks.machine import (
 from harness.markdown import markdown_table
 
 # Section name -> module under harness.benchmarks, in the order they run.
-SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "sweeps")
+SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "sweeps", "sharing")
 
 # What a figure's [low, high] interval is.
 PERCENTILES = "p10-p90"  # 10th and 90th percentile of the repetitions

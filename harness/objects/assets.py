@@ -57,6 +57,7 @@ def find_grasp_file(mesh_path: Path, npy_name: str = DEFAULT_NPY_NAME) -> Path |
     return None
 
 
+@functools.lru_cache(maxsize=1)
 def repo_root() -> Path:
     """The project checkout this package lives in (the folder holding ``harness/``)."""
     return Path(__file__).resolve().parents[2]

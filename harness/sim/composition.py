@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from harness.config import ObjectConfig, PhysicsConfig, TaskConfig
+from harness.config.memo import per_task
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset, default_objects_dir, load_object_info, resolve_mesh
 from harness.robots.model import RobotModel
@@ -180,6 +181,7 @@ def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
     return ObjectConfig.model_validate({**obj.model_dump(), **update})
 
 
+@per_task
 def scene_key(task: TaskConfig) -> str:
     """Cache key of the scene a task needs: the robot and its gripper (variant, grip physics),
     each object's resolved mesh file and physical properties, and the physics options (not
