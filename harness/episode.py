@@ -54,7 +54,11 @@ from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.executor import PickExecutor
 from harness.pick.outcome import PickOutcome
-from harness.pick.selection import walk_candidates
+from harness.pick.selection import (
+    candidate_failures_json,
+    none_feasible_message,
+    walk_candidates,
+)
 from harness.pick.semantics import Semantics
 from harness.pick.targets import CandidatePoses, PickTargets
 from harness.pick.validity import validity_columns, validity_enabled
@@ -385,12 +389,11 @@ def _feasibility(planning: _Planning) -> _Choice:
     planning.verdicts, planning.chosen = verdicts, chosen
     row["n_tested"] = len(verdicts)
     row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
+    row["candidate_failures"] = candidate_failures_json(verdicts)
     if chosen is None:
         if not semantics.fall_back_to_last_tested or not verdicts:
             raise planning.stop(
-                "no_feasible_candidate",
-                f"none of the {len(verdicts)} candidates passed the {pick.test_mode} test"
-                + (f"; last: {verdicts[-1].stage}: {verdicts[-1].detail}" if verdicts else ""),
+                "no_feasible_candidate", none_feasible_message(verdicts, pick.test_mode)
             )
         chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
         planning.chosen = chosen
