@@ -39,6 +39,26 @@ class ValidityTrace:
 
 
 @dataclass
+class FingerContacts:
+    """The finger-object contacts of the trace's rows, flattened: contact ``k`` belongs to row
+    ``row[k]`` (rows without a finger touching the object have none)."""
+
+    row: np.ndarray  # (C,) trace row index
+    position: np.ndarray  # (C, 3) world contact point
+    force: np.ndarray  # (C, 3) N, world force on the object (normal and friction)
+    finger: np.ndarray  # (C,) 0 left, 1 right
+
+    @classmethod
+    def empty(cls) -> FingerContacts:
+        return cls(
+            np.zeros(0, dtype=np.int64),
+            np.zeros((0, 3)),
+            np.zeros((0, 3)),
+            np.zeros(0, dtype=np.int64),
+        )
+
+
+@dataclass
 class ExecutionTrace:
     """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
 
@@ -53,6 +73,7 @@ class ExecutionTrace:
     phase: np.ndarray  # (T,) str: the head command's function / target
     events: list[tuple[float, str]] = field(default_factory=list)
     validity: ValidityTrace | None = None  # the validity phase (its rows are in the arrays too)
+    contacts: FingerContacts | None = None  # the finger-object contacts of every row
 
 
 class TraceRecorder:
@@ -77,6 +98,8 @@ class TraceRecorder:
         self.phase = np.empty(n, dtype=object)
         self.events: list[tuple[float, str]] = []
         self.count = 0
+        # Finger-object contacts, only on rows where a finger touches the object.
+        self._contacts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
 
     def record(self, t: float, phase: str, forces: tuple[float, float]) -> None:
         k = self.count
@@ -96,6 +119,9 @@ class TraceRecorder:
         self.object_pose[k, :3] = d.xpos[self.obj.body_id]
         self.object_pose[k, 3:] = d.xquat[self.obj.body_id]
         self.phase[k] = phase
+        if forces[0] > 0.0 or forces[1] > 0.0:
+            points, world_forces, fingers = self.scene.finger_contacts(self.arm, self.object_name)
+            self._contacts.append((k, points, world_forces, fingers))
         self.count = k + 1
 
     def event(self, t: float, text: str) -> None:
@@ -114,4 +140,16 @@ class TraceRecorder:
             object_pose=self.object_pose[:n].copy(),
             phase=self.phase[:n].astype(str),
             events=list(self.events),
+            contacts=self._finish_contacts(),
+        )
+
+    def _finish_contacts(self) -> FingerContacts:
+        kept = [c for c in self._contacts if len(c[1])]
+        if not kept:
+            return FingerContacts.empty()
+        return FingerContacts(
+            row=np.concatenate([np.full(len(c[1]), c[0], dtype=np.int64) for c in kept]),
+            position=np.concatenate([c[1] for c in kept]),
+            force=np.concatenate([c[2] for c in kept]),
+            finger=np.concatenate([c[3] for c in kept]),
         )
