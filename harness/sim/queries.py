@@ -125,17 +125,21 @@ class SceneQueries:
         object_second = (side[g1] >= 0) & (obj[g2] == obj_index)
         object_first = (side[g2] >= 0) & (obj[g1] == obj_index)
         hits = np.flatnonzero(object_second | object_first)
-        points = d.contact.pos[hits].copy()
-        forces = np.zeros((len(hits), 3))
-        fingers = np.zeros(len(hits), dtype=np.int64)
+        if not len(hits):
+            return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        contact = d.contact  # one struct view: each attribute access copies the whole buffer
+        points = contact.pos[hits]
+        frames = contact.frame[hits].reshape(-1, 3, 3)
+        local = np.zeros((len(hits), 3))
         f6 = self._tmp_force
-        for k, i in enumerate(hits):
-            mujoco.mj_contactForce(m, d, int(i), f6)
-            # The contact frame's rows are (normal, tangent, tangent); the force acts on geom2
-            # along +normal (geom1 -> geom2), so on the object it flips when it is geom1.
-            world = d.contact.frame[i].reshape(3, 3).T @ f6[:3]
-            forces[k] = world if object_second[i] else -world
-            fingers[k] = side[g1[i]] if object_second[i] else side[g2[i]]
+        for k, i in enumerate(hits.tolist()):
+            mujoco.mj_contactForce(m, d, i, f6)
+            local[k] = f6[:3]
+        # The frame's rows are (normal, tangent, tangent); the force acts on geom2 along
+        # +normal (geom1 -> geom2), so on the object it flips when the object is geom1.
+        sign = np.where(object_second[hits], 1.0, -1.0)[:, None]
+        forces = np.einsum("kji,kj->ki", frames, local) * sign
+        fingers = np.where(object_second[hits], side[g1[hits]], side[g2[hits]]).astype(np.int64)
         return points, forces, fingers
 
     def robot_contacts(self, arm: str | None = None) -> list[tuple[str, str]]:

@@ -138,37 +138,37 @@ def _chosen_targets(trace: Any, tested_status: np.ndarray) -> dict[str, np.ndarr
     }
 
 
-def log_contacts(rec: Any, trace: Any, frames: np.ndarray) -> None:
-    """The finger-object contacts at each logged frame: points (by finger) and the force on the
-    object as arrows (``FORCE_ARROW_M_PER_N``); an empty frame clears them."""
+def log_contacts(rec: Any, trace: Any) -> None:
+    """The finger-object contacts at each row the trace sampled them: points (by finger) and
+    the force on the object as arrows (``FORCE_ARROW_M_PER_N``); a sample without contacts (a
+    touch ended) clears them."""
     rr = rerun_sdk()
     contacts = trace.contacts
-    if contacts is None or not len(frames):
+    if contacts is None or not len(contacts.sampled):
         return
     order = np.argsort(contacts.row, kind="stable")
     rows = contacts.row[order]
-    starts = np.searchsorted(rows, frames, side="left")
-    ends = np.searchsorted(rows, frames, side="right")
-    picked = np.concatenate([order[s:e] for s, e in zip(starts, ends, strict=True)] or [[]])
-    picked = picked.astype(np.int64)
+    starts = np.searchsorted(rows, contacts.sampled, side="left")
+    ends = np.searchsorted(rows, contacts.sampled, side="right")
     lengths = (ends - starts).tolist()
-    colors = [CONTACT_COLORS[int(f) % 2] for f in contacts.finger[picked]]
-    index = [rr.TimeColumn("sim_time", duration=np.asarray(trace.time, dtype=float)[frames])]
+    colors = np.asarray(
+        [CONTACT_COLORS[int(f) % 2] for f in contacts.finger[order]], dtype=np.uint8
+    ).reshape(-1, 3)
+    index = [rr.TimeColumn("sim_time", duration=np.asarray(trace.time)[contacts.sampled])]
     rec.send_columns(
         "/world/contacts/points",
         indexes=index,
-        columns=rr.Points3D.columns(
-            positions=contacts.position[picked].reshape(-1, 3),
-            colors=np.asarray(colors, dtype=np.uint8).reshape(-1, 3),
-        ).partition(lengths),
+        columns=rr.Points3D.columns(positions=contacts.position[order], colors=colors).partition(
+            lengths
+        ),
     )
     rec.send_columns(
         "/world/contacts/forces",
         indexes=index,
         columns=rr.Arrows3D.columns(
-            origins=contacts.position[picked].reshape(-1, 3),
-            vectors=(contacts.force[picked] * FORCE_ARROW_M_PER_N).reshape(-1, 3),
-            colors=np.asarray(colors, dtype=np.uint8).reshape(-1, 3),
+            origins=contacts.position[order],
+            vectors=contacts.force[order] * FORCE_ARROW_M_PER_N,
+            colors=colors,
         ).partition(lengths),
     )
 

@@ -128,7 +128,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     log_candidates(rec, trace, convention.approach_index, tcp_offset)
     log_targets(rec, trace, convention.approach_index, tcp_offset)
     _log_tcp_paths(rec, trace, frames)
-    log_contacts(rec, trace, frames)
+    log_contacts(rec, trace)
     _log_plots(rec, trace, times)
     _log_validity(rec, trace)
     for t, text in trace.events:
