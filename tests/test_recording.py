@@ -188,3 +188,5 @@ def test_success_recording_has_contacts_and_chosen_targets(
     targets = {"/world/targets/chosen/pre-grasp", "/world/targets/chosen/grasp"}
     assert targets <= set(rows) and "/world/plan/tcp" in rows
     assert "SUCCESS" in "".join(flatten(values["/verdict#TextDocument:text"]))
+    views = blueprint_views(path)
+    assert views["/verdict"] == "TextDocument" and views["/plots/object_z"] == "TimeSeries"

@@ -61,24 +61,29 @@ def log_series(
     )
 
 
-def episode_blueprint():
-    """The viewer layout: the 3D scene above the verdict document, the plots and events beside."""
+def episode_blueprint(executed: bool = True):
+    """The viewer layout: the 3D scene above the verdict document, the plots and events beside;
+    an episode that stopped before moving has no series, so its verdict takes their place."""
     import rerun.blueprint as rrb
 
+    scene = rrb.Spatial3DView(name="scene", origin="/world")
+    verdict = rrb.TextDocumentView(name="verdict", origin="/verdict")
+    events = rrb.TextLogView(name="events", origin="/events")
+    if not executed:
+        return rrb.Blueprint(
+            rrb.Horizontal(scene, rrb.Vertical(verdict, events, row_shares=[4, 1])),
+            collapse_panels=True,
+        )
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(
-                rrb.Spatial3DView(name="scene", origin="/world"),
-                rrb.TextDocumentView(name="verdict", origin="/verdict"),
-                row_shares=[3, 2],
-            ),
+            rrb.Vertical(scene, verdict, row_shares=[3, 2]),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="object height", origin="/plots/object_z"),
                 rrb.TimeSeriesView(name="finger forces", origin="/plots/finger_force"),
                 rrb.TimeSeriesView(name="gripper width", origin="/plots/gripper_width"),
                 rrb.TimeSeriesView(name="validity: slip", origin="/plots/validity_slip"),
                 rrb.TimeSeriesView(name="joints", origin="/plots/joints"),
-                rrb.TextLogView(name="events", origin="/events"),
+                events,
             ),
             column_shares=[3, 2],
         ),
@@ -117,7 +122,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         raise ValueError("the episode has no trace to record (it stopped before the scene ran)")
     row = result.row
     rec = new_recording(Path(path), str(row.get("episode_id") or Path(path).stem))
-    rec.send_blueprint(episode_blueprint())
+    rec.send_blueprint(episode_blueprint(executed=len(trace.time) > 0))
     rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
     times = np.asarray(trace.time, dtype=float)
