@@ -31,7 +31,11 @@ from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.executor import PickExecutor
 from harness.pick.outcome import PickOutcome
-from harness.pick.selection import walk_candidates
+from harness.pick.selection import (
+    candidate_failures_json,
+    none_feasible_message,
+    walk_candidates,
+)
 from harness.pick.semantics import Semantics
 from harness.pick.targets import CandidatePoses, PickTargets
 from harness.pick.validity import validity_columns
@@ -279,13 +283,16 @@ def feasibility(planning: Planning) -> Choice:
         )
         rng = setup.streams.planner(pose_index)
         if pick.test_mode == "ik":
-            return planner.test_ik(
+            verdict = planner.test_ik(
                 position, pose_index, score, q_now, T_pre, T_grasp, pick.pre_grasp_offset > 0, rng
             )
-        return planner.plan_chain(
-            position, pose_index, score, q_now, T_pre, T_grasp, T_lift if test_carry else None,
-            return_to_pregrasp, rng,
-        )  # fmt: skip
+        else:
+            verdict = planner.plan_chain(
+                position, pose_index, score, q_now, T_pre, T_grasp,
+                T_lift if test_carry else None, return_to_pregrasp, rng,
+            )  # fmt: skip
+        verdict.T_world_pregrasp, verdict.T_world_grasp = T_pre, T_grasp
+        return verdict
 
     planning.ik_time_before = planner.ik.total_time
     known = setup.evaluation.verdicts
@@ -302,12 +309,11 @@ def feasibility(planning: Planning) -> Choice:
     planning.verdicts, planning.chosen = verdicts, chosen
     row["n_tested"] = len(verdicts)
     row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
+    row["candidate_failures"] = candidate_failures_json(verdicts)
     if chosen is None:
         if not semantics.fall_back_to_last_tested or not verdicts:
             raise planning.stop(
-                "no_feasible_candidate",
-                f"none of the {len(verdicts)} candidates passed the {pick.test_mode} test"
-                + (f"; last: {verdicts[-1].stage}: {verdicts[-1].detail}" if verdicts else ""),
+                "no_feasible_candidate", none_feasible_message(verdicts, pick.test_mode)
             )
         chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
         planning.chosen = chosen

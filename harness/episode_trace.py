@@ -14,20 +14,22 @@ import numpy as np
 
 from harness.grasps import CandidateSelection
 from harness.pick.outcome import PickOutcome
-from harness.pick.recorder import ValidityTrace
+from harness.pick.recorder import FingerContacts, ValidityTrace
 from harness.pick.targets import PickTargets
 from harness.planning.ik import WholeBodyIK
 from harness.planning.plans import CandidateVerdict
 from harness.planning.timing import Trajectory
 from harness.sim import Scene
 
-# Candidate verdict labels (also used by the Rerun recorder's colours).
-REJECTED, PASSED, INFEASIBLE, FEASIBLE, CHOSEN = (
+# Candidate verdict labels (also used by the Rerun recorder's colours). ``fallback``: nothing
+# was feasible and the reference proceeded with this last tested (infeasible) candidate.
+REJECTED, PASSED, INFEASIBLE, FEASIBLE, CHOSEN, FALLBACK = (
     "rejected",
     "passed",
     "infeasible",
     "feasible",
     "chosen",
+    "fallback",
 )
 MAX_TRACE_CANDIDATES = 600
 
@@ -62,6 +64,15 @@ class EpisodeTrace:
     T_world_pregrasp: np.ndarray | None = None
     T_world_lift: np.ndarray | None = None
     validity: ValidityTrace | None = None  # the validity phase: slip series, tug rungs
+    # The scene before any motion: the reset state when nothing was executed (the episode
+    # stopped at the filters, the feasibility test or the plan), else the first executed row.
+    qpos_start: np.ndarray | None = None  # (nq,)
+    contacts: FingerContacts | None = None  # finger-object contacts per row (points, forces)
+    # The distinct tested candidates in test order, and the world poses each was tested at.
+    tested_index: np.ndarray | None = None  # (K,) pose index
+    tested_status: np.ndarray | None = None  # (K,) str: infeasible/feasible/chosen/fallback
+    tested_T_world_pregrasp: np.ndarray | None = None  # (K, 4, 4)
+    tested_T_world_grasp: np.ndarray | None = None  # (K, 4, 4)
 
 
 def planned_tcp(
@@ -102,7 +113,7 @@ def make_trace(
         status[v.pose_index] = FEASIBLE if v.feasible else INFEASIBLE
         detail[v.pose_index] = "" if v.feasible else f"{v.stage}: {v.detail}"
     if chosen is not None:
-        status[chosen.pose_index] = CHOSEN
+        status[chosen.pose_index] = CHOSEN if chosen.feasible else FALLBACK
     passing = selection.filter_result.passing_indices
     for index in passing[:MAX_TRACE_CANDIDATES].tolist():
         status.setdefault(int(index), PASSED)
@@ -149,4 +160,27 @@ def make_trace(
         T_world_pregrasp=targets.T_world_pregrasp if targets else None,
         T_world_lift=targets.T_world_lift if targets else None,
         validity=ex.validity if ex else None,
+        qpos_start=ex.qpos[0].copy() if ex is not None and len(ex.qpos) else d.qpos.copy(),
+        contacts=ex.contacts if ex else None,
+        **_tested_targets(verdicts, status),
     )
+
+
+def _tested_targets(verdicts: list[CandidateVerdict], status: dict[int, str]) -> dict:
+    """The distinct tested candidates in test order with the poses they were tested at."""
+    first: dict[int, CandidateVerdict] = {}
+    for verdict in verdicts:
+        if verdict.T_world_pregrasp is not None and verdict.T_world_grasp is not None:
+            first.setdefault(verdict.pose_index, verdict)
+    tested = list(first.values())
+    empty = np.zeros((0, 4, 4))
+    return {
+        "tested_index": np.array([v.pose_index for v in tested], dtype=np.int64),
+        "tested_status": np.array([status[v.pose_index] for v in tested], dtype=str),
+        "tested_T_world_pregrasp": np.array([v.T_world_pregrasp for v in tested]).reshape(-1, 4, 4)
+        if tested
+        else empty,
+        "tested_T_world_grasp": np.array([v.T_world_grasp for v in tested]).reshape(-1, 4, 4)
+        if tested
+        else empty,
+    }

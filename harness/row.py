@@ -96,6 +96,15 @@ class EpisodeRow:
         default=0, metadata=_doc("candidates found feasible by the feasibility test")
     )
     n_tested: int = field(default=0, metadata=_doc("candidates run through the feasibility test"))
+    candidate_failures: str = field(
+        default="{}",
+        metadata=_doc(
+            "JSON object: distinct tested candidates that failed the feasibility test, per stage "
+            '(ik_pregrasp, ik_grasp, transport, approach, lift, return), e.g. {"ik_pregrasp": 12}; '
+            "with n_feasible it sums to the distinct candidates tested",
+            "{}",
+        ),
+    )
     filter_outcome: str = field(default="", metadata=_doc("ok | fallback | filter_empty"))
     chosen_index: int = field(
         default=-1, metadata=_doc("index of the chosen grasp pose, -1 for none", -1)

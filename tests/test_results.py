@@ -25,6 +25,7 @@ from harness.runs.store import (
 DOCUMENTED = {
     "str": "episode_id run point task robot arm object semantics test_mode timing filter_x_dir "
     "filter_y_dir filter_z_dir approach_filter facing_filter direction_to_obj filter_outcome "
+    "candidate_failures "
     "failure_reason error_message harness_version mujoco_version",
     "int": "point_id seed episode_index n_total n_passed_filter n_feasible n_tested chosen_index "
     "sim_steps",

@@ -38,6 +38,28 @@ class ValidityTrace:
     tugs: list[TugRecord] = field(default_factory=list)
 
 
+CONTACT_SAMPLE_RATE_HZ = 30.0  # the recording's frame rate; the trace rows come at ~100 Hz
+
+
+@dataclass
+class FingerContacts:
+    """Finger-object contacts sampled on some trace rows, flattened: contact ``k`` belongs to
+    row ``row[k]``. ``sampled`` are the rows looked at: the first row of each touch, then rows
+    at most ``CONTACT_SAMPLE_RATE_HZ`` apart while touching, and the row a touch ends (with no
+    contacts), so a viewer knows when to clear them. Sampling keeps the trace cheap."""
+
+    sampled: np.ndarray  # (S,) trace row indices, increasing
+    row: np.ndarray  # (C,) trace row index of each contact (one of ``sampled``)
+    position: np.ndarray  # (C, 3) world contact point
+    force: np.ndarray  # (C, 3) N, world force on the object (normal and friction)
+    finger: np.ndarray  # (C,) 0 left, 1 right
+
+    @classmethod
+    def empty(cls) -> FingerContacts:
+        rows = np.zeros(0, dtype=np.int64)
+        return cls(rows, rows.copy(), np.zeros((0, 3)), np.zeros((0, 3)), rows.copy())
+
+
 @dataclass
 class ExecutionTrace:
     """Per-servo-chunk (~10 ms) record of an execution (arrays trimmed to the rows recorded)."""
@@ -53,6 +75,7 @@ class ExecutionTrace:
     phase: np.ndarray  # (T,) str: the head command's function / target
     events: list[tuple[float, str]] = field(default_factory=list)
     validity: ValidityTrace | None = None  # the validity phase (its rows are in the arrays too)
+    contacts: FingerContacts | None = None  # the finger-object contacts of every row
 
 
 class TraceRecorder:
@@ -77,6 +100,10 @@ class TraceRecorder:
         self.phase = np.empty(n, dtype=object)
         self.events: list[tuple[float, str]] = []
         self.count = 0
+        # Finger-object contacts, sampled (FingerContacts) on rows where a finger touches.
+        self._contacts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._touching = False
+        self._last_contact_t = -np.inf
 
     def record(self, t: float, phase: str, forces: tuple[float, float]) -> None:
         k = self.count
@@ -96,7 +123,19 @@ class TraceRecorder:
         self.object_pose[k, :3] = d.xpos[self.obj.body_id]
         self.object_pose[k, 3:] = d.xquat[self.obj.body_id]
         self.phase[k] = phase
+        self._sample_contacts(k, t, forces[0] > 0.0 or forces[1] > 0.0)
         self.count = k + 1
+
+    def _sample_contacts(self, k: int, t: float, touching: bool) -> None:
+        if touching and (
+            not self._touching or t - self._last_contact_t >= 1.0 / CONTACT_SAMPLE_RATE_HZ
+        ):
+            points, world_forces, fingers = self.scene.finger_contacts(self.arm, self.object_name)
+            self._contacts.append((k, points, world_forces, fingers))
+            self._last_contact_t = t
+        elif self._touching and not touching:
+            self._contacts.append((k, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64)))
+        self._touching = touching
 
     def event(self, t: float, text: str) -> None:
         self.events.append((t, text))
@@ -114,4 +153,17 @@ class TraceRecorder:
             object_pose=self.object_pose[:n].copy(),
             phase=self.phase[:n].astype(str),
             events=list(self.events),
+            contacts=self._finish_contacts(),
+        )
+
+    def _finish_contacts(self) -> FingerContacts:
+        samples = self._contacts
+        if not samples:
+            return FingerContacts.empty()
+        return FingerContacts(
+            sampled=np.array([c[0] for c in samples], dtype=np.int64),
+            row=np.concatenate([np.full(len(c[1]), c[0], dtype=np.int64) for c in samples]),
+            position=np.concatenate([c[1] for c in samples]).reshape(-1, 3),
+            force=np.concatenate([c[2] for c in samples]).reshape(-1, 3),
+            finger=np.concatenate([c[3] for c in samples]).astype(np.int64),
         )

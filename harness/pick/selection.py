@@ -9,6 +9,8 @@ reference proceeds with the last one tested, strict stops) is the semantics' cal
 
 from __future__ import annotations
 
+import json
+from collections import Counter
 from collections.abc import Callable
 
 from harness.planning.plans import CandidateVerdict
@@ -43,6 +45,7 @@ def walk_candidates(
             verdict = CandidateVerdict(
                 position, pose_index, score, previous.feasible, previous.stage, previous.detail,
                 previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
+                previous.T_world_pregrasp, previous.T_world_grasp,
             )  # fmt: skip
         else:
             verdict = test(position, pose_index, score)
@@ -51,3 +54,36 @@ def walk_candidates(
         if verdict.feasible:
             return verdicts, verdict, reused
     return verdicts, None, reused
+
+
+def candidate_failures(verdicts: list[CandidateVerdict]) -> dict[str, int]:
+    """How many distinct tested candidates failed at each stage (``ik_pregrasp``, ``ik_grasp``,
+    ``transport``, ``approach``, ``lift``, ``return``), most frequent first.
+
+    A duplicate draw repeats its first answer, so it is counted once (as ``n_feasible`` counts
+    feasible candidates): the counts plus ``n_feasible`` make the distinct candidates tested."""
+    first: dict[int, CandidateVerdict] = {}
+    for verdict in verdicts:
+        first.setdefault(verdict.pose_index, verdict)
+    counts = Counter(v.stage or "unknown" for v in first.values() if not v.feasible)
+    return dict(sorted(counts.items(), key=lambda item: (-item[1], item[0])))
+
+
+def candidate_failures_json(verdicts: list[CandidateVerdict]) -> str:
+    """``candidate_failures`` as the row's JSON object string (``{}`` when none failed)."""
+    return json.dumps(candidate_failures(verdicts))
+
+
+def none_feasible_message(verdicts: list[CandidateVerdict], test_mode: str) -> str:
+    """Why no candidate passed: the failures per stage over the distinct candidates tested,
+    and the last candidate's own reason (the one the reference would proceed with)."""
+    if not verdicts:
+        return f"no candidate to run through the {test_mode} test"
+    counts = candidate_failures(verdicts)
+    distinct = len({v.pose_index for v in verdicts})
+    stages = ", ".join(f"{stage} {count}" for stage, count in counts.items())
+    last = verdicts[-1]
+    return (
+        f"none of the {len(verdicts)} candidates ({distinct} distinct) passed the {test_mode} "
+        f"test; failures by stage: {stages}; last: {last.stage}: {last.detail}"
+    )

@@ -42,6 +42,9 @@ class CandidateVerdict:
     ik_grasp: IKResult | None = None
     plan: ChainPlan | None = None
     time_s: float = 0.0
+    # The world poses the candidate was tested at (set by the candidate walk, for viewers).
+    T_world_pregrasp: np.ndarray | None = None
+    T_world_grasp: np.ndarray | None = None
 
 
 @dataclass

@@ -107,6 +107,41 @@ class SceneQueries:
             forces[int(finger)] += abs(float(f6[0]))
         return forces[0], forces[1]
 
+    def finger_contacts(
+        self, arm: str, object_name: str
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The contacts between the fingers of ``arm`` and the object: world points (k, 3),
+        the contact force on the object in world coordinates (k, 3, N; normal and friction),
+        and the finger of each (k,: 0 left, 1 right)."""
+        d, m = self.data, self.model
+        ncon = d.ncon
+        if ncon == 0:
+            return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        geoms = d.contact.geom[:ncon]
+        side = self.arms[arm].finger_geom_side
+        obj = self.geom_object
+        obj_index = self.object_names.index(object_name)
+        g1, g2 = geoms[:, 0], geoms[:, 1]
+        object_second = (side[g1] >= 0) & (obj[g2] == obj_index)
+        object_first = (side[g2] >= 0) & (obj[g1] == obj_index)
+        hits = np.flatnonzero(object_second | object_first)
+        if not len(hits):
+            return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        contact = d.contact  # one struct view: each attribute access copies the whole buffer
+        points = contact.pos[hits]
+        frames = contact.frame[hits].reshape(-1, 3, 3)
+        local = np.zeros((len(hits), 3))
+        f6 = self._tmp_force
+        for k, i in enumerate(hits.tolist()):
+            mujoco.mj_contactForce(m, d, i, f6)
+            local[k] = f6[:3]
+        # The frame's rows are (normal, tangent, tangent); the force acts on geom2 along
+        # +normal (geom1 -> geom2), so on the object it flips when the object is geom1.
+        sign = np.where(object_second[hits], 1.0, -1.0)[:, None]
+        forces = np.einsum("kji,kj->ki", frames, local) * sign
+        fingers = np.where(object_second[hits], side[g1[hits]], side[g2[hits]]).astype(np.int64)
+        return points, forces, fingers
+
     def robot_contacts(self, arm: str | None = None) -> list[tuple[str, str]]:
         """Contacts of the robot with the environment (table, objects) and with itself across
         arms, as (robot body, other body) name pairs; finger-object contacts of ``arm`` and

@@ -1,10 +1,13 @@
 """Rerun recordings of episodes (rerun-sdk 0.41); the sweep's is in ``harness.viz.sweep_recording``.
 
-Per episode: the scene geometry read from the MuJoCo model (one entity per body, animated by
-replaying the recorded ``qpos`` through forward kinematics), every grasp candidate as an arrow
-along its approach axis coloured by verdict, the planned and executed TCP paths, joint positions,
-gripper width, finger forces and object height on a ``sim_time`` timeline, phase events as a text
-log, and the verdict.
+Per episode: the scene geometry read from the MuJoCo model (``harness.viz.scene_geometry``; one
+entity per body, posed by replaying the recorded ``qpos`` through forward kinematics, or at its
+reset state when nothing was executed), every grasp candidate as an arrow coloured by verdict
+with the tested ones' reasons as labels, the pre-grasp and grasp targets, the finger-object
+contacts and forces (``harness.viz.episode_layers``), the planned and executed TCP paths, joint
+positions, gripper width, finger forces and object height on a ``sim_time`` timeline, phase
+events as a text log, and the verdict with its failure message as a document the blueprint
+shows.
 
 Quaternions are wxyz inside the harness; Rerun wants xyzw, converted here and nowhere else.
 Logged transforms are float32 in Rerun, so read-back checks must not expect 1e-9 agreement.
@@ -18,31 +21,19 @@ from typing import Any
 import numpy as np
 
 from harness.robots import RobotModel
-from harness.transforms import quat_to_matrix, wxyz_to_xyzw
+from harness.transforms import wxyz_to_xyzw
+from harness.viz.episode_layers import (
+    VERDICT_COLORS,
+    log_candidates,
+    log_contacts,
+    log_targets,
+    log_verdict,
+)
+from harness.viz.scene_geometry import body_entity, log_model_geometry
+from harness.viz.scene_geometry import rerun_sdk as _rr
 
 APP_ID = "pick-harness"
-
-# Candidate verdict -> RGB. Chosen is drawn on top, thicker.
-VERDICT_COLORS: dict[str, tuple[int, int, int]] = {
-    "rejected": (150, 150, 150),
-    "passed": (70, 130, 230),
-    "infeasible": (230, 140, 40),
-    "feasible": (60, 190, 90),
-    "chosen": (220, 30, 200),
-}
-GEOM_COLORS = {
-    "robot": (200, 200, 210),
-    "pad": (40, 40, 40),
-    "object": (230, 170, 40),
-    "table": (150, 110, 80),
-    "other": (180, 180, 180),
-}
-
-
-def _rr():
-    import rerun as rr
-
-    return rr
+__all__ = ["APP_ID", "VERDICT_COLORS", "episode_blueprint", "new_recording", "record_episode"]
 
 
 def new_recording(path: Path, name: str):
@@ -52,128 +43,6 @@ def new_recording(path: Path, name: str):
     rec = rr.RecordingStream(APP_ID, recording_id=name)
     rec.save(str(path))
     return rec
-
-
-# --------------------------------------------------------------------------------------------
-# Scene geometry from a MuJoCo model
-
-
-def _geom_kind(model: Any, geom_id: int) -> str:
-    import mujoco
-
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom_id) or ""
-    body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[geom_id]) or ""
-    if "pad" in name:
-        return "pad"
-    if body.startswith("robot"):
-        return "robot"
-    if "table" in name or "table" in body:
-        return "table"
-    if model.geom_bodyid[geom_id] != 0 and model.body_jntnum[model.geom_bodyid[geom_id]] > 0:
-        return "object"
-    return "other"
-
-
-def body_entity(model: Any, body_id: int, root: str = "/world") -> str:
-    import mujoco
-
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body_id) or f"body{body_id}"
-    return f"{root}/bodies/{name.replace('/', '_')}"
-
-
-def log_model_geometry(rec: Any, model: Any, root: str = "/world") -> list[int]:
-    """Log every collision geom (group 0-2) statically in its body frame; returns body ids used."""
-    bodies: dict[int, list[int]] = {}
-    for geom_id in range(model.ngeom):
-        if model.geom_group[geom_id] > 2 or model.geom_rgba[geom_id, 3] == 0:
-            continue
-        bodies.setdefault(int(model.geom_bodyid[geom_id]), []).append(geom_id)
-    for body_id, geoms in bodies.items():
-        entity = body_entity(model, body_id, root)
-        for geom_id in geoms:
-            archetype = _geom_archetype(model, geom_id)
-            if archetype is None:
-                continue
-            rec.log(f"{entity}/geom{geom_id}", archetype, static=True)
-    return sorted(bodies)
-
-
-def _geom_archetype(model: Any, geom_id: int) -> Any:
-    """The Rerun archetype drawing one geom in its body frame; None for unsupported types."""
-    import mujoco
-
-    rr = _rr()
-    kind = _geom_kind(model, geom_id)
-    color = GEOM_COLORS[kind]
-    pos = model.geom_pos[geom_id]
-    quat_xyzw = wxyz_to_xyzw(model.geom_quat[geom_id])
-    size = model.geom_size[geom_id]
-    gtype = model.geom_type[geom_id]
-    if gtype == mujoco.mjtGeom.mjGEOM_BOX:
-        return rr.Boxes3D(
-            half_sizes=[size],
-            centers=[pos],
-            quaternions=[quat_xyzw],
-            colors=[color],
-            fill_mode="solid",
-        )
-    if gtype == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return rr.Ellipsoids3D(
-            half_sizes=[[size[0]] * 3], centers=[pos], colors=[color], fill_mode="solid"
-        )
-    if gtype == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-        return rr.Ellipsoids3D(
-            half_sizes=[size],
-            centers=[pos],
-            quaternions=[quat_xyzw],
-            colors=[color],
-            fill_mode="solid",
-        )
-    if gtype == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        R = quat_to_matrix(model.geom_quat[geom_id])
-        start = pos - R[:, 2] * size[1]
-        return rr.Capsules3D(
-            lengths=[2 * size[1]],
-            radii=[size[0]],
-            translations=[start],
-            quaternions=[quat_xyzw],
-            colors=[color],
-        )
-    if gtype == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return rr.Cylinders3D(
-            lengths=[2 * size[1]],
-            radii=[size[0]],
-            centers=[pos],
-            quaternions=[quat_xyzw],
-            colors=[color],
-            fill_mode="solid",
-        )
-    if gtype == mujoco.mjtGeom.mjGEOM_MESH:
-        return _mesh_archetype(model, geom_id, pos, color)
-    if gtype == mujoco.mjtGeom.mjGEOM_PLANE:
-        extent = size[:2] if np.all(size[:2] > 0) else np.array([1.0, 1.0])
-        return rr.Boxes3D(
-            half_sizes=[[extent[0], extent[1], 1e-4]],
-            centers=[pos],
-            colors=[color],
-            fill_mode="solid",
-        )
-    return None
-
-
-def _mesh_archetype(model: Any, geom_id: int, pos: np.ndarray, color: tuple[int, int, int]) -> Any:
-    """A mesh geom as a Mesh3D, its vertices moved into the body frame."""
-    rr = _rr()
-    mesh_id = model.geom_dataid[geom_id]
-    v0, nv = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
-    f0, nf = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
-    R = quat_to_matrix(model.geom_quat[geom_id])
-    vertices = model.mesh_vert[v0 : v0 + nv] @ R.T + pos
-    return rr.Mesh3D(
-        vertex_positions=vertices,
-        triangle_indices=model.mesh_face[f0 : f0 + nf],
-        albedo_factor=[*color, 255],
-    )
 
 
 def log_series(
@@ -192,19 +61,29 @@ def log_series(
     )
 
 
-def episode_blueprint():
+def episode_blueprint(executed: bool = True):
+    """The viewer layout: the 3D scene above the verdict document, the plots and events beside;
+    an episode that stopped before moving has no series, so its verdict takes their place."""
     import rerun.blueprint as rrb
 
+    scene = rrb.Spatial3DView(name="scene", origin="/world")
+    verdict = rrb.TextDocumentView(name="verdict", origin="/verdict")
+    events = rrb.TextLogView(name="events", origin="/events")
+    if not executed:
+        return rrb.Blueprint(
+            rrb.Horizontal(scene, rrb.Vertical(verdict, events, row_shares=[4, 1])),
+            collapse_panels=True,
+        )
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(name="scene", origin="/world"),
+            rrb.Vertical(scene, verdict, row_shares=[3, 2]),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="object height", origin="/plots/object_z"),
                 rrb.TimeSeriesView(name="finger forces", origin="/plots/finger_force"),
                 rrb.TimeSeriesView(name="gripper width", origin="/plots/gripper_width"),
                 rrb.TimeSeriesView(name="validity: slip", origin="/plots/validity_slip"),
                 rrb.TimeSeriesView(name="joints", origin="/plots/joints"),
-                rrb.TextLogView(name="events", origin="/events"),
+                events,
             ),
             column_shares=[3, 2],
         ),
@@ -231,23 +110,11 @@ def _frame_indices(times: np.ndarray, rate: float = MAX_FRAME_RATE) -> np.ndarra
     return np.asarray(keep, dtype=int)
 
 
-def _candidate_arrows(trace: Any, approach_index: int, tcp_offset: float) -> dict[str, tuple]:
-    """Per verdict: arrow origins (EE origins) and vectors (to the TCP along the approach)."""
-    groups: dict[str, tuple[list, list, list]] = {}
-    for T, status, index in zip(
-        trace.candidate_T_world_ee, trace.candidate_status, trace.candidate_index, strict=True
-    ):
-        origins, vectors, labels = groups.setdefault(str(status), ([], [], []))
-        origins.append(T[:3, 3])
-        vectors.append(T[:3, approach_index] * tcp_offset)
-        labels.append(str(int(index)))
-    return groups
-
-
 def record_episode(result: Any, path: Path, task: Any) -> Path:
-    """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model)."""
-    import mujoco
+    """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model).
 
+    Whatever the outcome, the scene is posed: an episode that stopped before execution (no
+    candidate, none feasible, no plan) shows its reset state at ``sim_time`` 0."""
     rr = _rr()
     trace = result.trace
     model = result.model
@@ -255,52 +122,45 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         raise ValueError("the episode has no trace to record (it stopped before the scene ran)")
     row = result.row
     rec = new_recording(Path(path), str(row.get("episode_id") or Path(path).stem))
-    rec.send_blueprint(episode_blueprint())
+    rec.send_blueprint(episode_blueprint(executed=len(trace.time) > 0))
     rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+
+    times = np.asarray(trace.time, dtype=float)
+    frames = _frame_indices(times)
+    _log_scene(rec, model, trace, frames)
+    convention = RobotModel.load(task.robot).convention
+    tcp_offset = task.pick.tcp_offset or convention.tcp_offset
+    log_candidates(rec, trace, convention.approach_index, tcp_offset)
+    log_targets(rec, trace, convention.approach_index, tcp_offset)
+    _log_tcp_paths(rec, trace, frames)
+    log_contacts(rec, trace)
+    _log_plots(rec, trace, times)
+    _log_validity(rec, trace)
+    for t, text in trace.events:
+        rec.set_time("sim_time", duration=float(t))
+        rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+    log_verdict(rec, row, trace, float(times[-1]) if len(times) else 0.0)
+    rec.disconnect()
+    return Path(path)
+
+
+def _log_scene(rec: Any, model: Any, trace: Any, frames: np.ndarray) -> None:
+    """The geometry, posed at every logged frame of the execution, or at t = 0 in the state
+    before any motion when nothing was executed."""
+    import mujoco
 
     body_ids = log_model_geometry(rec, model)
     data = mujoco.MjData(model)
     if model.nmocap:
         data.mocap_pos[:] = trace.mocap_pos
         data.mocap_quat[:] = trace.mocap_quat
-    frames = _frame_indices(np.asarray(trace.time))
-    _log_body_motion_with_mocap(rec, model, data, trace.time[frames], trace.qpos[frames], body_ids)
-    _log_candidates(rec, trace, task)
-    _log_tcp_paths(rec, trace, frames)
-
-    times = np.asarray(trace.time, dtype=float)
-    _log_plots(rec, trace, times)
-    _log_validity(rec, trace)
-    for t, text in trace.events:
-        rec.set_time("sim_time", duration=float(t))
-        rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
-    _log_verdict(rec, row, times)
-    rec.disconnect()
-    return Path(path)
-
-
-def _log_candidates(rec: Any, trace: Any, task: Any) -> None:
-    """Every grasp candidate as an arrow along its approach axis, one entity per verdict."""
-    rr = _rr()
-    robot = RobotModel.load(task.robot)
-    convention = robot.convention
-    tcp_offset = task.pick.tcp_offset or convention.tcp_offset
-    for status, (origins, vectors, labels) in _candidate_arrows(
-        trace, convention.approach_index, tcp_offset
-    ).items():
-        color = VERDICT_COLORS.get(status, (255, 255, 255))
-        radius = 0.004 if status == "chosen" else 0.0015
-        rec.log(
-            f"/world/candidates/{status}",
-            rr.Arrows3D(
-                origins=origins,
-                vectors=vectors,
-                colors=[color] * len(origins),
-                radii=[radius] * len(origins),
-                labels=labels if status == "chosen" else None,
-            ),
-            static=True,
-        )
+    if len(frames):
+        times, qpos = np.asarray(trace.time)[frames], np.asarray(trace.qpos)[frames]
+    elif trace.qpos_start is not None:
+        times, qpos = np.zeros(1), np.asarray(trace.qpos_start)[None, :]
+    else:
+        return
+    _log_body_motion_with_mocap(rec, model, data, times, qpos, body_ids)
 
 
 def _log_tcp_paths(rec: Any, trace: Any, frames: np.ndarray) -> None:
@@ -373,26 +233,12 @@ def _log_validity(rec: Any, trace: Any) -> None:
         rec.log("/world/validity/tug", rr.Clear(recursive=False))
 
 
-def _log_verdict(rec: Any, row: dict[str, Any], times: np.ndarray) -> None:
-    """The verdict as the last event at the episode's end, and as a text document."""
-    rr = _rr()
-    verdict = "SUCCESS" if row.get("success") else f"FAILURE: {row.get('failure_reason', '')}"
-    end = float(times[-1]) if len(times) else 0.0
-    rec.set_time("sim_time", duration=end)
-    level = rr.TextLogLevel.INFO if row.get("success") else rr.TextLogLevel.ERROR
-    rec.log("/events", rr.TextLog(f"verdict: {verdict}", level=level))
-    rec.log(
-        "/verdict",
-        rr.TextDocument(_verdict_markdown(row, verdict), media_type="text/markdown"),
-        static=True,
-    )
-
-
 def _log_body_motion_with_mocap(
     rec: Any, model: Any, data: Any, times: np.ndarray, qpos: np.ndarray, body_ids: list[int]
 ) -> None:
     import mujoco
 
+    """Each body's world pose at ``times`` from ``qpos`` by forward kinematics."""
     rr = _rr()
     positions = np.zeros((len(times), len(body_ids), 3))
     quats = np.zeros((len(times), len(body_ids), 4))
@@ -402,9 +248,7 @@ def _log_body_motion_with_mocap(
         positions[k] = data.xpos[body_ids]
         quats[k] = data.xquat[body_ids]
     index = [rr.TimeColumn("sim_time", duration=np.asarray(times, dtype=float))]
-    for j, body_id in enumerate(body_ids):
-        if body_id == 0:
-            continue
+    for j, body_id in enumerate(body_ids):  # the world body too: an identity, still a pose
         rec.send_columns(
             body_entity(model, body_id),
             indexes=index,
@@ -412,41 +256,3 @@ def _log_body_motion_with_mocap(
                 translation=positions[:, j], quaternion=wxyz_to_xyzw(quats[:, j])
             ),
         )
-
-
-def _verdict_markdown(row: dict[str, Any], verdict: str) -> str:
-    keys = (
-        "robot",
-        "arm",
-        "object",
-        "seed",
-        "semantics",
-        "test_mode",
-        "timing",
-        "n_total",
-        "n_passed_filter",
-        "n_feasible",
-        "chosen_index",
-        "chosen_score",
-        "approach_angle_deg",
-        "lift_height_m",
-        "finger_force_left_n",
-        "finger_force_right_n",
-        "slip_m",
-        "tcp_grasp_error_m",
-        "valid",
-        "invalid_reason",
-        "robustness_g",
-        "hold_slip_m",
-        "min_finger_force_n",
-        "table_penetration_m",
-        "error_message",
-    )
-    lines = [f"# {verdict}", "", "| key | value |", "|---|---|"]
-    for key in keys:
-        if key in row and row[key] not in ("", None):
-            value = row[key]
-            lines.append(
-                f"| {key} | {value:.4g} |" if isinstance(value, float) else f"| {key} | {value} |"
-            )
-    return "\n".join(lines)
