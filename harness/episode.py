@@ -48,7 +48,7 @@ import numpy as np
 from harness.config import PickConfig, TaskConfig
 from harness.episode_ids import episode_id
 from harness.episode_trace import EpisodeTrace, make_trace, planned_tcp
-from harness.errors import HarnessError
+from harness.errors import EpisodeTimeoutError, HarnessError
 from harness.failures import FailureReason
 from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
@@ -190,6 +190,9 @@ def run_episode(spec: EpisodeSpec, scene_cache: dict[Any, Any] | None = None) ->
     except _EpisodeStopError as stop:
         row["failure_reason"] = stop.reason
         row["error_message"] = stop.message
+    except EpisodeTimeoutError as exc:  # harness.sim.budget: the run's limits, not an error
+        row["failure_reason"] = "timeout"
+        row["error_message"] = str(exc)
     except HarnessError as exc:
         row["failure_reason"] = "error"
         row["error_message"] = str(exc)
