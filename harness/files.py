@@ -26,6 +26,16 @@ WRITE_TIMEOUT_S = 60.0
 DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
 
 
+def _process_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# Written files get the usual permissions (mkstemp's temp files are 0600).
+FILE_MODE = 0o666 & ~_process_umask()
+
+
 def is_disk_full(exc: BaseException) -> bool:
     """True for "no space left on device" and "disk quota exceeded"."""
     return isinstance(exc, OSError) and exc.errno in DISK_FULL_ERRNOS
@@ -59,6 +69,7 @@ DISK_FULL_ENV = "PICK_HARNESS_INJECT_ENOSPC"
 def _write_and_rename(path: Path, data: bytes) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, FILE_MODE)
         with os.fdopen(fd, "wb") as handle:
             injected = os.environ.get(DISK_FULL_ENV)
             if injected and injected in path.name:

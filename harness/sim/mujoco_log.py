@@ -17,6 +17,7 @@ LOG_NAME = "MUJOCO_LOG.TXT"
 def log_mujoco_to(run_dir: Path) -> Path:
     """Send this process's MuJoCo log to ``run_dir/MUJOCO_LOG.TXT``; returns that path."""
     path = Path(run_dir).resolve() / LOG_NAME
+    path.parent.mkdir(parents=True, exist_ok=True)  # MuJoCo does not create folders
     config = mujoco.MjLogConfig.get()
     if config.logfile != str(path):
         config.logfile = str(path)
