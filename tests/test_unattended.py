@@ -80,7 +80,7 @@ def test_atomic_write_on_a_full_disk_leaves_the_old_file_and_no_temp(tmp_path, m
 
 def test_a_hung_write_is_abandoned_within_its_bound() -> None:
     start = time.perf_counter()
-    with pytest.raises(TimeoutError, match="did not finish within 0.2 s"):
+    with pytest.raises(TimeoutError, match=r"did not finish within 0\.2 s"):
         bounded(lambda: time.sleep(5), 0.2, "a stuck disconnect")
     assert time.perf_counter() - start < 2.0
 
@@ -226,7 +226,7 @@ def test_coacd_past_its_time_limit_is_a_clear_error(tmp_path, monkeypatch) -> No
     mesh.write_text(shapes.obj_text(shapes.mug()), encoding="utf-8")
     monkeypatch.setenv("PICK_HARNESS_CACHE", str(tmp_path / "cache"))  # nothing cached
     monkeypatch.setenv("PICK_HARNESS_COACD_TIMEOUT_S", "0.01")
-    with pytest.raises(InputFileError, match="CoACD did not finish within 0.01 s") as caught:
+    with pytest.raises(InputFileError, match=r"CoACD did not finish within 0\.01 s") as caught:
         ObjectAsset.load(mesh)
     assert caught.value.file == str(mesh) and caught.value.key == "mesh"
 
@@ -274,7 +274,7 @@ def _grasp_file(tmp_path: Path, kind: str) -> Path:
                 ]
             },
             "places object 'c' 30 mm inside the table",
-        ),  # fmt: skip
+        ),
         ({"objects": [{"name": "c", "mesh": "cube", "grasps": "nan"}]}, "is not finite"),
         ({"objects": [{"name": "c", "mesh": "cube", "grasps": "empty"}]}, "holds no grasps"),
         ({"objects": [{"name": "c", "mesh": "cube", "grasps": "pickled"}]}, "allow_pickle"),
