@@ -379,3 +379,37 @@ def test_disk_full_errnos() -> None:
     assert is_disk_full(OSError(errno.ENOSPC, "No space left on device"))
     assert is_disk_full(OSError(errno.EDQUOT, "Disk quota exceeded"))
     assert not is_disk_full(OSError(errno.EACCES, "Permission denied"))
+
+
+# -- Ray: a killed actor (finding 6) ----------------------------------------------------------
+
+
+@pytest.mark.slow
+@pytest.mark.ray
+def test_a_killed_ray_actor_gives_one_retried_episode_not_error_rows(tmp_path, monkeypatch):
+    """Finding 6: killing one Ray actor gave two ``error`` rows. The actor's process dies by a
+    real SIGSEGV on the victim's first attempt; Ray restarts it and runs the episode again."""
+    pytest.importorskip("ray")
+    from harness.config import load_sweep
+    from harness.runs.expansion import expand
+    from harness.runs.sweep import run_sweep
+    from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
+
+    sweep = {"name": "ray-kill", "tasks": [str(FR3)], "episodes_per_point": 3, "record": "none"}
+    sweep_path = tmp_path / "sweep.yaml"
+    sweep_path.write_text(yaml.safe_dump(sweep), encoding="utf-8")
+    victim = expand(load_sweep(sweep_path), sweep_path)[1].resolved_id
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv(FAULT_ENV, victim)
+    monkeypatch.setenv(FAULT_ONCE_ENV, str(markers))
+    outcome = run_sweep(sweep_path, out=tmp_path / "run", backend="ray", workers=2, progress=False)
+    assert (markers / victim).exists()  # the actor did die once
+    rows = jsonl_rows(outcome.run_dir)
+    assert sorted(row["episode_id"] for row in rows) == sorted(
+        e.resolved_id for e in expand(load_sweep(sweep_path), sweep_path)
+    )  # every episode once: none lost, none doubled
+    assert all(row["failure_reason"] != "error" for row in rows), [
+        row["error_message"] for row in rows
+    ]
+    assert outcome.stats.crashed == 0 and outcome.errors == 0
