@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from harness.errors import EpisodeTimeoutError
 from harness.files import is_disk_full
 from harness.row import identity_columns
 from harness.runs.safety import inside, safe_file_name
@@ -42,6 +43,10 @@ def execute(episode: EpisodeSpec, run_dir: str, record_policy: str) -> dict[str,
         with episode_budget(limits.wall_time_s, limits.sim_steps):
             result = run_episode(episode, scene_cache=_SCENE_CACHE)
         row = dict(result.row)
+    except EpisodeTimeoutError as exc:  # the alarm fired after run_episode's own handlers
+        result = None
+        row = error_row(episode, str(exc))
+        row["failure_reason"] = "timeout"
     except Exception as exc:  # the last line of defence; run_episode already catches
         result = None
         row = error_row(episode, f"{type(exc).__name__}: {exc}")
