@@ -53,7 +53,7 @@ from harness.episode_stages import (
     feasibility,
     reset,
 )
-from harness.errors import HarnessError
+from harness.errors import EpisodeTimeoutError, HarnessError
 from harness.pick.validity import validity_enabled
 from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.version import __version__
@@ -128,6 +128,9 @@ def run_episode(
     except EpisodeStopError as stop:
         row["failure_reason"] = stop.reason
         row["error_message"] = stop.message
+    except EpisodeTimeoutError as exc:  # harness.sim.budget: the run's limits, not an error
+        row["failure_reason"] = "timeout"
+        row["error_message"] = str(exc)
     except HarnessError as exc:
         row["failure_reason"] = "error"
         row["error_message"] = str(exc)

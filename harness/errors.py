@@ -16,3 +16,11 @@ class InputFileError(HarnessError, ValueError):
         self.key = key
         where = f"{self.file} {key}" if key else self.file
         super().__init__(f"{where}: {message}")
+
+
+class DiskFullError(HarnessError):
+    """The disk under a run directory is full: the run stops, every stored row is kept."""
+
+
+class EpisodeTimeoutError(HarnessError):
+    """An episode reached its wall-clock limit or its simulated-step budget (``timeout``)."""

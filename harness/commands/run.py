@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -140,6 +141,9 @@ def main(args: argparse.Namespace) -> int:
         record=args.record,
     )
     episodes = expand(sweep, None)
+    from harness.runs.preflight import check_tasks
+
+    check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
     run = RunDir(Path(args.out) if args.out else RunDir.default_path(sweep.name))
     run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
     if picks:
@@ -167,15 +171,31 @@ def main(args: argparse.Namespace) -> int:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
     run.finalize()
-    successes = sum(bool(row.get("success")) for row in rows)
-    n = len(rows)
-    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
+    wall_s = time.perf_counter() - start
+    return _print_outcome(console, rows, len(episodes), run.path, wall_s, bool(picks))
 
+
+def _print_outcome(
+    console: Any,
+    rows: list[dict[str, Any]],
+    planned: int,
+    run_dir: Path,
+    wall_s: float,
+    interndata: bool,
+) -> int:
+    """The run's success line (``error`` rows excluded), failures, where things are; the exit
+    code: 130 when interrupted, 1 when ``error`` rows exceed ``MAX_ERROR_SHARE``, else 0."""
+    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
+    from harness.runs.limits import error_rows_line, too_many_errors
+
+    errors = sum(row.get("failure_reason") == "error" for row in rows)
+    successes = sum(bool(row.get("success")) for row in rows)
+    n = len(rows) - errors
     lo, hi = wilson_interval(successes, n)
     rate = successes / n if n else 0.0
     console.print(
         f"success {successes}/{n} = {rate:.0%} (95% Wilson interval {lo:.2f}-{hi:.2f}) "
-        f"in {time.perf_counter() - start:.1f} s"
+        f"in {wall_s:.1f} s"
     )
     failures: dict[str, int] = {}
     for row in rows:
@@ -186,9 +206,13 @@ def main(args: argparse.Namespace) -> int:
         console.print(
             "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
         )
-    extra = ", skipped.txt" if picks else ""
-    console.print(f"run directory: {run.path}  (episodes.csv, summary.csv, report{extra})")
-    return 0 if n == len(episodes) else 130
+    extra = ", skipped.txt" if interndata else ""
+    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
+    if (line := error_rows_line(errors, len(rows), run_dir)) is not None:
+        print(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
+    if len(rows) != planned:
+        return 130
+    return 1 if too_many_errors(errors, len(rows)) else 0
 
 
 def _count(item: tuple[str, int]) -> tuple[int, str]:

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 
 from harness.commands.console import make_console
-from harness.runs.limits import MAX_EPISODES
+from harness.runs.limits import MAX_EPISODES, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
 
@@ -47,13 +48,17 @@ def main(args: argparse.Namespace) -> int:
         + (f", {stats.crashed} worker crash(es) recorded as errors" if stats.crashed else "")
     )
     print_summary(outcome.run_dir, console)
+    line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
+    failing = too_many_errors(outcome.errors, outcome.rows)
+    if line is not None:
+        print(f"error: {line}" if failing else line, file=sys.stderr)
     if stats.interrupted:
         console.print(
             f"[yellow]interrupted[/]: finished episodes are kept; continue with "
             f"harness sweep --resume {outcome.run_dir}"
         )
         return 130
-    return 0
+    return 1 if failing else 0
 
 
 def _cell(value: object) -> str:

@@ -103,6 +103,23 @@ def _file_warnings(path: str, loaded: object) -> list[str]:
     return []
 
 
+def deep_check(path: str, loaded: object) -> None:
+    """What a run of the file would load (``harness.runs.preflight``): robot and arm, ``home``,
+    meshes, the grasp file, placements; a sweep's every distinct (task, point)."""
+    from harness.runs.preflight import check_task, check_tasks
+
+    if isinstance(loaded, TaskConfig):
+        check_task(loaded)
+    elif isinstance(loaded, SweepConfig):
+        from harness.runs.expansion import expand, load_sweep_tasks
+        from harness.runs.limits import check_sweep_size
+
+        tasks = load_sweep_tasks(loaded, Path(path))
+        check_sweep_size(loaded, len(tasks))
+        episodes = expand(loaded, Path(path), tasks, progress=True)
+        check_tasks([e.task for e in episodes[:: loaded.episodes_per_point]])
+
+
 def main(args: argparse.Namespace) -> int:
     failed = 0
     for path in args.files:
@@ -118,8 +135,13 @@ def main(args: argparse.Namespace) -> int:
                 for pick in picks:
                     print_warnings(warning_lines(pick.task, path, f"pick {pick.order}"))
                 continue
+            deep_check(path, loaded)
         except ConfigError as exc:
             print(f"error: {exc.one_line()}", file=sys.stderr)
+            failed += 1
+            continue
+        except HarnessError as exc:  # what the run would load: robot, arm, home, files
+            print(f"error: {exc}", file=sys.stderr)
             failed += 1
             continue
         print(f"ok {path}: {describe(kind, loaded)}")

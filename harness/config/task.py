@@ -87,6 +87,23 @@ class PhysicsConfig(StrictModel):
     )
 
 
+# Physics steps per control step above which a task is refused: 1/30 s at 1e-9 s would be 3.3e7
+# steps per control step and hours per episode. Chosen, no public source: 10^4 is 60x the
+# default (1/30 s at 0.002 s = 17) and still runs an episode in well under a minute.
+MAX_SUBSTEPS = 10_000
+
+
+class EpisodeLimits(StrictModel):
+    """Bounds of one episode in a run (``harness.sim.budget``); past either it is ``timeout``.
+
+    Chosen, no public source: a canonical episode takes ~0.2-2 s and ~10^4 physics steps, so
+    both defaults leave a wide margin and only catch runaway episodes. A sweep sets them per
+    task, or for all tasks with an axis such as ``limits.wall_time_s: [300]``."""
+
+    wall_time_s: FiniteFloat = Field(default=120.0, gt=0.0, le=86_400.0)
+    sim_steps: int = Field(default=2_000_000, ge=1, le=10**10)
+
+
 class GripperChoice(StrictModel):
     """The task's gripper (``robot: {name: ..., gripper: {...}}``): a robot.yaml variant and
     overrides of its grip physics, each None = the robot.yaml value."""
@@ -150,6 +167,7 @@ class TaskConfig(StrictModel):
     physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
     pick: PickConfig = Field(default_factory=PickConfig)
     max_episode_length: int = Field(default=500, ge=1, le=1_000_000)
+    limits: EpisodeLimits = Field(default_factory=EpisodeLimits)
     control_dt: FiniteFloat = Field(
         default=1.0 / 30.0, gt=0.0, le=0.5, description="Control step (s); the reference's 1/30."
     )
@@ -183,6 +201,13 @@ class TaskConfig(StrictModel):
                 "control_dt" if given_dt else ("physics", "timestep"),
                 f"control_dt ({self.control_dt:g} s) must be at least physics.timestep "
                 f"({self.physics.timestep:g} s)",
+            )
+        substeps = self.control_dt / self.physics.timestep
+        if substeps > MAX_SUBSTEPS:
+            raise KeyedValueError(
+                ("physics", "timestep"),
+                f"{self.physics.timestep:g} s makes {substeps:,.0f} physics steps per control "
+                f"step ({self.control_dt:g} s), above {MAX_SUBSTEPS:,}: an episode would not end",
             )
         home, noise = self.home, self.home_noise_std
         if home is not None and noise is not None and len(home) != len(noise):

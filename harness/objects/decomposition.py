@@ -20,6 +20,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from harness.errors import InputFileError
+from harness.objects.coacd_process import CoacdTimeoutError, coacd_timeout_s, run_coacd_bounded
+
 LOG = logging.getLogger(__name__)
 
 CACHE_FORMAT = 1  # bump when the cache file layout changes
@@ -133,19 +136,16 @@ def is_convex_solid(mesh: trimesh.Trimesh) -> bool:
 
 
 def run_coacd(mesh: trimesh.Trimesh, params: CoacdParams) -> list[Piece]:
-    """Run CoACD (counted in ``DECOMPOSITION_RUNS``) and return its convex pieces."""
+    """Run CoACD (counted in ``DECOMPOSITION_RUNS``) and return its convex pieces; in a child
+    process stopped after ``coacd_timeout_s()`` (``CoacdTimeoutError``)."""
     global DECOMPOSITION_RUNS
-    import coacd
-
-    coacd.set_log_level("error")
     kwargs = asdict(params)
     if params.preprocess_mode == "auto":
         kwargs["preprocess_mode"] = "off" if mesh.is_watertight else "on"
     DECOMPOSITION_RUNS += 1
-    parts = coacd.run_coacd(
-        coacd.Mesh(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)), **kwargs
-    )
-    return [(np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64)) for v, f in parts]
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    return run_coacd_bounded(vertices, faces, kwargs, coacd_timeout_s())
 
 
 def collision_pieces(
@@ -174,6 +174,8 @@ def collision_pieces(
         pieces = [p for p in run_coacd(mesh, params) if len(p[0]) >= 4 and len(p[1]) >= 4]
         if not pieces:
             raise RuntimeError("CoACD returned no pieces")
+    except CoacdTimeoutError as exc:  # a clear error, not a silent hull: the mesh needs work
+        raise InputFileError(source_name, str(exc), "mesh") from None
     except Exception as exc:
         warnings.warn(
             f"{source_name}: convex decomposition failed ({exc}); using the convex hull",

@@ -22,6 +22,10 @@ USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 TRIMESH_SUFFIXES = (".obj", ".stl", ".glb", ".gltf", ".ply")
 SUPPORTED_SUFFIXES = USD_SUFFIXES + TRIMESH_SUFFIXES
 USD_OBJECT_PRIM = "/World/Aligned"
+# Larger mesh files are refused before reading: a 199 MB OBJ took minutes to parse and then sat
+# in CoACD for 580 s at 1.8 GB. Chosen, no public source: the InternData example meshes are
+# < 5 MB and a graspable object needs far fewer than the ~10^6 faces 64 MiB holds.
+MAX_MESH_BYTES = 64 * 1024 * 1024
 
 
 def _read_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -104,6 +108,13 @@ def read_mesh_arrays(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         )
     if not path.is_file():
         raise InputFileError(path, "mesh file not found")
+    size = path.stat().st_size
+    if size > MAX_MESH_BYTES:
+        raise InputFileError(
+            path,
+            f"mesh file is {size / 2**20:.0f} MiB, above the limit of {MAX_MESH_BYTES / 2**20:.0f} "
+            "MiB; simplify it (fewer faces) before use",
+        )
     try:
         with path.open("rb"):
             pass

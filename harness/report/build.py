@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from harness.files import write_atomic
 from harness.report.plots import plot_failures, plot_funnel, plot_success
 from harness.report.render import render_html, render_markdown
 from harness.report.sections import report_tables
@@ -55,8 +56,8 @@ def build_report(
     best = best_settings(summary, objective)
     summary_csv = run_dir / SUMMARY_NAME
     best_csv = run_dir / BEST_NAME
-    summary.to_csv(summary_csv, index=False)
-    best.to_csv(best_csv, index=False)
+    write_atomic(summary_csv, summary.to_csv(index=False))  # whole or absent, never half
+    write_atomic(best_csv, best.to_csv(index=False))
 
     plots_dir = run_dir / "plots"
     plots_dir.mkdir(exist_ok=True)
@@ -68,6 +69,6 @@ def build_report(
     tables = report_tables(frame, summary, best)
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
-    report_md.write_text(render_markdown(run_dir, frame, tables, plots), encoding="utf-8")
-    report_html.write_text(render_html(run_dir, frame, tables, plots), encoding="utf-8")
+    write_atomic(report_md, render_markdown(run_dir, frame, tables, plots))
+    write_atomic(report_html, render_html(run_dir, frame, tables, plots))
     return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots)

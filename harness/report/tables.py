@@ -130,7 +130,10 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         row["point_id"] = int(column(group, "point_id").min())
         for name in params:
             row[name] = group[name].iloc[0]
-        row["n"] = len(group)
+        # ``error`` rows (crashes, input problems) are not picks: never in a rate's denominator.
+        errors = int((column(group, "failure_reason") == "error").sum())
+        row["n"] = len(group) - errors
+        row["n_error"] = errors
         row["successes"] = int(column(group, "success").sum())
         failed = group.loc[~column(group, "success"), "_reason"].value_counts()
         for reason in reasons:
@@ -157,6 +160,7 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         "point",
         *params,
         "n",
+        "n_error",
         "successes",
         *rates.columns,
         *validity,

@@ -33,6 +33,12 @@ OnResult = Callable[[dict[str, Any]], None]
 # A worker that dies mid-episode (segfault, OOM kill) gets its episode run again this many
 # times before the episode is stored as an ``error`` row.
 CRASH_RETRIES = 1
+# Ray (2.60) cannot be held to loopback: ray.init turns 127.0.0.1 into the node's address
+# (services.resolve_ip_for_localhost) and its gRPC servers listen on every interface.
+RAY_NETWORK_NOTE = (
+    "note: a local Ray listens on all interfaces (gcs_server, raylet, its workers; Ray's token "
+    "authentication guards them); on an untrusted network use --backend process (no ports)"
+)
 
 
 @dataclass
@@ -267,9 +273,12 @@ def run_ray(
     address: str | None = None,
     share: bool = True,
 ) -> RunStats:
-    """Ray actors (one scene and candidate cache each); a dead actor's episode becomes an error
-    row. Share groups are submitted back to back; a free actor takes the next episode, so a
-    group may spread over actors (each shares what it holds)."""
+    """Ray actors (one scene and candidate cache each). An actor that dies mid-episode is
+    restarted and its episode run again ``CRASH_RETRIES`` times (Ray's ``max_task_retries``)
+    before it becomes an error row. Share groups are submitted back to back; a free actor takes
+    the next episode, so a group may spread over actors (each shares what it holds). A locally
+    started Ray cannot be bound to loopback (docs/reliability.md, "Network"): it is started
+    without the dashboard, and the process backend is the one that opens no port."""
     try:
         import ray
     except ImportError as exc:  # pragma: no cover - depends on the extra
@@ -284,9 +293,10 @@ def run_ray(
         if address:
             ray.init(address=address, log_to_driver=False)
         else:
+            print(RAY_NETWORK_NOTE, file=sys.stderr)
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
 
-    @ray.remote(num_cpus=1, max_restarts=-1)
+    @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:
         def run(self, episode: EpisodeSpec) -> dict[str, Any]:
             return execute(episode, str(run_dir), record, share)
@@ -311,8 +321,9 @@ def run_ray(
             actor, episode = in_flight.pop(ref)
             try:
                 row = ray.get(ref)
-            except Exception as exc:  # actor died (segfault) or task error
-                row = error_row(episode, f"ray worker failed: {type(exc).__name__}")
+            except Exception as exc:  # the actor died again after its retries, or a task error
+                attempts = f" ({CRASH_RETRIES + 1} attempts)" if CRASH_RETRIES else ""
+                row = error_row(episode, f"ray worker failed: {type(exc).__name__}{attempts}")
                 stats.crashed += 1
             on_result(row)
             stats.finished += 1

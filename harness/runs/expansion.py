@@ -17,6 +17,8 @@ import dataclasses
 import functools
 import hashlib
 import itertools
+import sys
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -223,11 +225,15 @@ def select_samples(episodes: list[EpisodeSpec], count: int) -> set[str]:
 
 
 def expand(
-    sweep: SweepConfig, sweep_path: Path | None, tasks: list[TaskConfig] | None = None
+    sweep: SweepConfig,
+    sweep_path: Path | None,
+    tasks: list[TaskConfig] | None = None,
+    progress: bool = False,
 ) -> list[EpisodeSpec]:
     """All episodes of the sweep, in a deterministic order (task, point, episode).
 
-    ``tasks`` are the sweep's resolved tasks when the caller has already loaded them.
+    ``tasks`` are the sweep's resolved tasks when the caller has already loaded them. With
+    ``progress``, a large expansion (~15 ms per point) says how far it is on stderr.
     """
     # harness.episode pulls in MuJoCo and the planners: imported once episodes are made.
     from harness.episode import EpisodeSpec
@@ -236,8 +242,10 @@ def expand(
         tasks = load_sweep_tasks(sweep, sweep_path)
     points = sweep_points(sweep)
     episodes: list[EpisodeSpec] = []
+    report = ExpansionProgress(len(tasks) * len(points), enabled=progress)
     for task in tasks:
         for point_id, point in enumerate(points):
+            report.advance()
             try:
                 configured = apply_overrides(task, point_overrides(task, point))
                 check_filters(configured)
@@ -261,9 +269,36 @@ def expand(
                         run=sweep.name,
                     )
                 )
+    report.done()
     if sweep.record.startswith("sample:"):
         chosen = select_samples(episodes, int(sweep.record.split(":")[1]))
         episodes = [dataclasses.replace(e, record=e.resolved_id in chosen) for e in episodes]
     elif sweep.record == "all":
         episodes = [dataclasses.replace(e, record=True) for e in episodes]
     return episodes
+
+
+class ExpansionProgress:
+    """``expanding: i/N points`` on stderr every ``EVERY_S`` seconds, for expansions of at least
+    ``MIN_POINTS`` points (a 300 x 300 grid took minutes with no output)."""
+
+    MIN_POINTS = 1000
+    EVERY_S = 2.0
+
+    def __init__(self, total: int, enabled: bool = True) -> None:
+        self.total = total
+        self.enabled = enabled and total >= self.MIN_POINTS
+        self.count = 0
+        self.last = time.perf_counter()
+        if self.enabled:
+            print(f"expanding {total:,} points ...", file=sys.stderr, flush=True)
+
+    def advance(self) -> None:
+        self.count += 1
+        if self.enabled and time.perf_counter() - self.last >= self.EVERY_S:
+            self.last = time.perf_counter()
+            print(f"expanding: {self.count:,}/{self.total:,} points", file=sys.stderr, flush=True)
+
+    def done(self) -> None:
+        if self.enabled:
+            print(f"expanded {self.total:,} points", file=sys.stderr, flush=True)

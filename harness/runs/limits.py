@@ -9,6 +9,7 @@ with a message that says how to raise the limit.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from harness.config import ConfigError, SweepConfig
 
@@ -35,3 +36,25 @@ def check_sweep_size(sweep: SweepConfig, task_count: int, limit: int = MAX_EPISO
             f"axes or pass --max-episodes {count}"
         )
     return count
+
+
+# A run whose ``error`` rows exceed this share of its rows exits non-zero: errors are crashes or
+# input problems, never picks, and a sweep that is mostly errors must not look finished.
+MAX_ERROR_SHARE = 0.05
+
+
+def error_rows_line(errors: int, rows: int, run_dir: Path) -> str | None:
+    """One line saying how many rows are ``error`` and where they are listed (None if none)."""
+    if not errors:
+        return None
+    share = errors / rows if rows else 1.0
+    return (
+        f"{errors} of {rows} episode(s) ({share:.0%}) are error rows, not counted in any success "
+        f"rate; listed with their error_message in {run_dir / 'episodes.csv'} "
+        f"(failure_reason == error)"
+    )
+
+
+def too_many_errors(errors: int, rows: int) -> bool:
+    """True when ``error`` rows exceed ``MAX_ERROR_SHARE`` of the run's rows."""
+    return errors > MAX_ERROR_SHARE * rows

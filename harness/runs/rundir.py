@@ -16,6 +16,8 @@ import yaml
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
 from harness.config.interndata import NOTES_FILE, write_notes
+from harness.errors import DiskFullError
+from harness.files import is_disk_full
 from harness.runs.safety import (
     RunLock,
     check_sweep_hash,
@@ -24,6 +26,7 @@ from harness.runs.safety import (
     safe_file_name,
 )
 from harness.runs.store import CSV_NAME, JSONL_NAME, PARQUET_NAME, ResultStore
+from harness.runs.worker import DISK_FULL_PREFIX, recording_disk_full
 
 SWEEP_YAML = "sweep.yaml"
 # Everything a run writes at its top level: a planted symlink among them is refused. The report's
@@ -108,8 +111,25 @@ class RunDir:
         return self.store.completed_ids(include_errors=not retry_errors)
 
     def append(self, row: dict[str, Any]) -> None:
-        """Store one episode's row (crash-safe)."""
-        self.store.append(row)
+        """Store one episode's row (crash-safe). A full disk (writing the row, or the row's
+        recording) stops the run with ``DiskFullError`` once every row that fits is stored."""
+        try:
+            self.store.append(row)
+        except OSError as exc:
+            if is_disk_full(exc):
+                raise self.disk_full(str(exc)) from None
+            raise
+        if recording_disk_full(row):
+            raise self.disk_full(str(row["recording_error"]))
+
+    def disk_full(self, detail: str) -> DiskFullError:
+        """The one-line stop of a run whose disk is full: what is kept, how to continue."""
+        kept = len(self.store.completed_ids(include_errors=True))
+        return DiskFullError(
+            f"disk full under {self.path} ({detail.removeprefix(DISK_FULL_PREFIX)}): the run "
+            f"stopped; {kept} finished episode(s) are kept in {JSONL_NAME}; free space, then "
+            f"harness sweep --resume {self.path}"
+        )
 
     def finalize(self) -> None:
         """Export the store, rebuild the report and the sweep overview recording; unlock."""
@@ -121,8 +141,13 @@ class RunDir:
     def _finalize(self) -> None:
         from harness.report import build_report  # scipy: only once there are results
 
-        self.store.export()
-        build_report(self.path)
+        try:
+            self.store.export()
+            build_report(self.path)
+        except OSError as exc:
+            if is_disk_full(exc):
+                raise self.disk_full(str(exc)) from None
+            raise
         try:
             from harness.viz.sweep_recording import record_sweep
 

@@ -19,6 +19,7 @@ from harness.config import ConfigError, SweepConfig, load_sweep
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, check_sweep_size
+from harness.runs.preflight import check_tasks
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
 
@@ -29,6 +30,8 @@ class SweepOutcome:
     total: int
     skipped_existing: int
     stats: RunStats
+    rows: int = 0  # rows in the run directory after the run (the last row of each episode)
+    errors: int = 0  # of which ``error`` rows (crashes, input problems; in no success rate)
 
 
 def default_workers() -> int:
@@ -86,7 +89,8 @@ def run_sweep(
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes)
-        episodes = expand(sweep, source, tasks)
+        episodes = expand(sweep, source, tasks, progress=progress)
+        check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:
             run.create(
                 sweep,
@@ -116,4 +120,8 @@ def run_sweep(
         run.finalize()
     finally:
         run.lock.release()
-    return SweepOutcome(run.path, len(episodes), len(episodes) - len(todo), stats)
+    rows = run.completed_ids(retry_errors=False)
+    errors = len(rows - run.completed_ids(retry_errors=True))
+    return SweepOutcome(
+        run.path, len(episodes), len(episodes) - len(todo), stats, len(rows), errors
+    )

@@ -13,6 +13,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness.candidate_cache import CandidateCache
+from harness.errors import EpisodeTimeoutError
+from harness.files import is_disk_full
 from harness.row import identity_columns
 from harness.runs.safety import inside, safe_file_name
 
@@ -39,19 +41,31 @@ def execute(
     An episode answered partly from it has no trace; when its recording is wanted it runs
     again without the cache (same row) to make one.
     Never raises for episode-level problems: ``run_episode`` turns them into failure reasons,
-    and anything that escapes it becomes an ``error`` row here.
+    and anything that escapes it becomes an ``error`` row here. The episode runs under its
+    task's limits (``limits.wall_time_s``, ``limits.sim_steps``: past them it ends as
+    ``timeout``); MuJoCo's own log goes to ``RUN_DIR/MUJOCO_LOG.TXT``.
     """
     from harness.episode import run_episode  # MuJoCo and the planners: only where episodes run
+    from harness.sim.budget import episode_budget
+    from harness.sim.mujoco_log import log_mujoco_to
 
     start = time.perf_counter()
+    log_mujoco_to(Path(run_dir))
     _inject_fault(episode.resolved_id)
+    limits = episode.task.limits
     try:
         cache = _candidate_cache() if share else None
-        result = run_episode(episode, scene_cache=_SCENE_CACHE, candidate_cache=cache)
+        with episode_budget(limits.wall_time_s, limits.sim_steps):
+            result = run_episode(episode, scene_cache=_SCENE_CACHE, candidate_cache=cache)
         failed = not bool(result.row.get("success"))
         if result.shared and (episode.record or (record_policy == "failures" and failed)):
-            result = run_episode(episode, scene_cache=_SCENE_CACHE)  # for its trace
+            with episode_budget(limits.wall_time_s, limits.sim_steps):
+                result = run_episode(episode, scene_cache=_SCENE_CACHE)  # for its trace
         row = dict(result.row)
+    except EpisodeTimeoutError as exc:  # the alarm fired after run_episode's own handlers
+        result = None
+        row = error_row(episode, str(exc))
+        row["failure_reason"] = "timeout"
     except Exception as exc:  # the last line of defence; run_episode already catches
         result = None
         row = error_row(episode, f"{type(exc).__name__}: {exc}")
@@ -61,16 +75,31 @@ def execute(
     failed = not bool(row.get("success"))
     wants = episode.record or (record_policy == "failures" and failed)
     if wants and result is not None and getattr(result, "trace", None) is not None:
-        try:
-            from harness.viz.recording import record_episode
-
-            name = safe_file_name(episode.resolved_id, ".rrd")
-            path = inside(Path(run_dir), Path(run_dir) / "episodes" / name)
-            record_episode(result, path, episode.task)
-            row["recording"] = str(path.relative_to(run_dir))
-        except Exception as exc:  # a recording problem must not lose the episode
-            row["recording_error"] = f"{type(exc).__name__}: {exc}"
+        _record(result, episode, Path(run_dir), row)
     return row
+
+
+def _record(result: Any, episode: EpisodeSpec, run_dir: Path, row: dict[str, Any]) -> None:
+    """Write the episode's recording whole, or leave none and say why in ``recording_error``
+    (``disk full: ...`` on ENOSPC, which stops the run; see ``recording_disk_full``)."""
+    try:
+        from harness.viz.recording import record_episode
+
+        name = safe_file_name(episode.resolved_id, ".rrd")
+        path = inside(run_dir, run_dir / "episodes" / name)
+        record_episode(result, path, episode.task)
+        row["recording"] = str(path.relative_to(run_dir))
+    except Exception as exc:  # a recording problem must not lose the episode
+        prefix = DISK_FULL_PREFIX if is_disk_full(exc) else ""
+        row["recording_error"] = f"{prefix}{type(exc).__name__}: {exc}"
+
+
+DISK_FULL_PREFIX = "disk full: "
+
+
+def recording_disk_full(row: dict[str, Any]) -> bool:
+    """True when the row's recording failed because the disk is full (the run must stop)."""
+    return str(row.get("recording_error") or "").startswith(DISK_FULL_PREFIX)
 
 
 FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"

@@ -32,6 +32,7 @@ from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset
 from harness.robots.model import RobotModel
+from harness.sim.budget import spend
 from harness.sim.composition import TABLE_NAME, compose, with_object_defaults
 from harness.sim.index import (
     ArmHandles,
@@ -48,6 +49,12 @@ from harness.sim.queries import SceneQueries
 from harness.transforms import euler_xyz_deg_to_matrix, make_T, matrix_to_quat, quat_to_matrix
 
 MAX_SANE_SPEED = 1e3  # rad/s or m/s; anything faster is a diverged integration
+# Scene bounds (world frame, origin at the table-top centre): an object beyond them has tunnelled
+# through the table or been launched, and the episode is ``sim_unstable``, not a quiet
+# ``no_contact``. Chosen, no public source: the table is ~1 m high and ~1-2 m wide, so both are
+# far outside anything a pick reaches.
+MAX_FALL_M = 2.0
+MAX_REACH_M = 10.0
 DROP_CLEARANCE = 0.001  # objects start this far above the table (the reference's 1 mm)
 
 
@@ -279,7 +286,9 @@ class Scene(SceneQueries):
     # -- stepping -------------------------------------------------------------------------------
 
     def step(self, nstep: int) -> None:
-        """Advance the physics ``nstep`` steps inside MuJoCo (one call)."""
+        """Advance the physics ``nstep`` steps inside MuJoCo (one call), within the episode's
+        step budget and wall-clock limit (``harness.sim.budget``)."""
+        spend(nstep)
         mujoco.mj_step(self.model, self.data, nstep)
 
     def unstable(self) -> str | None:
@@ -297,6 +306,18 @@ class Scene(SceneQueries):
         speed = float(np.max(np.abs(d.qvel))) if len(d.qvel) else 0.0
         if speed > MAX_SANE_SPEED:
             return f"a velocity of {speed:.3g} (rad or m)/s: the integration diverged"
+        return self._escaped()
+
+    def _escaped(self) -> str | None:
+        """A reason when an object has left the scene: more than ``MAX_FALL_M`` below the table
+        top or beyond ``MAX_REACH_M`` of its centre (a tunnelled or launched object, not a
+        pick that merely missed)."""
+        for name, obj in self.objects.items():
+            x, y, z = (float(v) for v in self.data.qpos[obj.qpos_adr : obj.qpos_adr + 3])
+            if z < -MAX_FALL_M:
+                return f"object {name!r} fell {-z:.3g} m below the table top: it left the scene"
+            if max(abs(x), abs(y), z) > MAX_REACH_M:
+                return f"object {name!r} left the scene at ({x:.3g}, {y:.3g}, {z:.3g}) m"
         return None
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.files import WRITE_TIMEOUT_S, bounded, write_atomic
 from harness.robots import RobotModel
 from harness.transforms import wxyz_to_xyzw
 from harness.viz.episode_layers import (
@@ -33,16 +34,30 @@ from harness.viz.scene_geometry import body_entity, log_model_geometry
 from harness.viz.scene_geometry import rerun_sdk as _rr
 
 APP_ID = "pick-harness"
-__all__ = ["APP_ID", "VERDICT_COLORS", "episode_blueprint", "new_recording", "record_episode"]
+__all__ = [
+    "APP_ID",
+    "VERDICT_COLORS",
+    "episode_blueprint",
+    "open_recording",
+    "record_episode",
+    "save_recording",
+]
 
 
-def new_recording(path: Path, name: str):
-    """A RecordingStream writing to ``path`` (parents created)."""
+def open_recording(name: str) -> tuple[Any, Any]:
+    """A RecordingStream logging into memory, and its byte stream (see ``save_recording``)."""
     rr = _rr()
-    path.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(APP_ID, recording_id=name)
-    rec.save(str(path))
-    return rec
+    return rec, rec.binary_stream()
+
+
+def save_recording(rec: Any, stream: Any, path: Path) -> Path:
+    """Write an ``open_recording`` to ``path`` whole or not at all (temp file + rename, bounded
+    waits): a full or hung disk raises instead of hanging the run or leaving a truncated
+    ``.rrd`` (rerun's own file sink can block in ``disconnect()`` on a full disk)."""
+    data = bounded(lambda: stream.read(flush=True) or b"", WRITE_TIMEOUT_S, "flushing a recording")
+    bounded(rec.disconnect, WRITE_TIMEOUT_S, "closing a recording")
+    return write_atomic(path, data)
 
 
 def log_series(
@@ -121,7 +136,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     if trace is None or model is None:
         raise ValueError("the episode has no trace to record (it stopped before the scene ran)")
     row = result.row
-    rec = new_recording(Path(path), str(row.get("episode_id") or Path(path).stem))
+    rec, stream = open_recording(str(row.get("episode_id") or Path(path).stem))
     rec.send_blueprint(episode_blueprint(executed=len(trace.time) > 0))
     rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
@@ -140,8 +155,7 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
         rec.set_time("sim_time", duration=float(t))
         rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
     log_verdict(rec, row, trace, float(times[-1]) if len(times) else 0.0)
-    rec.disconnect()
-    return Path(path)
+    return save_recording(rec, stream, Path(path))
 
 
 def _log_scene(rec: Any, model: Any, trace: Any, frames: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from harness.markdown import markdown_table
-from harness.viz.recording import new_recording
+from harness.viz.recording import open_recording, save_recording
 
 
 def record_sweep(run_dir: Path) -> Path | None:
@@ -28,7 +28,7 @@ def record_sweep(run_dir: Path) -> Path | None:
         return None
     summary = pd.read_csv(summary_path)
     path = run_dir / "recording.rrd"
-    rec = new_recording(path, f"sweep-{run_dir.name}")
+    rec, stream = open_recording(f"sweep-{run_dir.name}")
     rec.send_blueprint(
         rrb.Blueprint(
             rrb.Horizontal(
@@ -75,8 +75,7 @@ def record_sweep(run_dir: Path) -> Path | None:
             )
             level = rr.TextLogLevel.INFO if ok else rr.TextLogLevel.WARN
             rec.log("/episodes", rr.TextLog(text, level=level))
-    rec.disconnect()
-    return path
+    return save_recording(rec, stream, path)
 
 
 def _summary_markdown(summary: Any) -> str:

@@ -1,0 +1,99 @@
+"""Writing files that are whole or absent: temp file + fsync + rename, under a bounded wait.
+
+A reader (a report viewer, ``--resume``, a later run) must never see half a file, and a full or
+hung disk must not hang an unattended run. ``write_atomic`` writes to a hidden temp file beside
+the target, fsyncs it and renames it over the target; on any failure the temp file is removed and
+the target is left as it was. ``bounded`` runs a blocking call on a helper thread and gives up
+after a timeout (the thread is abandoned; the caller goes on). ``is_disk_full`` tells a full
+disk (ENOSPC, EDQUOT) from other I/O errors, so a run can stop on it with one line.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import TypeVar
+
+T = TypeVar("T")
+
+# A generous bound for one file write (a recording is a few MB): a healthy disk takes well under
+# a second, so only a hung file system reaches it.
+WRITE_TIMEOUT_S = 60.0
+DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
+
+
+def _process_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# Written files get the usual permissions (mkstemp's temp files are 0600).
+FILE_MODE = 0o666 & ~_process_umask()
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """True for "no space left on device" and "disk quota exceeded"."""
+    return isinstance(exc, OSError) and exc.errno in DISK_FULL_ERRNOS
+
+
+def bounded(call: Callable[[], T], timeout_s: float, what: str) -> T:
+    """``call()``, or ``TimeoutError`` naming ``what`` if it has not returned in ``timeout_s``."""
+    outcome: dict[str, object] = {}
+
+    def target() -> None:
+        try:
+            outcome["value"] = call()
+        except BaseException as exc:  # handed to the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=target, name=f"bounded {what}", daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    if thread.is_alive():
+        raise TimeoutError(f"{what} did not finish within {timeout_s:g} s")
+    if "error" in outcome:
+        raise outcome["error"]  # type: ignore[misc]
+    return outcome["value"]  # type: ignore[return-value]
+
+
+# Fault injection for tests where no small file system can be mounted: a write to a file whose
+# name contains this variable's value fails half-way with ENOSPC, as on a full disk.
+DISK_FULL_ENV = "PICK_HARNESS_INJECT_ENOSPC"
+
+
+def _write_and_rename(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, FILE_MODE)
+        with os.fdopen(fd, "wb") as handle:
+            injected = os.environ.get(DISK_FULL_ENV)
+            if injected and injected in path.name:
+                handle.write(data[: len(data) // 2])
+                handle.flush()
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_atomic(path: str | Path, data: bytes | str, timeout_s: float = WRITE_TIMEOUT_S) -> Path:
+    """Write ``data`` to ``path`` whole (temp + fsync + rename) within ``timeout_s``.
+
+    Raises ``OSError`` (``is_disk_full`` tells ENOSPC) or ``TimeoutError``; either way ``path``
+    is unchanged and no temp file is left behind (a timed-out write removes its temp file when
+    it ends).
+    """
+    path = Path(path)
+    payload = data.encode("utf-8") if isinstance(data, str) else data
+    path.parent.mkdir(parents=True, exist_ok=True)
+    bounded(lambda: _write_and_rename(path, payload), timeout_s, f"writing {path}")
+    return path

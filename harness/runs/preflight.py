@@ -1,0 +1,136 @@
+"""Deep validation: everything a task needs to run, checked before any episode runs.
+
+The YAML schema (``harness.config``) checks a file's shape; this checks what the run will load:
+the robot is known and has the task's arm, ``home`` has one value per joint of that arm and lies
+within the URDF's joint limits, every mesh exists, is not empty and loads (its collision pieces
+too), the target's grasp file exists and holds a finite N x 17 float array (read with
+``allow_pickle=False``), and no object is placed inside the table. Without this, each of those
+turns every row of a run into ``error`` (or, for the placement, into a quiet success that the
+reference engine would never see). Every problem is one ``InputFileError`` line naming the file
+and the key. ``harness validate`` runs it on task and sweep files, ``harness run`` and
+``harness sweep`` before the first episode.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from harness.config import TaskConfig
+from harness.errors import HarnessError, InputFileError
+
+# Joint values within this of a URDF limit count as inside it (rounded homes in robot.yaml).
+LIMIT_TOLERANCE_RAD = 1e-6
+# An object's placement may dip this far below resting on the table (m) before it is refused.
+TABLE_TOLERANCE_M = 0.001
+
+
+def _where(task: TaskConfig) -> str:
+    return task.source or f"task {task.name!r}"
+
+
+def check_task(task: TaskConfig) -> None:
+    """Raise one ``HarnessError`` line for the first thing ``task`` would fail on at run time."""
+    from harness.robots import RobotModel
+
+    where = _where(task)
+    try:
+        robot = RobotModel.load(task.robot, task.gripper)
+    except HarnessError as exc:
+        raise InputFileError(where, str(exc), "robot") from None
+    try:
+        arm = robot.arm(task.arm)
+    except HarnessError as exc:
+        raise InputFileError(where, str(exc), "arm") from None
+    _check_home(task, robot, arm.joints, where)
+    _check_placements(task, where)
+    _check_objects(task, where)
+
+
+def _check_home(task: TaskConfig, robot: object, joints: list[str], where: str) -> None:
+    from harness.robots import RobotModel
+
+    assert isinstance(robot, RobotModel)
+    for key, values in (("home", task.home), ("home_noise_std", task.home_noise_std)):
+        if values is not None and len(values) != len(joints):
+            raise InputFileError(
+                where,
+                f"has {len(values)} values; the {task.arm} arm of {robot.name} has "
+                f"{len(joints)} joints ({', '.join(joints)})",
+                key,
+            )
+    if task.home is None:
+        return
+    limits = robot.position_limits(joints)
+    for index, (joint, value) in enumerate(zip(joints, task.home, strict=True)):
+        lo, hi = limits[index]
+        if not lo - LIMIT_TOLERANCE_RAD <= value <= hi + LIMIT_TOLERANCE_RAD:
+            raise InputFileError(
+                where,
+                f"{value:g} is outside the limits of joint {joint} [{lo:g}, {hi:g}]",
+                f"home[{index}]",
+            )
+
+
+def _check_placements(task: TaskConfig, where: str) -> None:
+    """Objects rest on the table top at placement z offset 0; below that they start inside it."""
+    for index, obj in enumerate(task.objects):
+        if obj.placement is None:
+            continue
+        z_min = float(obj.placement.pos_range[0][2])
+        if z_min < -TABLE_TOLERANCE_M:
+            raise InputFileError(
+                where,
+                f"z offset {z_min:g} m places object {obj.name!r} {-z_min * 1000:.0f} mm inside "
+                "the table (z offsets are above resting on the table top; use >= 0)",
+                f"objects[{index}].placement.pos_range",
+            )
+
+
+def _check_objects(task: TaskConfig, where: str) -> None:
+    from harness.grasps import load_grasp_file
+    from harness.objects.assets import ObjectAsset, find_grasp_file, resolve_mesh
+    from harness.sim.composition import with_object_defaults
+
+    base = task.base_dir()
+    for index, raw in enumerate(task.objects):
+        obj = with_object_defaults(raw)
+        key = f"objects[{index}]"
+        try:
+            mesh_path = resolve_mesh(obj.mesh, base)
+            grasps = obj.grasps
+            if grasps is not None and not Path(grasps).is_absolute():
+                grasps = str(base / grasps) if (base / grasps).is_file() else grasps
+            asset = ObjectAsset.load(
+                mesh_path, obj.scale, grasps, task.pick.npy_name, obj.mass, obj.friction
+            )
+        except InputFileError as exc:
+            raise InputFileError(exc.file, exc.message, f"{key}.{exc.key or 'mesh'}") from None
+        except HarnessError as exc:
+            raise InputFileError(where, str(exc), f"{key}.mesh") from None
+        if obj.name != task.target_object.name:
+            continue
+        grasp_path = asset.grasp_path
+        if obj.grasps is None and task.pick.npy_name != "Aligned_grasp_sparse.npy":
+            grasp_path = find_grasp_file(asset.path, task.pick.npy_name)
+        if grasp_path is None:
+            raise InputFileError(
+                where,
+                f"object {obj.name!r} ({mesh_path}) has no grasp file ({task.pick.npy_name}, "
+                "<mesh>_grasps.npy or grasps.npy next to the mesh)",
+                f"{key}.grasps",
+            )
+        try:
+            load_grasp_file(grasp_path)
+        except InputFileError as exc:
+            where_in_file = f"{key}.grasps {exc.key or ''}".strip()
+            raise InputFileError(exc.file, exc.message, where_in_file) from None
+
+
+def check_tasks(tasks: list[TaskConfig]) -> None:
+    """``check_task`` on each distinct task (a sweep's points share most of them)."""
+    seen: set[str] = set()
+    for task in tasks:
+        key = task.model_dump_json()
+        if key not in seen:
+            seen.add(key)
+            check_task(task)
