@@ -27,17 +27,24 @@ SIGNIFICANCE = 0.05
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
-    paths = build_report(run_dir, export=True, objective=args.objective)
     console = make_console()
+    if args.videos:
+        console.print("replaying one success and one failure per robot arm for the videos ...")
+    paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
     for row in series_rows(best):
+        valid = (
+            f"; valid {row['valid_rate']:.0%}, 95% CI "
+            f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}"
+            if not math.isnan(row["valid_rate"])
+            else ""
+        )
         console.print(
-            f"best for [bold]{row['robot']}[/]: {point_label(row, params)} — "
-            f"{row['successes']}/{row['n']} ({row['rate']:.0%}, 95% CI "
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}; valid {row['valid_rate']:.0%}, "
-            f"95% CI {row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}; ranked by "
+            f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
+            f"{point_label(row, params)} — {row['successes']}/{row['n']} ({row['rate']:.0%}, "
+            f"95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}{valid}; ranked by "
             f"{args.objective})",
             soft_wrap=True,
         )
@@ -47,6 +54,7 @@ def main(args: argparse.Namespace) -> int:
         ("report", paths.report_md),
         ("html", paths.report_html),
         ("plots", paths.run_dir / "plots"),
+        *([("videos", paths.run_dir / "videos")] if paths.videos else []),
     ):
         console.print(f"  {label:8s} {path}", soft_wrap=True, highlight=False)
     return 0

@@ -98,7 +98,7 @@ def _table(rows: list[dict[str, Any]], total: int) -> Table:
         table.add_row(
             str(row.get("episode_index", "")),
             str(row.get("task", "")),
-            str(row.get("seed", ""))[:8],
+            str(row.get("seed", "")),  # in full: a cut seed reproduces nothing
             "[green]success[/]" if ok else "[red]fail[/]",
             str(row.get("failure_reason", "")),
             _fmt(lift, 1e3, "{:.0f}"),

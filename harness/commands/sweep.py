@@ -35,10 +35,10 @@ def main(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
     )
     stats = outcome.stats
-    if args.objective != "reference":  # the run's report ranked by the reference rate
+    if args.objective != "reference" or args.videos:  # rebuilt: ranked otherwise, or filmed
         from harness.report import build_report
 
-        build_report(outcome.run_dir, objective=args.objective)
+        build_report(outcome.run_dir, objective=args.objective, videos=args.videos)
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(

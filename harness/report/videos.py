@@ -94,6 +94,8 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         specs = _specs(run_dir, set(chosen["episode_id"].astype(str)))
     except Exception as exc:  # a run directory without a usable sweep.yaml: no videos
         return [_clip(row, None, note=f"not replayable: {exc}") for _, row in chosen.iterrows()]
+    if (run_dir / VIDEOS_DIR).is_symlink():  # never write through a planted symlink
+        return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
     (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
     return [_film(run_dir, row, specs.get(str(row["episode_id"]))) for _, row in chosen.iterrows()]
 

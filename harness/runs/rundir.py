@@ -40,6 +40,7 @@ RUN_OUTPUTS = (
     "recording.rrd",
     "episodes",
     "plots",
+    "videos",
 )
 
 
