@@ -23,7 +23,7 @@ from harness.runs.safety import safe_file_name
 
 VIDEOS_DIR = "videos"
 SWEEP_YAML = "sweep.yaml"  # harness.runs.rundir.SWEEP_YAML (rundir imports the report)
-FPS = 12
+FPS = 10
 WIDTH, HEIGHT = 320, 240
 MAX_CLIPS = 16
 CHECKED = ("success", "failure_reason", "chosen_index")  # what a caption must be true about
@@ -97,7 +97,11 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
     if (run_dir / VIDEOS_DIR).is_symlink():  # never write through a planted symlink
         return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
     (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
-    return [_film(run_dir, row, specs.get(str(row["episode_id"]))) for _, row in chosen.iterrows()]
+    scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
+    return [
+        _film(run_dir, row, specs.get(str(row["episode_id"])), scenes)
+        for _, row in chosen.iterrows()
+    ]
 
 
 def _clip(row: Any, path: Path | None, frames: int = 0, note: str = "") -> Clip:
@@ -115,7 +119,7 @@ def _clip(row: Any, path: Path | None, frames: int = 0, note: str = "") -> Clip:
     )
 
 
-def _film(run_dir: Path, row: Any, spec: Any) -> Clip:
+def _film(run_dir: Path, row: Any, spec: Any, scenes: dict[Any, Any]) -> Clip:
     if spec is None:
         return _clip(row, None, note="its sweep.yaml no longer expands to this episode")
     from harness.episode import run_episode
@@ -123,7 +127,7 @@ def _film(run_dir: Path, row: Any, spec: Any) -> Clip:
 
     relative = Path(VIDEOS_DIR) / safe_file_name(str(row["episode_id"]), ".mp4")
     try:
-        result = run_episode(spec)
+        result = run_episode(spec, scenes)
         frames = write_episode_video(result, run_dir / relative, FPS, WIDTH, HEIGHT)
     except Exception as exc:  # no GL context, no scene: the report goes on without this clip
         return _clip(row, None, note=f"not rendered: {type(exc).__name__}: {exc}")
