@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 from rich.table import Table
@@ -20,6 +21,7 @@ from harness.report import (
 )
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
+from harness.report.tables import setting_params
 
 SIGNIFICANCE = 0.05
 
@@ -65,14 +67,26 @@ def _short(column: str) -> str:
     return column.split(".")[-1]
 
 
+def valid_cells(row: Any) -> list[str]:
+    """``valid k/m``, its rate and Wilson interval; blank when no episode was judged."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", "", ""]
+    return [
+        f"{int(row['valid'])}/{judged}",
+        f"{row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
+
+
 def summary_table(summary: pd.DataFrame, title: str) -> Table:
     """The per-point summary as a rich table (robot, arm, object, swept values, rate, CI)."""
     params = [c for c in summary.columns if c.startswith("param.")]
-    shown = varying_params(summary) or params
+    shown = setting_params(summary) or varying_params(summary) or params
     table = Table(title=title)
     for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)
-    for column in ("k/n", "rate", "95% CI", "top failure"):
+    for column in ("k/n", "rate", "95% CI", "valid", "valid rate", "valid CI", "top failure"):
         table.add_column(column, justify="right")
     fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
     for row in series_rows(summary):
@@ -84,8 +98,9 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
             str(row["object"]),
             *[format_value(row[p]) for p in shown],
             f"{int(row['successes'])}/{int(row['n'])}",
-            f"{row['rate']:.0%}",
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+            f"{row['rate']:.0%}" if row["n"] else "",
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
+            *valid_cells(row),
             f"{top} ({fails[top]})" if top else "",
         )
     return table

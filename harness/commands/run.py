@@ -167,16 +167,7 @@ def main(args: argparse.Namespace) -> int:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
     run.finalize()
-    successes = sum(bool(row.get("success")) for row in rows)
-    n = len(rows)
-    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
-
-    lo, hi = wilson_interval(successes, n)
-    rate = successes / n if n else 0.0
-    console.print(
-        f"success {successes}/{n} = {rate:.0%} (95% Wilson interval {lo:.2f}-{hi:.2f}) "
-        f"in {time.perf_counter() - start:.1f} s"
-    )
+    console.print(f"{rate_line(rows)} in {time.perf_counter() - start:.1f} s")
     failures: dict[str, int] = {}
     for row in rows:
         if not row.get("success"):
@@ -188,7 +179,26 @@ def main(args: argparse.Namespace) -> int:
         )
     extra = ", skipped.txt" if picks else ""
     console.print(f"run directory: {run.path}  (episodes.csv, summary.csv, report{extra})")
-    return 0 if n == len(episodes) else 130
+    return 0 if len(rows) == len(episodes) else 130
+
+
+def rate_line(rows: list[dict[str, Any]]) -> str:
+    """``success k/n = r% (95% Wilson ...); valid v/m = ...``: error rows are in neither rate."""
+    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
+
+    rated = [row for row in rows if row.get("failure_reason") != "error"]
+    parts = []
+    judged = [row for row in rated if row.get("valid") or row.get("invalid_reason")]
+    for name, hits, n in (
+        ("success", sum(bool(row.get("success")) for row in rated), len(rated)),
+        ("valid", sum(bool(row.get("valid")) for row in judged), len(judged)),
+    ):
+        if n or name == "success":
+            lo, hi = wilson_interval(hits, n)
+            rate = f"{hits / n:.0%}" if n else "-"
+            parts.append(f"{name} {hits}/{n} = {rate} (95% Wilson interval {lo:.2f}-{hi:.2f})")
+    errors = len(rows) - len(rated)
+    return "; ".join(parts) + (f"; {errors} error row(s) in no rate" if errors else "")
 
 
 def _count(item: tuple[str, int]) -> tuple[int, str]:

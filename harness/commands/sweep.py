@@ -68,6 +68,17 @@ def _cell(value: object) -> str:
     return str(value)
 
 
+def _valid(row: Any) -> list[str]:
+    """The valid rate beside the reference rate: ``v/m r%`` and its Wilson interval."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", ""]
+    return [
+        f"{int(row['valid'])}/{judged} {row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
+
+
 def print_summary(run_dir: Path, console: Console) -> None:
     """The per-point summary table and the paths of the report and the recording."""
     import pandas as pd
@@ -86,7 +97,7 @@ def print_summary(run_dir: Path, console: Console) -> None:
         ]
         for column in [*keys, *params]:
             table.add_column(column.removeprefix("param.").removeprefix("pick."))
-        for column in ("n", "rate", "95% CI", "top failure"):
+        for column in ("n", "rate", "95% CI", "valid", "valid CI", "top failure"):
             table.add_column(column, justify="right")
         fail_columns = [c for c in summary.columns if c.startswith("fail.")]
         for _, cells in summary.iterrows():
@@ -98,6 +109,7 @@ def print_summary(run_dir: Path, console: Console) -> None:
                 str(int(row["n"])),
                 f"{row['rate']:.0%}",
                 f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+                *_valid(row),
                 f"{top} ({fails[top]})" if top else "",
             )
         console.print(table)
