@@ -58,6 +58,9 @@ def test_the_page_is_self_contained_with_a_heatmap_per_robot_arm_and_object(
     assert len(groups) == 4  # split_aloha left and right x cube and banana
     heatmaps = set(re.findall(r'id="heatmap-([a-z0-9_]+)-(left|right)-([a-z0-9_]+)"', page))
     assert heatmaps == groups
+    first = page.index('id="heatmap-')
+    hover = page[first : page.index("</script>", first)]
+    assert "95% CI" in hover and "failures: " in hover  # the hover details, per cell
     assert 'class="sortable"' in page and "addEventListener('click'" in page
     best = pd.read_csv(real_run / "best.csv")
     assert len(best) == 4 and set(best["points_compared"]) == {2}

@@ -120,9 +120,9 @@ def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[go.Figure
     subtitle = f" (pooled over {', '.join(pooled_over)})" if pooled_over else ""
     figure.update_layout(
         title={"text": title + subtitle, "font": {"size": 14}},
-        width=max(300, 150 + CELL_WIDTH * len(x_values)),
+        width=max(280, (140 if y_axis else 50) + CELL_WIDTH * len(x_values)),
         height=max(190, 120 + CELL_HEIGHT * len(y_values)),
-        margin={"l": 90, "r": 20, "t": 45, "b": 60},
+        margin={"l": 110 if y_axis else 20, "r": 20, "t": 45, "b": 60},
         xaxis={"title": x_axis.split(".")[-1] if x_axis else "", "type": "category"},
         yaxis={"title": y_axis.split(".")[-1] if y_axis else "", "type": "category"},
         plot_bgcolor="#eaeef2",
