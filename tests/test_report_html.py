@@ -121,7 +121,9 @@ def test_the_reference_fallback_is_flagged(tmp_path: Path, capsys) -> None:
     assert cli_main(args) == 0
     frame = load_episodes(run)
     assert frame["filter_outcome"].tolist() == ["fallback"]
-    assert str(int(frame["seed"].iloc[0])) in capsys.readouterr().out  # the full seed
+    out = capsys.readouterr().out
+    assert str(int(frame["seed"].iloc[0])) in out  # the full seed
+    assert "reference fallback in 1 episode(s)" in out
     summary = pd.read_csv(run / "summary.csv")
     assert summary["fallback"].tolist() == [1]
     page = (run / "report.html").read_text(encoding="utf-8")

@@ -177,6 +177,13 @@ def main(args: argparse.Namespace) -> int:
         console.print(
             "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
         )
+    fallback = sum(row.get("filter_outcome") == "fallback" for row in rows)
+    if fallback:
+        console.print(
+            f"[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
+            "candidate and poses 0..19 of the unfiltered file were tried instead",
+            soft_wrap=True,
+        )
     extra = ", skipped.txt" if picks else ""
     console.print(f"run directory: {run.path}  (episodes.csv, summary.csv, report{extra})")
     return 0 if len(rows) == len(episodes) else 130

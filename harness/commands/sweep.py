@@ -113,6 +113,13 @@ def print_summary(run_dir: Path, console: Console) -> None:
                 f"{top} ({fails[top]})" if top else "",
             )
         console.print(table)
+        counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
+        if sum(counts):
+            console.print(
+                f"[yellow]reference fallback[/] at {sum(c > 0 for c in counts)} point(s) "
+                f"({sum(counts)} episodes): the filter kept no candidate (report.html: ⚑)",
+                soft_wrap=True,
+            )
     for name in ("summary.csv", "episodes.csv", "report.md", "report.html", "recording.rrd"):
         path = run_dir / name
         if path.exists():
