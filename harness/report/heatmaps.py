@@ -67,6 +67,8 @@ def _cell(row: Any) -> tuple[float | None, str, str]:
         text += f"<br>valid {int(row['valid'])}/{judged}"
     if fallback:
         text += f" {FALLBACK_MARK}"
+    if errors:
+        text += f"<br>+{errors} error{'s' if errors > 1 else ''}"
     hover = [
         f"reference {k}/{n}" + (f" = {rate:.0%}" if rate is not None else ""),
         f"95% CI {_interval(row['wilson_lo'], row['wilson_hi'])}" if n else "no rated episodes",
@@ -93,12 +95,13 @@ def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[go.Figure
     z: list[list[float | None]] = [[None] * len(x_values) for _ in y_values]
     text = [["not run"] * len(x_values) for _ in y_values]
     hover = [["not run"] * len(x_values) for _ in y_values]
-    fallback_cells = 0
+    flagged: list[tuple[int, int]] = []
     for row in series_rows(cells):
         i = y_values.index(row[y_axis]) if y_axis else 0
         j = x_values.index(row[x_axis]) if x_axis else 0
         z[i][j], text[i][j], hover[i][j] = _cell(row)
-        fallback_cells += int(bool(row.get("fallback", 0)))
+        if row.get("fallback", 0):
+            flagged.append((i, j))
     figure = go.Figure(
         go.Heatmap(
             z=z,
@@ -127,7 +130,16 @@ def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[go.Figure
         yaxis={"title": y_axis.split(".")[-1] if y_axis else "", "type": "category"},
         plot_bgcolor="#eaeef2",
     )
-    return figure, fallback_cells
+    for i, j in flagged:  # a dotted frame: the reference fallback ran in this cell
+        figure.add_shape(
+            type="rect",
+            x0=j - 0.5,
+            x1=j + 0.5,
+            y0=i - 0.5,
+            y1=i + 0.5,
+            line={"color": "#1f2328", "width": 3, "dash": "dot"},
+        )
+    return figure, len(flagged)
 
 
 def success_heatmaps(summary: pd.DataFrame) -> list[Heatmap]:

@@ -136,7 +136,7 @@ def heatmaps_html(heatmaps: Sequence[Heatmap]) -> list[str]:
         '<p class="note">Cells: reference successes / rated episodes, rate, valid successes / '
         "judged episodes. Hover a cell for the 95% Wilson intervals, the failures and the "
         f"error rows. {FALLBACK_MARK}: the reference fallback supplied the candidates "
-        f"(the filter kept none){f' ({flagged} cells)' if flagged else ''}.</p>",
+        f"(the filter kept none; dotted frame){f': {flagged} cell(s)' if flagged else ''}.</p>",
     ]
     for robot, maps in groupby(heatmaps, key=lambda h: h.robot):
         parts.append(f"<h3>{html.escape(robot)}</h3>")
