@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 import pandas as pd
-import plotly.graph_objects as go
 
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.labels import format_value, varying_params
@@ -86,7 +85,9 @@ def _cell(row: Any) -> tuple[float | None, str, str]:
     return rate, text, "<br>".join(hover)
 
 
-def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[go.Figure, int]:
+def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[Any, int]:
+    import plotly.graph_objects as go  # ~0.5 s: only when a page is drawn
+
     x_axis = axes[0] if axes else None
     y_axis = axes[1] if len(axes) > 1 else None
     cells = pooled(group, [a for a in (x_axis, y_axis) if a] or ["robot"])

@@ -15,7 +15,6 @@ from itertools import groupby
 from pathlib import Path
 
 import pandas as pd
-from plotly.offline import get_plotlyjs
 
 from harness.report.heatmaps import Heatmap
 from harness.report.render import PLOT_CAPTIONS
@@ -193,6 +192,8 @@ def render_page(
     clips: Sequence[Clip] = (),
 ) -> str:
     """The whole page. The static success plot is left out when the heatmaps show it."""
+    from plotly.offline import get_plotlyjs  # only when a page is drawn
+
     esc = html.escape
     parts = [
         "<!DOCTYPE html>",
