@@ -111,6 +111,22 @@ def test_error_rows_are_left_out_of_rates_and_listed(real_run: Path, tmp_path: P
     assert "1 error rows left out of every rate" in page
 
 
+def test_a_run_of_error_rows_only_still_reports(real_run: Path, tmp_path: Path) -> None:
+    """Every episode re-stored as an error (the last row of an id wins): no rate anywhere, the
+    report is still written and lists each of them."""
+    run = copy_run(real_run, tmp_path / "all-errors")
+    store = ResultStore(run)
+    for row in store.load().to_dict("records"):
+        store.append({**row, "success": False, "failure_reason": "error",
+                      "error_message": "ConfigError: injected"})  # fmt: skip
+    paths = build_report(run, export=True)
+    summary = pd.read_csv(paths.summary_csv)
+    assert (summary["n"] == 0).all() and (summary["errors"] == 1).all()
+    assert summary["rate"].isna().all()
+    page = paths.report_html.read_text(encoding="utf-8")
+    assert page.count("ConfigError: injected") == len(summary)
+
+
 def test_the_reference_fallback_is_flagged(tmp_path: Path, capsys) -> None:
     """No pose has both EE x and z within 5 degrees of up: the filter keeps nothing, the
     reference falls back to poses 0..19 (filter_outcome ``fallback``); the report flags it."""

@@ -37,6 +37,10 @@ def main(args: argparse.Namespace) -> int:
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
     for row in series_rows(best):
+        if not row["n"]:
+            name = f"{row['robot']} {row['arm']} {row['object']}"
+            console.print(f"best for {name}: no rated episodes (only error rows)")
+            continue
         valid = (
             f"; valid {row['valid_rate']:.0%}, 95% CI "
             f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}"

@@ -107,8 +107,8 @@ def print_summary(run_dir: Path, console: Console) -> None:
             table.add_row(
                 *[_cell(row[c]) for c in [*keys, *params]],
                 str(int(row["n"])),
-                f"{row['rate']:.0%}",
-                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+                f"{row['rate']:.0%}" if row["n"] else "",  # n = 0: every row an error
+                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
                 *_valid(row),
                 f"{top} ({fails[top]})" if top else "",
             )

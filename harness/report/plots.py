@@ -281,6 +281,11 @@ def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
 
 def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
     """Left: candidate sums per stage (log scale); right: share of episodes reaching a stage."""
+    if stages.empty:  # every row an error: nothing reached any stage
+        fig, ax = plt.subplots(figsize=(6, 1.5))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no rated episodes (every row is an error)", ha="center", va="center")
+        return _save(fig, path)
     robots = stages["robot"].tolist()
     colours = _robot_colours(robots)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))

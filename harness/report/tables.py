@@ -305,6 +305,13 @@ def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
     return frame_of(table[order])
 
 
+FUNNEL_COLUMNS: tuple[str, ...] = (
+    "robot", "episodes", "candidates_total", "candidates_passed_filter", "candidates_feasible",
+    "candidates_succeeded", "median_total", "median_passed_filter", "median_feasible",
+    "episodes_filter_ok", "episodes_feasible", "episodes_success",
+)  # fmt: skip
+
+
 def funnel(frame: pd.DataFrame) -> pd.DataFrame:
     """Per robot: candidate sums (total -> passed filter -> feasible -> succeeded) and the
     share of episodes reaching each stage (``error`` rows left out)."""
@@ -327,7 +334,7 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
                 "episodes_success": float(column(group, "success").mean()),
             }
         )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=list(FUNNEL_COLUMNS))
 
 
 def error_messages(frame: pd.DataFrame) -> pd.DataFrame:
