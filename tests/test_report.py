@@ -209,6 +209,9 @@ def test_failure_totals_and_funnel(fixture_run: Path) -> None:
     assert stages.loc["fr3", "candidates_passed_filter"] == 5 * (400 + 410 + 420)
     assert stages.loc["fr3", "candidates_feasible"] == 15
     assert stages.loc["fr3", "candidates_succeeded"] == 11
+    assert stages.loc["fr3", "candidates_tested"] == 15 * 3  # every fr3 episode tested 3
+    # split_aloha: 3 tested in each of the 22 episodes whose filter kept candidates
+    assert stages.loc["split_aloha", "candidates_tested"] == 22 * 3
     # split_aloha: 8 filter_empty episodes of 30 kept no candidate; 9 found nothing feasible.
     assert stages.loc["split_aloha", "episodes_filter_ok"] == pytest.approx(22 / 30)
     assert stages.loc["split_aloha", "episodes_feasible"] == pytest.approx(21 / 30)

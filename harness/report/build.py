@@ -32,7 +32,7 @@ from harness.report.labels import varying_params
 from harness.report.page import render_page
 from harness.report.plots import plot_failures, plot_funnel, plot_success
 from harness.report.render import render_markdown
-from harness.report.sections import Table, funnel_table, report_tables
+from harness.report.sections import Table, funnel_tables, report_tables
 from harness.report.tables import (
     best_settings,
     error_rows,
@@ -121,7 +121,7 @@ def build_report(
     tables = [
         *report_tables(frame, summary, best),
         *episode_tables(run_dir, frame, summary),
-        funnel_table(funnel(frame)),
+        *funnel_tables(funnel(frame)),
     ]
     clips = render_clips(run_dir, frame) if videos else []
     report_md = run_dir / "report.md"

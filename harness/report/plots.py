@@ -197,7 +197,7 @@ def _rate_axis(ax: Axes) -> None:
 
 def _outcome_rows(summary: pd.DataFrame) -> tuple[pd.DataFrame, list[str], str]:
     """Summary rows to draw (pooled coarser when there are too many) and their labels."""
-    params = varying_params(summary)
+    params = setting_params(summary) or varying_params(summary)
     levels = (
         (["robot", "arm", "object", "task", "point"], "per task and point"),
         (["robot", "point"], "per robot and point, pooled over arms and objects"),
@@ -289,12 +289,12 @@ def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
     robots = stages["robot"].tolist()
     colours = _robot_colours(robots)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
-    names = ["candidates", "passed filter", "feasible", "succeeded"]
+    names = ["candidates", "passed filter", "tested", "feasible"]
     columns = [
         "candidates_total",
         "candidates_passed_filter",
+        "candidates_tested",
         "candidates_feasible",
-        "candidates_succeeded",
     ]
     width = 0.8 / max(len(robots), 1)
     for index, row in enumerate(series_rows(stages.reset_index(drop=True))):

@@ -246,37 +246,46 @@ def _failures_table(totals: pd.DataFrame) -> Table:
     )
 
 
-def funnel_table(stages: pd.DataFrame) -> Table:
-    return Table(
-        "Candidate funnel",
+def funnel_tables(stages: pd.DataFrame) -> list[Table]:
+    """The candidate funnel (candidates summed over episodes) and, apart, the episodes that
+    reached each stage: candidates and episodes are never mixed in one column."""
+    candidates = Table(
+        "Candidate funnel (candidates, summed over episodes)",
+        ["robot", "candidates", "passed filter", "tested", "feasible"],
         [
-            "robot",
-            "episodes",
-            "candidates",
-            "passed filter",
-            "feasible",
-            "succeeded",
-            "episodes filter ok",
-            "episodes feasible",
-            "episodes success",
+            [
+                str(r.robot),
+                f"{r.candidates_total:,}",
+                f"{r.candidates_passed_filter:,}",
+                f"{r.candidates_tested:,}",
+                f"{r.candidates_feasible:,}",
+            ]
+            for r in tuple_rows(stages)
         ],
+        "Grasp poses in the files, those the direction filters kept, those the feasibility "
+        "walk tested (IK / forward test), those found feasible. error rows left out.",
+    )
+    episodes = Table(
+        "Episodes reaching each stage",
+        ["robot", "episodes", "filter kept candidates", "feasible candidate", "success"],
         [
             [
                 str(r.robot),
                 str(r.episodes),
-                f"{r.candidates_total:,}",
-                f"{r.candidates_passed_filter:,}",
-                f"{r.candidates_feasible:,}",
-                f"{r.candidates_succeeded:,}",
-                _percent(r.episodes_filter_ok),
-                _percent(r.episodes_feasible),
-                _percent(r.episodes_success),
+                _share(r.episodes_filter_ok, r.episodes),
+                _share(r.episodes_feasible, r.episodes),
+                _share(r.episodes_success, r.episodes),
             ]
             for r in tuple_rows(stages)
         ],
-        "Candidate sums over all episodes; the last three columns are shares of episodes "
-        "whose filter kept candidates, that found a feasible candidate, that succeeded.",
+        "Episodes whose filter kept at least one candidate, that found a feasible candidate, "
+        "that succeeded (reference verdict).",
     )
+    return [candidates, episodes]
+
+
+def _share(share: float, episodes: int) -> str:
+    return f"{round(share * episodes)}/{episodes} ({_percent(share)})"
 
 
 def overview(run_dir: Path, frame: pd.DataFrame) -> list[tuple[str, str]]:

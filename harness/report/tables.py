@@ -306,8 +306,9 @@ def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 FUNNEL_COLUMNS: tuple[str, ...] = (
-    "robot", "episodes", "candidates_total", "candidates_passed_filter", "candidates_feasible",
-    "candidates_succeeded", "median_total", "median_passed_filter", "median_feasible",
+    "robot", "episodes", "candidates_total", "candidates_passed_filter", "candidates_tested",
+    "candidates_feasible", "candidates_succeeded", "median_total", "median_passed_filter",
+    "median_feasible",
     "episodes_filter_ok", "episodes_feasible", "episodes_success",
 )  # fmt: skip
 
@@ -324,6 +325,9 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
                 "episodes": len(group),
                 "candidates_total": int(column(group, "n_total").sum()),
                 "candidates_passed_filter": int(column(group, "n_passed_filter").sum()),
+                "candidates_tested": int(column(group, "n_tested").sum())
+                if "n_tested" in group
+                else 0,
                 "candidates_feasible": int(column(group, "n_feasible").sum()),
                 "candidates_succeeded": int(column(group, "success").sum()),
                 "median_total": float(column(group, "n_total").median()),
