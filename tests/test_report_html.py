@@ -172,3 +172,7 @@ def test_videos_of_one_success_and_one_failure_per_arm(real_run: Path, tmp_path:
         assert frames.shape[0] == clip.frames and frames.shape[1:3] == (240, 320)
     page = paths.report_html.read_text(encoding="utf-8")
     assert page.count('src="data:video/mp4;base64,') == expected
+    videos = page[page.index("<h2>Videos") :]
+    recordings = frame.set_index("episode_id")["recording"]
+    for clip in paths.videos:  # every episode of this run was recorded: captions link to them
+        assert f'<a href="{recordings[clip.episode_id]}" title="recording">' in videos

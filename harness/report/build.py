@@ -127,6 +127,7 @@ def build_report(
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
     report_md.write_text(render_markdown(run_dir, frame, tables, plots, clips), encoding="utf-8")
-    page = render_page(run_dir, frame, tables, plots, success_heatmaps(summary), clips)
+    links = recording_links(run_dir, frame)
+    page = render_page(run_dir, frame, tables, plots, success_heatmaps(summary), clips, links)
     report_html.write_text(page, encoding="utf-8")
     return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots, clips)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import base64
 import html
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from itertools import groupby
 from pathlib import Path
 
@@ -145,7 +145,9 @@ def heatmaps_html(heatmaps: Sequence[Heatmap]) -> list[str]:
     return parts
 
 
-def videos_html(run_dir: Path, clips: Sequence[Clip]) -> list[str]:
+def videos_html(
+    run_dir: Path, clips: Sequence[Clip], links: Mapping[str, str] | None = None
+) -> list[str]:
     if not clips:
         return []
     esc = html.escape
@@ -156,10 +158,13 @@ def videos_html(run_dir: Path, clips: Sequence[Clip]) -> list[str]:
         '<div class="videos">',
     ]
     for clip in clips:
+        recording = (links or {}).get(clip.episode_id)
+        episode = esc(clip.episode_id)
+        if recording:
+            episode = f'<a href="{esc(recording)}" title="recording">{episode}</a>'
         caption = (
             f"{clip.robot} · {clip.arm} · {clip.object}: <b>{esc(clip.outcome)}</b><br>"
-            f"{esc(clip.episode_id)}, seed {clip.seed}"
-            + (f"<br><i>{esc(clip.note)}</i>" if clip.note else "")
+            f"{episode}, seed {clip.seed}" + (f"<br><i>{esc(clip.note)}</i>" if clip.note else "")
         )
         if clip.path is not None:
             data = base64.b64encode((run_dir / clip.path).read_bytes()).decode("ascii")
@@ -190,6 +195,7 @@ def render_page(
     plots: dict[str, Path],
     heatmaps: Sequence[Heatmap] = (),
     clips: Sequence[Clip] = (),
+    links: Mapping[str, str] | None = None,
 ) -> str:
     """The whole page. The static success plot is left out when the heatmaps show it."""
     from plotly.offline import get_plotlyjs  # only when a page is drawn
@@ -212,7 +218,7 @@ def render_page(
         parts.append(_figure("success", plots["success"]))
     for table in tables:
         parts += table_html(table)
-    parts += videos_html(run_dir, clips)
+    parts += videos_html(run_dir, clips, links)
     others = {name: path for name, path in plots.items() if name != "success"}
     if others:
         parts.append('<h2>Plots</h2><div class="plots">')
