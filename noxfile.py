@@ -31,7 +31,7 @@ def tests(session: nox.Session) -> None:
 def demo(session: nox.Session) -> None:
     """The main job: the default sweep over the three robots, with report and recording."""
     session.install("-e", ".")
-    args = session.posargs or ["tasks/sweeps/demo.yaml"]
+    args = session.posargs or ["tasks/sweeps/demo.yaml", "--videos"]
     session.run("harness", "sweep", *args, env=RENDER_ENV)
 
 

@@ -85,14 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_validate(sub: Subparsers) -> None:
     """``harness validate FILE...``"""
     p = sub.add_parser("validate", help="validate task and sweep YAML files")
-    p.add_argument("files", nargs="+", metavar="FILE")
+    p.add_argument("files", nargs="+", metavar="FILE", help="task or sweep YAML files to check")
     p.set_defaults(func=_handler("validate", "main"))
 
 
 def _add_run(sub: Subparsers) -> None:
     """``harness run [TASK.yaml] [--interndata TASK.yaml] ...``"""
     p = sub.add_parser("run", help="run episodes of one task and write a run directory")
-    p.add_argument("task", nargs="?", metavar="TASK.yaml")
+    p.add_argument("task", nargs="?", metavar="TASK.yaml", help="a task YAML (tasks/pick/*.yaml)")
     p.add_argument("--interndata", metavar="TASK.yaml", help="an InternDataEngine task YAML")
     p.add_argument("--asset-root", metavar="DIR", help="root for InternDataEngine asset paths")
     p.add_argument(
@@ -118,8 +118,10 @@ def _add_run(sub: Subparsers) -> None:
 def _add_sweep(sub: Subparsers) -> None:
     """``harness sweep [SWEEP.yaml] [--resume RUN_DIR] ...``"""
     p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
-    p.add_argument("sweep", metavar="SWEEP.yaml", nargs="?")
-    p.add_argument("--out", metavar="DIR")
+    p.add_argument(
+        "sweep", metavar="SWEEP.yaml", nargs="?", help="a sweep YAML (omit with --resume)"
+    )
+    p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument("--resume", metavar="RUN_DIR", help="run only the episodes missing in RUN_DIR")
     p.add_argument(
         "--force",
@@ -132,7 +134,12 @@ def _add_sweep(sub: Subparsers) -> None:
         help="with --resume: run episodes whose row is an error (crash, input problem) again",
     )
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
-    p.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
+    p.add_argument(
+        "--backend",
+        choices=["serial", "process", "ray"],
+        default="process",
+        help="where episodes run: this process, a process pool (default) or Ray",
+    )
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
     p.add_argument(
         "--record", type=_record_policy, help="none|failures|all|sample:N (overrides the sweep)"
@@ -151,15 +158,27 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_objective(p)
+    _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
 
 
 def _add_report(sub: Subparsers) -> None:
     """``harness report RUN_DIR``"""
     p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
-    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (harness sweep or run)")
     _add_objective(p)
+    _add_videos(p, default=True)
     p.set_defaults(func=_handler("report", "main"))
+
+
+def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
+    p.add_argument(
+        "--videos",
+        action=argparse.BooleanOptionalAction,
+        default=default,
+        help="replay one success and one failure per robot arm and embed their MP4s in "
+        "report.html (a few seconds each)",
+    )
 
 
 def _add_objective(p: argparse.ArgumentParser) -> None:
@@ -174,9 +193,9 @@ def _add_objective(p: argparse.ArgumentParser) -> None:
 def _add_compare(sub: Subparsers) -> None:
     """``harness compare RUN_A RUN_B [--csv FILE]``"""
     p = sub.add_parser("compare", help="per-point success-rate differences between two runs")
-    p.add_argument("run_a", metavar="RUN_A")
-    p.add_argument("run_b", metavar="RUN_B")
-    p.add_argument("--csv", metavar="FILE")
+    p.add_argument("run_a", metavar="RUN_A", help="the baseline run directory (A)")
+    p.add_argument("run_b", metavar="RUN_B", help="the run directory compared with it (B)")
+    p.add_argument("--csv", metavar="FILE", help="also write the comparison table as CSV")
     p.set_defaults(func=_handler("report", "compare"))
 
 
@@ -204,30 +223,50 @@ def _add_grasps(sub: Subparsers) -> None:
     grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
     gsub = grasps.add_subparsers(dest="grasps_command", metavar="SUBCOMMAND", required=True)
     p = gsub.add_parser("inspect", help="filter and order the grasps of a file for a robot")
-    p.add_argument("file", metavar="FILE")
-    p.add_argument("--robot", required=True)
-    p.add_argument("--arm", choices=["left", "right"], default="left")
+    p.add_argument("file", metavar="FILE", help="an N x 17 grasp file (.npy)")
+    p.add_argument("--robot", required=True, help="robot whose convention and base frame apply")
+    p.add_argument("--arm", choices=["left", "right"], default="left", help="arm of the robot")
     p.add_argument(
-        "--object-pose", nargs=7, type=float, metavar=("X", "Y", "Z", "QW", "QX", "QY", "QZ")
+        "--object-pose",
+        nargs=7,
+        type=float,
+        metavar=("X", "Y", "Z", "QW", "QX", "QY", "QZ"),
+        help="object pose in the arm base frame, quaternion wxyz (default: identity)",
     )
     _add_filter_args(p)
     p.add_argument("--approach", nargs="+", metavar=("DIR", "A"), help="approach_filter")
     p.add_argument("--facing", nargs="+", metavar=("DIR", "A"), help="facing_filter")
-    p.add_argument("--direction-to-obj", choices=["left", "right"])
-    p.add_argument("--constraints", nargs=3, metavar=("AXIS", "MIN", "MAX"))
-    p.add_argument("--grasp-scale", type=float, default=1.0)
-    p.add_argument("--semantics", choices=["reference", "strict"], default="reference")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--plot", metavar="FILE.png")
+    p.add_argument(
+        "--direction-to-obj",
+        choices=["left", "right"],
+        help="pick.direction_to_obj: keep grasps on the base's +y (left) or -y (right) side",
+    )
+    p.add_argument(
+        "--constraints",
+        nargs=3,
+        metavar=("AXIS", "MIN", "MAX"),
+        help="pick.constraints: keep grasps whose TCP lies in [MIN, MAX] of the object's range",
+    )
+    p.add_argument("--grasp-scale", type=float, default=1.0, help="pick.grasp_scale (translations)")
+    p.add_argument(
+        "--semantics",
+        choices=["reference", "strict"],
+        default="reference",
+        help="pick.semantics: reference (InternDataEngine, quirks included) or strict",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the candidate draw")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--plot", metavar="FILE.png", help="plot the EE axis directions to a PNG")
     p.set_defaults(func=_handler("grasps", "inspect"))
     p = gsub.add_parser("generate", help="antipodal grasp annotations for a mesh (N x 17)")
-    p.add_argument("mesh", metavar="MESH")
-    p.add_argument("--out", required=True, metavar="FILE.npy")
-    p.add_argument("-n", "--num", type=int, default=3000)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scale", type=float, default=1.0)
-    p.add_argument("--max-width", type=float, default=0.1)
+    p.add_argument("mesh", metavar="MESH", help="a mesh file (.obj, .stl, .ply, .glb, .usd)")
+    p.add_argument("--out", required=True, metavar="FILE.npy", help="the grasp file to write")
+    p.add_argument("-n", "--num", type=int, default=3000, help="grasps to generate")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sampler (same seed, same file)")
+    p.add_argument("--scale", type=float, default=1.0, help="scale applied to the mesh")
+    p.add_argument(
+        "--max-width", type=float, default=0.1, help="largest gripper opening in m (0, 1]"
+    )
     p.set_defaults(func=_handler("graspgen", "generate"))
 
 
@@ -238,8 +277,8 @@ def _add_robots(sub: Subparsers) -> None:
     p = rsub.add_parser("list", help="list the robots")
     p.set_defaults(func=_handler("robots", "list_robots"))
     p = rsub.add_parser("show", help="describe a robot; optionally render it at home")
-    p.add_argument("name", metavar="NAME")
-    p.add_argument("--render", metavar="FILE.png")
+    p.add_argument("name", metavar="NAME", help="a robot under robots/ (harness robots list)")
+    p.add_argument("--render", metavar="FILE.png", help="render the robot at home to a PNG")
     p.set_defaults(func=_handler("robots", "show"))
 
 
@@ -250,21 +289,26 @@ def _add_objects(sub: Subparsers) -> None:
     p = osub.add_parser("list", help="list the default objects")
     p.set_defaults(func=_handler("objects", "list_objects"))
     p = osub.add_parser("show", help="describe an object or mesh; optionally render it")
-    p.add_argument("name", metavar="NAME_OR_MESH_PATH")
-    p.add_argument("--render", metavar="FILE.png")
+    p.add_argument("name", metavar="NAME_OR_MESH_PATH", help="a default object name or a mesh file")
+    p.add_argument("--render", metavar="FILE.png", help="render the object to a PNG")
     p.set_defaults(func=_handler("objects", "show"))
     p = osub.add_parser("build", help="regenerate the default object set under tasks/objects")
-    p.add_argument("--only", nargs="+", metavar="NAME")
-    p.add_argument("--num", type=int, default=3000)
+    p.add_argument("--only", nargs="+", metavar="NAME", help="build only these objects")
+    p.add_argument("--num", type=int, default=3000, help="grasps to generate per object")
     p.set_defaults(func=_handler("objects", "build"))
 
 
 def _add_bench(sub: Subparsers) -> None:
     """``harness bench [--quick] [--json FILE] [--only SECTION...]``"""
     p = sub.add_parser("bench", help="measure speed on this machine")
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--json", metavar="FILE")
-    p.add_argument("--only", nargs="+", metavar="SECTION")
+    p.add_argument("--quick", action="store_true", help="fewer repetitions (~25 s)")
+    p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
+    p.add_argument(
+        "--only",
+        nargs="+",
+        metavar="SECTION",
+        help="run only these sections: grasps ik timing episodes graspgen sweeps",
+    )
     p.set_defaults(func=_handler("bench", "main"))
 
 

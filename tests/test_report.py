@@ -154,16 +154,22 @@ def test_pooling_and_best_settings(fixture_run: Path) -> None:
     assert (by_point.loc[0, "wilson_lo"], by_point.loc[0, "wilson_hi"]) == pytest.approx(
         (0.3968, 0.8922), abs=5e-5
     )
-    best = best_settings(summary).set_index("robot")
+    best = best_settings(summary).set_index(["robot", "arm"])
     # fr3: 5/5 at point 2 (lower bound 0.5655) beats 4/5 at point 0 (0.3755).
-    assert best.loc["fr3", "point_id"] == 2
-    assert (best.loc["fr3", "successes"], best.loc["fr3", "n"]) == (5, 5)
-    assert best.loc["fr3", "wilson_lo"] == pytest.approx(0.5655, abs=5e-5)
-    # split_aloha pooled over both arms: 8/10 at point 2 (0.4902) beats 7/10 at point 0.
-    assert best.loc["split_aloha", "point_id"] == 2
-    assert (best.loc["split_aloha", "successes"], best.loc["split_aloha", "n"]) == (8, 10)
-    assert best.loc["split_aloha", "wilson_lo"] == pytest.approx(0.4902, abs=5e-5)
-    assert best.loc["split_aloha", "points_compared"] == 3
+    assert best.loc[("fr3", "left"), "point_id"] == 2
+    assert (best.loc[("fr3", "left"), "successes"], best.loc[("fr3", "left"), "n"]) == (5, 5)
+    assert best.loc[("fr3", "left"), "wilson_lo"] == pytest.approx(0.5655, abs=5e-5)
+    # split_aloha, arms never pooled: the left arm's best is point 0 (4/5, 0.3755 beats 3/5 at
+    # point 2), the right arm's is point 2 (5/5); pooled, point 2 (8/10) would hide the left.
+    assert best.loc[("split_aloha", "left"), "point_id"] == 0
+    assert best.loc[("split_aloha", "left"), "wilson_lo"] == pytest.approx(0.3755, abs=5e-5)
+    assert best.loc[("split_aloha", "right"), "point_id"] == 2
+    assert (best["points_compared"] == 3).all()
+    # the object is not a setting: the label columns are the swept settings only
+    assert [c for c in best.columns if c.startswith("param.")] == [
+        "param.pick.approach_filter",
+        "param.pick.pre_grasp_offset",
+    ]
 
 
 def test_best_setting_prefers_the_lower_bound_over_the_raw_rate() -> None:
@@ -203,6 +209,9 @@ def test_failure_totals_and_funnel(fixture_run: Path) -> None:
     assert stages.loc["fr3", "candidates_passed_filter"] == 5 * (400 + 410 + 420)
     assert stages.loc["fr3", "candidates_feasible"] == 15
     assert stages.loc["fr3", "candidates_succeeded"] == 11
+    assert stages.loc["fr3", "candidates_tested"] == 15 * 3  # every fr3 episode tested 3
+    # split_aloha: 3 tested in each of the 22 episodes whose filter kept candidates
+    assert stages.loc["split_aloha", "candidates_tested"] == 22 * 3
     # split_aloha: 8 filter_empty episodes of 30 kept no candidate; 9 found nothing feasible.
     assert stages.loc["split_aloha", "episodes_filter_ok"] == pytest.approx(22 / 30)
     assert stages.loc["split_aloha", "episodes_feasible"] == pytest.approx(21 / 30)

@@ -334,7 +334,7 @@ def test_error_rows_are_out_of_every_rate_and_fail_the_run(tmp_path, monkeypatch
     frame = pd.read_csv(run_dir / "episodes.csv")
     assert (frame["failure_reason"] == "error").sum() == 1
     summary = pd.read_csv(run_dir / "summary.csv")
-    assert int(summary["n"].sum()) == 2 and int(summary["n_error"].sum()) == 1
+    assert int(summary["n"].sum()) == 2 and int(summary["errors"].sum()) == 1
     real_successes = int(frame.loc[frame["failure_reason"] != "error", "success"].sum())
     assert int(summary["successes"].sum()) == real_successes
     assert summary["rate"].iloc[0] == pytest.approx(real_successes / 2)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 from rich.table import Table
@@ -20,6 +21,7 @@ from harness.report import (
 )
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
+from harness.report.tables import setting_params
 
 SIGNIFICANCE = 0.05
 
@@ -27,17 +29,28 @@ SIGNIFICANCE = 0.05
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
-    paths = build_report(run_dir, export=True, objective=args.objective)
     console = make_console()
+    if args.videos:
+        console.print("replaying one success and one failure per robot arm for the videos ...")
+    paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
     for row in series_rows(best):
+        if not row["n"]:
+            name = f"{row['robot']} {row['arm']} {row['object']}"
+            console.print(f"best for {name}: no rated episodes (only error rows)")
+            continue
+        valid = (
+            f"; valid {row['valid_rate']:.0%}, 95% CI "
+            f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}"
+            if not math.isnan(row["valid_rate"])
+            else ""
+        )
         console.print(
-            f"best for [bold]{row['robot']}[/]: {point_label(row, params)} — "
-            f"{row['successes']}/{row['n']} ({row['rate']:.0%}, 95% CI "
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}; valid {row['valid_rate']:.0%}, "
-            f"95% CI {row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}; ranked by "
+            f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
+            f"{point_label(row, params)} — {row['successes']}/{row['n']} ({row['rate']:.0%}, "
+            f"95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}{valid}; ranked by "
             f"{args.objective})",
             soft_wrap=True,
         )
@@ -47,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
         ("report", paths.report_md),
         ("html", paths.report_html),
         ("plots", paths.run_dir / "plots"),
+        *([("videos", paths.run_dir / "videos")] if paths.videos else []),
     ):
         console.print(f"  {label:8s} {path}", soft_wrap=True, highlight=False)
     return 0
@@ -57,14 +71,26 @@ def _short(column: str) -> str:
     return column.split(".")[-1]
 
 
+def valid_cells(row: Any) -> list[str]:
+    """``valid k/m``, its rate and Wilson interval; blank when no episode was judged."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", "", ""]
+    return [
+        f"{int(row['valid'])}/{judged}",
+        f"{row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
+
+
 def summary_table(summary: pd.DataFrame, title: str) -> Table:
     """The per-point summary as a rich table (robot, arm, object, swept values, rate, CI)."""
     params = [c for c in summary.columns if c.startswith("param.")]
-    shown = varying_params(summary) or params
+    shown = setting_params(summary) or varying_params(summary) or params
     table = Table(title=title)
     for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)
-    for column in ("k/n", "rate", "95% CI", "top failure"):
+    for column in ("k/n", "rate", "95% CI", "valid", "valid rate", "valid CI", "top failure"):
         table.add_column(column, justify="right")
     fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
     for row in series_rows(summary):
@@ -76,8 +102,9 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
             str(row["object"]),
             *[format_value(row[p]) for p in shown],
             f"{int(row['successes'])}/{int(row['n'])}",
-            f"{row['rate']:.0%}",
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+            f"{row['rate']:.0%}" if row["n"] else "",
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
+            *valid_cells(row),
             f"{top} ({fails[top]})" if top else "",
         )
     return table

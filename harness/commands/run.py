@@ -99,7 +99,7 @@ def _table(rows: list[dict[str, Any]], total: int) -> Table:
         table.add_row(
             str(row.get("episode_index", "")),
             str(row.get("task", "")),
-            str(row.get("seed", ""))[:8],
+            str(row.get("seed", "")),  # in full: a cut seed reproduces nothing
             "[green]success[/]" if ok else "[red]fail[/]",
             str(row.get("failure_reason", "")),
             _fmt(lift, 1e3, "{:.0f}"),
@@ -183,20 +183,12 @@ def _print_outcome(
     wall_s: float,
     interndata: bool,
 ) -> int:
-    """The run's success line (``error`` rows excluded), failures, where things are; the exit
-    code: 130 when interrupted, 1 when ``error`` rows exceed ``MAX_ERROR_SHARE``, else 0."""
-    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
+    """The run's rate line (``error`` rows excluded), failures, fallback, where things are; the
+    exit code: 130 when interrupted, 1 when ``error`` rows exceed ``MAX_ERROR_SHARE``, else 0."""
     from harness.runs.limits import error_rows_line, too_many_errors
 
     errors = sum(row.get("failure_reason") == "error" for row in rows)
-    successes = sum(bool(row.get("success")) for row in rows)
-    n = len(rows) - errors
-    lo, hi = wilson_interval(successes, n)
-    rate = successes / n if n else 0.0
-    console.print(
-        f"success {successes}/{n} = {rate:.0%} (95% Wilson interval {lo:.2f}-{hi:.2f}) "
-        f"in {wall_s:.1f} s"
-    )
+    console.print(f"{rate_line(rows)} in {wall_s:.1f} s")
     failures: dict[str, int] = {}
     for row in rows:
         if not row.get("success"):
@@ -206,6 +198,13 @@ def _print_outcome(
         console.print(
             "failures: " + ", ".join(f"{k} {v}" for k, v in sorted(failures.items(), key=_count))
         )
+    fallback = sum(row.get("filter_outcome") == "fallback" for row in rows)
+    if fallback:
+        console.print(
+            f"[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
+            "candidate and poses 0..19 of the unfiltered file were tried instead",
+            soft_wrap=True,
+        )
     extra = ", skipped.txt" if interndata else ""
     console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
     if (line := error_rows_line(errors, len(rows), run_dir)) is not None:
@@ -213,6 +212,25 @@ def _print_outcome(
     if len(rows) != planned:
         return 130
     return 1 if too_many_errors(errors, len(rows)) else 0
+
+
+def rate_line(rows: list[dict[str, Any]]) -> str:
+    """``success k/n = r% (95% Wilson ...); valid v/m = ...``: error rows are in neither rate."""
+    from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
+
+    rated = [row for row in rows if row.get("failure_reason") != "error"]
+    parts = []
+    judged = [row for row in rated if row.get("valid") or row.get("invalid_reason")]
+    for name, hits, n in (
+        ("success", sum(bool(row.get("success")) for row in rated), len(rated)),
+        ("valid", sum(bool(row.get("valid")) for row in judged), len(judged)),
+    ):
+        if n or name == "success":
+            lo, hi = wilson_interval(hits, n)
+            rate = f"{hits / n:.0%}" if n else "-"
+            parts.append(f"{name} {hits}/{n} = {rate} (95% Wilson interval {lo:.2f}-{hi:.2f})")
+    errors = len(rows) - len(rated)
+    return "; ".join(parts) + (f"; {errors} error row(s) in no rate" if errors else "")
 
 
 def _count(item: tuple[str, int]) -> tuple[int, str]:

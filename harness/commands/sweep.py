@@ -37,10 +37,10 @@ def main(args: argparse.Namespace) -> int:
         share=False if getattr(args, "no_share", False) else None,
     )
     stats = outcome.stats
-    if args.objective != "reference":  # the run's report ranked by the reference rate
+    if args.objective != "reference" or args.videos:  # rebuilt: ranked otherwise, or filmed
         from harness.report import build_report
 
-        build_report(outcome.run_dir, objective=args.objective)
+        build_report(outcome.run_dir, objective=args.objective, videos=args.videos)
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(
@@ -74,6 +74,17 @@ def _cell(value: object) -> str:
     return str(value)
 
 
+def _valid(row: Any) -> list[str]:
+    """The valid rate beside the reference rate: ``v/m r%`` and its Wilson interval."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", ""]
+    return [
+        f"{int(row['valid'])}/{judged} {row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
+
+
 def print_summary(run_dir: Path, console: Console) -> None:
     """The per-point summary table and the paths of the report and the recording."""
     import pandas as pd
@@ -92,7 +103,7 @@ def print_summary(run_dir: Path, console: Console) -> None:
         ]
         for column in [*keys, *params]:
             table.add_column(column.removeprefix("param.").removeprefix("pick."))
-        for column in ("n", "rate", "95% CI", "top failure"):
+        for column in ("n", "rate", "95% CI", "valid", "valid CI", "top failure"):
             table.add_column(column, justify="right")
         fail_columns = [c for c in summary.columns if c.startswith("fail.")]
         for _, cells in summary.iterrows():
@@ -102,11 +113,19 @@ def print_summary(run_dir: Path, console: Console) -> None:
             table.add_row(
                 *[_cell(row[c]) for c in [*keys, *params]],
                 str(int(row["n"])),
-                f"{row['rate']:.0%}",
-                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}",
+                f"{row['rate']:.0%}" if row["n"] else "",  # n = 0: every row an error
+                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
+                *_valid(row),
                 f"{top} ({fails[top]})" if top else "",
             )
         console.print(table)
+        counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
+        if sum(counts):
+            console.print(
+                f"[yellow]reference fallback[/] at {sum(c > 0 for c in counts)} point(s) "
+                f"({sum(counts)} episodes): the filter kept no candidate (report.html: ⚑)",
+                soft_wrap=True,
+            )
     for name in ("summary.csv", "episodes.csv", "report.md", "report.html", "recording.rrd"):
         path = run_dir / name
         if path.exists():

@@ -7,8 +7,11 @@ summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build
 
 - ``tables``: the run's episodes and the data tables computed from them (DataFrames);
 - ``labels``: parameter values and sweep points as text for people;
-- ``sections``: the overview and the formatted tables shared by Markdown and HTML;
-- ``plots``: the matplotlib figures; ``render``: report.md and report.html;
+- ``sections``: the overview and the rate tables shared by Markdown and HTML;
+  ``episode_sections``: error rows, grouped failure messages, example episodes (linked);
+- ``plots``: the matplotlib figures; ``heatmaps``: the interactive plotly heatmaps;
+- ``videos``: replayed MP4s of one success and one failure per robot arm;
+- ``render``: report.md; ``page``: report.html (self-contained, interactive);
 - ``stats``: Wilson intervals and two-proportion tests.
 """
 

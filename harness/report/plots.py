@@ -22,7 +22,7 @@ from matplotlib.ticker import FuncFormatter
 
 from harness.report.frames import column, frame_of, series_of, series_rows, tuple_rows
 from harness.report.labels import format_value, point_label, varying_params
-from harness.report.tables import FAIL_PREFIX, pooled
+from harness.report.tables import FAIL_PREFIX, pooled, setting_params
 
 DPI = 110
 MAX_BARS = 60
@@ -78,67 +78,59 @@ def _grid(count: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
 
 
 def plot_success(summary: pd.DataFrame, path: Path) -> Path:
-    """Heatmap over the first two varying axes per robot; one axis: bars with Wilson whiskers;
-    no axis: bars per robot, arm and object."""
-    axes = varying_params(summary)
-    if len(axes) >= 2:
-        return _success_heatmap(summary, axes[0], axes[1], axes[2:], path)
-    if len(axes) == 1:
-        return _success_bars(summary, axes[0], path)
+    """Per robot, a heatmap with one row per arm and object (and value of a second swept
+    setting) over the first swept setting; arms and objects are never pooled. Without a swept
+    setting: bars per robot, arm and object."""
+    axes = setting_params(summary) or varying_params(summary)
+    if axes:
+        return _success_heatmap(summary, axes[0], axes[1] if len(axes) > 1 else None, path)
     return _success_per_task(summary, path)
 
 
-def _success_heatmap(
-    summary: pd.DataFrame, x_axis: str, y_axis: str, others: list[str], path: Path
-) -> Path:
+def _row_label(row: pd.Series, y_axis: str | None) -> str:
+    label = f"{row['arm']} · {row['object']}"
+    return label + (f" · {format_value(row[y_axis])}" if y_axis else "")
+
+
+def _success_heatmap(summary: pd.DataFrame, x_axis: str, y_axis: str | None, path: Path) -> Path:
     robots = sorted(summary["robot"].unique())
     x_values = _axis_order(summary, x_axis)
-    y_values = _axis_order(summary, y_axis)
-    cell_width = max(0.9, max(len(format_value(v)) for v in x_values) * 0.09)
-    width = 1.8 + cell_width * len(x_values)
-    height = 1.4 + 0.55 * len(y_values)
-    fig, axes = _grid(len(robots), max(width, 3.6), max(height, 2.6))
+    by = ["arm", "object", *([y_axis] if y_axis else []), x_axis]
+    row_counts = [len(pooled(frame_of(summary[summary["robot"] == r]), by[:-1])) for r in robots]
+    cell_width = max(1.0, max(len(format_value(v)) for v in x_values) * 0.09)
+    width = 2.6 + cell_width * len(x_values)
+    fig, axes = _grid(len(robots), max(width, 4.0), 1.3 + 0.62 * max(row_counts))
     for ax, robot in zip(axes, robots, strict=True):
-        cells = pooled(frame_of(summary[summary["robot"] == robot]), [x_axis, y_axis])
-        rate = np.full((len(y_values), len(x_values)), np.nan)
-        labels: dict[tuple[int, int], str] = {}
+        cells = pooled(frame_of(summary[summary["robot"] == robot]), by)
+        rows = pooled(frame_of(summary[summary["robot"] == robot]), by[:-1])
+        labels = [_row_label(r, y_axis) for r in series_rows(rows)]
+        rate = np.full((len(labels), len(x_values)), np.nan)
+        texts: dict[tuple[int, int], str] = {}
         for values in series_rows(cells):
-            i = y_values.index(values[y_axis])
+            i = labels.index(_row_label(values, y_axis))
             j = x_values.index(values[x_axis])
             rate[i, j] = values["rate"]
-            labels[(i, j)] = f"{int(values['successes'])}/{int(values['n'])}"
-        ax.imshow(
-            np.ma.masked_invalid(rate),
-            cmap=RATE_CMAP,
-            vmin=0.0,
-            vmax=1.0,
-            aspect="auto",
-            origin="lower",  # the first (smallest) y value at the bottom
-        )
+            text = f"{int(values['successes'])}/{int(values['n'])}"
+            if values.get("n_judged", 0):
+                text += f"\nvalid {int(values['valid'])}/{int(values['n_judged'])}"
+            texts[(i, j)] = text + (" *" if values.get("fallback", 0) else "")
+        ax.imshow(np.ma.masked_invalid(rate), cmap=RATE_CMAP, vmin=0.0, vmax=1.0, aspect="auto")
         ax.set_facecolor("#eaeef2")
-        for i, j in zip(*np.nonzero(np.isnan(rate)), strict=True):
-            ax.text(j, i, "not run", ha="center", va="center", fontsize=8, color="#8c959f")
-        for (i, j), text in labels.items():
+        for (i, j), text in texts.items():
             value = rate[i, j]
-            ax.text(
-                j,
-                i,
-                f"{text}\n{value:.0%}",
-                ha="center",
-                va="center",
-                fontsize=8.5,
-                color="white" if value < 0.25 or value > 0.8 else "#1f2328",
-            )
+            dark = not np.isnan(value) and (value < 0.25 or value > 0.8)
+            ax.text(j, i, text, ha="center", va="center", fontsize=7.5,
+                    color="white" if dark else "#1f2328")  # fmt: skip
         ax.set_xticks(range(len(x_values)), [format_value(v) for v in x_values], fontsize=8)
-        ax.set_yticks(range(len(y_values)), [format_value(v) for v in y_values], fontsize=8)
-        ax.set_xlabel(x_axis.removeprefix("param."), fontsize=9)
-        subplot = ax.get_subplotspec()
-        if subplot is not None and subplot.is_first_col():
-            ax.set_ylabel(y_axis.removeprefix("param."), fontsize=9)
+        ax.set_yticks(range(len(labels)), labels, fontsize=8)
+        ax.set_xlabel(x_axis.split(".")[-1], fontsize=9)
         ax.set_title(robot, fontsize=11, fontweight="bold")
         plt.setp(ax.get_xticklabels(), rotation=30 if cell_width > 1.0 else 0, ha="right")
-    note = f" (pooled over {', '.join(o.removeprefix('param.') for o in others)})" if others else ""
-    fig.suptitle(f"Success rate per robot{note}", fontsize=12)
+    fig.suptitle(
+        "Reference success per robot, arm and object (cells: successes/episodes, valid; "
+        "* reference fallback ran)",
+        fontsize=10,
+    )
     mappable = ScalarMappable(cmap=RATE_CMAP, norm=Normalize(0, 1))
     fig.colorbar(mappable, ax=axes, shrink=0.8, label="success rate", format="{x:.0%}")
     return _save(fig, path)
@@ -169,32 +161,6 @@ def _bars_with_ci(
 def _robot_colours(robots: list[str]) -> dict[str, str]:
     palette = ["#0969da", "#8250df", "#bf3989", "#1b7c83", "#bc4c00", "#57606a"]
     return {robot: palette[i % len(palette)] for i, robot in enumerate(robots)}
-
-
-def _success_bars(summary: pd.DataFrame, axis: str, path: Path) -> Path:
-    robots = sorted(summary["robot"].unique())
-    values = _axis_order(summary, axis)
-    colours = _robot_colours(robots)
-    width = 0.8 / len(robots)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + len(values) * len(robots) * 0.6), 4.2))
-    for index, robot in enumerate(robots):
-        table = pooled(frame_of(summary[summary["robot"] == robot]), [axis]).set_index(axis)
-        table = table.reindex([v for v in values if v in table.index])
-        positions = np.array([values.index(v) for v in table.index], dtype=float)
-        positions += (index - (len(robots) - 1) / 2) * width
-        _bars_with_ci(ax, positions, table, width * 0.92, colours[robot], robot)
-    ax.set_xticks(range(len(values)), [format_value(v) for v in values])
-    ax.set_xlabel(axis.removeprefix("param."))
-    _rate_axis(ax)
-    ax.legend(
-        frameon=False,
-        fontsize=8,
-        ncols=min(len(robots), 4),
-        loc="upper left",
-        bbox_to_anchor=(0, 1.12),
-    )
-    ax.set_title("Success rate with 95% Wilson interval", pad=24)
-    return _save(fig, path)
 
 
 def _success_per_task(summary: pd.DataFrame, path: Path) -> Path:
@@ -231,7 +197,7 @@ def _rate_axis(ax: Axes) -> None:
 
 def _outcome_rows(summary: pd.DataFrame) -> tuple[pd.DataFrame, list[str], str]:
     """Summary rows to draw (pooled coarser when there are too many) and their labels."""
-    params = varying_params(summary)
+    params = setting_params(summary) or varying_params(summary)
     levels = (
         (["robot", "arm", "object", "task", "point"], "per task and point"),
         (["robot", "point"], "per robot and point, pooled over arms and objects"),
@@ -315,15 +281,20 @@ def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
 
 def plot_funnel(stages: pd.DataFrame, path: Path) -> Path:
     """Left: candidate sums per stage (log scale); right: share of episodes reaching a stage."""
+    if stages.empty:  # every row an error: nothing reached any stage
+        fig, ax = plt.subplots(figsize=(6, 1.5))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no rated episodes (every row is an error)", ha="center", va="center")
+        return _save(fig, path)
     robots = stages["robot"].tolist()
     colours = _robot_colours(robots)
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
-    names = ["candidates", "passed filter", "feasible", "succeeded"]
+    names = ["candidates", "passed filter", "tested", "feasible"]
     columns = [
         "candidates_total",
         "candidates_passed_filter",
+        "candidates_tested",
         "candidates_feasible",
-        "candidates_succeeded",
     ]
     width = 0.8 / max(len(robots), 1)
     for index, row in enumerate(series_rows(stages.reset_index(drop=True))):

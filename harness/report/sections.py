@@ -1,13 +1,15 @@
 """The report's sections for people, shared by Markdown and HTML: the overview (what was run,
-with which versions) and the tables (success per task and point, best settings, failures,
-failure messages, the candidate funnel), every cell already formatted as text.
+with which versions) and the rate tables (success per robot, arm and object, best settings,
+success per point, the validity gap, failures, the candidate funnel), every cell already
+formatted as text, the reference and valid rates side by side with 95% Wilson intervals.
+Tables of single episodes (errors, failure groups, examples) are in ``episode_sections``.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -18,13 +20,11 @@ from harness.report.labels import point_label, varying_params
 from harness.report.tables import (
     FAIL_PREFIX,
     GAP_PREFIX,
-    MAX_MESSAGES,
-    MESSAGE_CHARS,
     ROBUSTNESS_PREFIX,
-    error_messages,
+    error_mask,
     failure_totals,
-    funnel,
     pooled,
+    setting_params,
 )
 from harness.row import param_columns
 
@@ -36,6 +36,8 @@ def _percent(value: float) -> str:
 
 
 def _ci(lo: float, hi: float) -> str:
+    if lo is None or hi is None or math.isnan(lo) or math.isnan(hi):
+        return ""
     return f"{lo:.2f}–{hi:.2f}"
 
 
@@ -50,16 +52,63 @@ def _top_failures(row: Any, limit: int = 2) -> str:
     return ", ".join(f"{reason} {count}" for reason, count in ranked)
 
 
+FALLBACK_MARK = "⚑"
+
+
+def fallback_cell(row: Any) -> str:
+    """``⚑ 3/20`` when the reference fallback supplied the candidates of some episodes."""
+    count = int(row.get("fallback", 0) or 0)
+    return f"{FALLBACK_MARK} {count}/{int(row['n'])}" if count else ""
+
+
+RATE_HEADER = ["reference", "rate", "95% CI", "valid", "valid rate", "95% CI"]
+
+
+def rate_cells(row: Any) -> list[str]:
+    """Reference and valid rate side by side: ``k/n``, rate, Wilson interval, for each."""
+    judged = int(row.get("n_judged", 0) or 0)
+    return [
+        f"{int(row['successes'])}/{int(row['n'])}",
+        _percent(row["rate"]) if row["n"] else "",
+        _ci(row["wilson_lo"], row["wilson_hi"]) if row["n"] else "",
+        f"{int(row['valid'])}/{judged}" if judged else "",
+        _percent(row["valid_rate"]) if judged else "",
+        _ci(row["valid_ci_low"], row["valid_ci_high"]) if judged else "",
+    ]
+
+
 @dataclass(frozen=True)
 class Table:
+    """One table for people: text cells; ``links`` gives a cell as pieces ``(text, href)``
+    (an episode id and its recording, relative to the run directory; ``None``: no link);
+    ``flagged`` rows are highlighted (the reference fallback ran)."""
+
     title: str
     header: list[str]
     rows: list[list[str]]
     note: str = ""
+    links: dict[tuple[int, int], list[tuple[str, str | None]]] = field(default_factory=dict)
+    flagged: frozenset[int] = frozenset()
+
+
+def _flagged(frame: pd.DataFrame) -> frozenset[int]:
+    if "fallback" not in frame:
+        return frozenset()
+    return frozenset(i for i, v in enumerate(column(frame, "fallback").tolist()) if v)
+
+
+RATES_NOTE = (
+    "Reference: InternDataEngine's verdict; valid: the grasp really holds (validity phase: no "
+    "table penetration, two fingers, 1 s hold, tug at 0.5 g in six directions), over the "
+    "episodes it judged. 95% Wilson intervals. error rows are left out of every rate. "
+    f"{FALLBACK_MARK}: the filter kept no candidate and the reference fallback supplied them."
+)
 
 
 def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame) -> list[Table]:
-    params = varying_params(summary) or param_columns(summary.columns)
+    """The rate tables: per robot, arm and object; best settings; per point; validity gap;
+    failure reasons (the candidate funnel is ``funnel_table``)."""
+    params = setting_params(summary) or varying_params(summary)
     tables: list[Table] = [
         _overall_table(summary),
         _best_table(best, params),
@@ -70,102 +119,72 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
     totals = failure_totals(frame)
     if totals.shape[1]:
         tables.append(_failures_table(totals))
-    messages = error_messages(frame)
-    if len(messages):
-        tables.append(_messages_table(messages))
-    tables.append(_funnel_table(funnel(frame)))
     return tables
 
 
 def _overall_table(summary: pd.DataFrame) -> Table:
-    overall = pooled(summary, ["robot", "arm", "object"])
+    overall = pooled(summary, ["robot", "arm", "object"]).sort_values(["robot", "arm", "object"])
     return Table(
         "Success per robot, arm and object (all points pooled)",
-        ["robot", "arm", "object", "n", "successes", "rate", "95% CI"],
+        ["robot", "arm", "object", *RATE_HEADER, "fallback", "errors"],
         [
             [
-                str(r.robot),
-                str(r.arm),
-                str(r.object),
-                str(int(r.n)),
-                str(int(r.successes)),
-                _percent(r.rate),
-                _ci(r.wilson_lo, r.wilson_hi),
+                str(r["robot"]),
+                str(r["arm"]),
+                str(r["object"]),
+                *rate_cells(r),
+                fallback_cell(r),
+                str(int(r.get("errors", 0))),
             ]
-            for r in tuple_rows(overall.sort_values(["robot", "arm", "object"]))
+            for r in series_rows(overall)
         ],
+        RATES_NOTE,
+        flagged=_flagged(overall),
     )
 
 
 def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
     objective = best.attrs.get("objective", "reference")
     return Table(
-        "Best settings per robot",
-        [
-            "robot",
-            "setting",
-            "n",
-            "successes",
-            "rate",
-            "95% CI",
-            "valid rate",
-            "valid CI",
-            "points compared",
-        ],
-        [
-            [
-                str(r["robot"]),
-                point_label(r, params),
-                str(int(r["n"])),
-                str(int(r["successes"])),
-                _percent(r["rate"]),
-                _ci(r["wilson_lo"], r["wilson_hi"]),
-                _percent(r["valid_rate"]),
-                "" if math.isnan(r["valid_ci_low"]) else _ci(r["valid_ci_low"], r["valid_ci_high"]),
-                str(int(r["points_compared"])),
-            ]
-            for r in series_rows(best)
-        ],
-        f"Ranked by the lower bound of the 95% Wilson interval of the {objective} rate "
-        "(--objective), pooled over the robot's arms and objects.",
-    )
-
-
-def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
-    judged = "n_judged" in summary
-    return Table(
-        "Success per point: reference rate and valid rate",
-        [
-            "robot",
-            "arm",
-            "object",
-            "setting",
-            "n",
-            "reference rate",
-            "95% CI",
-            "valid",
-            "valid rate",
-            "95% CI",
-            "top failures",
-        ],
+        "Best settings per robot, arm and object",
+        ["robot", "arm", "object", "setting", *RATE_HEADER, "fallback", "points compared"],
         [
             [
                 str(r["robot"]),
                 str(r["arm"]),
                 str(r["object"]),
                 point_label(r, params),
-                f"{int(r['successes'])}/{int(r['n'])}",
-                _percent(r["rate"]),
-                _ci(r["wilson_lo"], r["wilson_hi"]),
-                f"{int(r['valid'])}/{int(r['n_judged'])}" if judged and r["n_judged"] else "",
-                _percent(r["valid_rate"]) if judged else "",
-                _ci(r["valid_ci_low"], r["valid_ci_high"]) if judged and r["n_judged"] else "",
+                *rate_cells(r),
+                fallback_cell(r),
+                str(int(r["points_compared"])),
+            ]
+            for r in series_rows(best)
+        ],
+        f"Ranked by the lower bound of the 95% Wilson interval of the {objective} rate "
+        "(--objective), over the swept settings only: arms and objects are never pooled.",
+        flagged=_flagged(best),
+    )
+
+
+def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
+    return Table(
+        "Success per point: reference rate and valid rate",
+        ["robot", "arm", "object", "setting", *RATE_HEADER, "fallback", "errors", "top failures"],
+        [
+            [
+                str(r["robot"]),
+                str(r["arm"]),
+                str(r["object"]),
+                point_label(r, params),
+                *rate_cells(r),
+                fallback_cell(r),
+                str(int(r.get("errors", 0))),
                 _top_failures(r),
             ]
             for r in series_rows(summary)
         ],
-        "Valid: the grasp really holds (validity phase: no table penetration, two fingers, "
-        "1 s hold, tug at 0.5 g in six directions), over the episodes it judged.",
+        RATES_NOTE,
+        flagged=_flagged(summary),
     )
 
 
@@ -227,50 +246,46 @@ def _failures_table(totals: pd.DataFrame) -> Table:
     )
 
 
-def _messages_table(messages: pd.DataFrame) -> Table:
-    return Table(
-        "Failure messages",
-        ["reason", "message", "episodes", "example episode"],
+def funnel_tables(stages: pd.DataFrame) -> list[Table]:
+    """The candidate funnel (candidates summed over episodes) and, apart, the episodes that
+    reached each stage: candidates and episodes are never mixed in one column."""
+    candidates = Table(
+        "Candidate funnel (candidates, summed over episodes)",
+        ["robot", "candidates", "passed filter", "tested", "feasible"],
         [
-            [str(r.failure_reason), str(r.message), str(r.episodes), str(r.example)]
-            for r in tuple_rows(messages)
+            [
+                str(r.robot),
+                f"{r.candidates_total:,}",
+                f"{r.candidates_passed_filter:,}",
+                f"{r.candidates_tested:,}",
+                f"{r.candidates_feasible:,}",
+            ]
+            for r in tuple_rows(stages)
         ],
-        f"The {MAX_MESSAGES} most frequent messages of failed episodes "
-        f"(cut at {MESSAGE_CHARS} characters).",
+        "Grasp poses in the files, those the direction filters kept, those the feasibility "
+        "walk tested (IK / forward test), those found feasible. error rows left out.",
     )
-
-
-def _funnel_table(stages: pd.DataFrame) -> Table:
-    return Table(
-        "Candidate funnel",
-        [
-            "robot",
-            "episodes",
-            "candidates",
-            "passed filter",
-            "feasible",
-            "succeeded",
-            "episodes filter ok",
-            "episodes feasible",
-            "episodes success",
-        ],
+    episodes = Table(
+        "Episodes reaching each stage",
+        ["robot", "episodes", "filter kept candidates", "feasible candidate", "success"],
         [
             [
                 str(r.robot),
                 str(r.episodes),
-                f"{r.candidates_total:,}",
-                f"{r.candidates_passed_filter:,}",
-                f"{r.candidates_feasible:,}",
-                f"{r.candidates_succeeded:,}",
-                _percent(r.episodes_filter_ok),
-                _percent(r.episodes_feasible),
-                _percent(r.episodes_success),
+                _share(r.episodes_filter_ok, r.episodes),
+                _share(r.episodes_feasible, r.episodes),
+                _share(r.episodes_success, r.episodes),
             ]
             for r in tuple_rows(stages)
         ],
-        "Candidate sums over all episodes; the last three columns are shares of episodes "
-        "whose filter kept candidates, that found a feasible candidate, that succeeded.",
+        "Episodes whose filter kept at least one candidate, that found a feasible candidate, "
+        "that succeeded (reference verdict).",
     )
+    return [candidates, episodes]
+
+
+def _share(share: float, episodes: int) -> str:
+    return f"{round(share * episodes)}/{episodes} ({_percent(share)})"
 
 
 def overview(run_dir: Path, frame: pd.DataFrame) -> list[tuple[str, str]]:
@@ -279,7 +294,7 @@ def overview(run_dir: Path, frame: pd.DataFrame) -> list[tuple[str, str]]:
     items = [
         ("run", ", ".join(runs) or run_dir.name),
         ("directory", str(run_dir)),
-        ("episodes", f"{len(frame)} ({int(column(frame, 'success').sum())} successes)"),
+        ("episodes", _episode_counts(frame)),
         ("robots", ", ".join(sorted(set(frame["robot"])))),
         ("objects", ", ".join(sorted(set(frame["object"])))),
         ("semantics", ", ".join(sorted(set(frame["semantics"]) - {""})) or "?"),
@@ -297,3 +312,9 @@ def _versions(frame: pd.DataFrame) -> str:
     harness = sorted(set(frame["harness_version"]) - {""})
     mujoco = sorted(set(frame["mujoco_version"]) - {""})
     return f"pick-harness {', '.join(harness) or '?'}; MuJoCo {', '.join(mujoco) or '?'}"
+
+
+def _episode_counts(frame: pd.DataFrame) -> str:
+    errors = int(error_mask(frame).sum())
+    text = f"{len(frame)} ({int(column(frame, 'success').sum())} successes"
+    return text + (f", {errors} error rows left out of every rate)" if errors else ")")

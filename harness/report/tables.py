@@ -35,6 +35,10 @@ MAX_MESSAGES = 10
 MESSAGE_CHARS = 200
 
 
+ERROR_REASON = "error"  # a crashed worker or bad input: not a pick outcome, never in a rate
+FALLBACK_OUTCOME = "fallback"  # filter_outcome: the filter kept nothing, the reference fell back
+
+
 # --------------------------------------------------------------------------------------------
 # Loading
 
@@ -52,6 +56,23 @@ def load_episodes(run_dir: str | Path) -> pd.DataFrame:
         raise HarnessError(f"{run_dir}: no episodes recorded yet")
     frame.attrs["skipped_lines"] = list(store.skipped_lines)
     return frame
+
+
+def error_mask(frame: pd.DataFrame) -> pd.Series:
+    """Rows whose episode did not run to a verdict (``failure_reason == "error"``)."""
+    return series_of(column(frame, "failure_reason").fillna("").astype(str) == ERROR_REASON)
+
+
+def rated(frame: pd.DataFrame) -> pd.DataFrame:
+    """The episodes that count in rates: every row but the ``error`` rows."""
+    return frame_of(frame.loc[~error_mask(frame)])
+
+
+def fallback_mask(frame: pd.DataFrame) -> pd.Series:
+    """Rows whose candidates came from the reference fallback (the filter kept nothing)."""
+    if "filter_outcome" not in frame:
+        return pd.Series(False, index=frame.index)
+    return series_of(column(frame, "filter_outcome").fillna("").astype(str) == FALLBACK_OUTCOME)
 
 
 # --------------------------------------------------------------------------------------------
@@ -118,29 +139,36 @@ def failure_reasons_in(frame: pd.DataFrame) -> list[str]:
 
 
 def summarize(frame: pd.DataFrame) -> pd.DataFrame:
-    """One row per (task, robot, arm, object, point): counts, rate, Wilson bounds, failures."""
+    """One row per (task, robot, arm, object, point): counts, rate, Wilson bounds, failures.
+
+    ``error`` rows (a crashed worker, bad input) are not pick outcomes: they are left out of
+    ``n``, the rates and the failure counts and counted in ``errors``. ``fallback`` counts the
+    rated episodes whose candidates came from the reference fallback (the filter kept nothing).
+    """
     params = param_columns(frame.columns)
     reasons = failure_reasons_in(frame)
     frame = frame.assign(
-        _reason=frame["failure_reason"].where(frame["failure_reason"] != "", "unknown")
+        _reason=frame["failure_reason"].where(frame["failure_reason"] != "", "unknown"),
+        _error=error_mask(frame),
+        _fallback=fallback_mask(frame),
     )
     rows: list[dict[str, Any]] = []
-    for key, group in frame.groupby(list(POINT_KEY), sort=False, dropna=False):
+    for key, everything in frame.groupby(list(POINT_KEY), sort=False, dropna=False):
         row: dict[str, Any] = dict(zip(POINT_KEY, cast(tuple[Any, ...], key), strict=True))
-        row["point_id"] = int(column(group, "point_id").min())
+        row["point_id"] = int(column(everything, "point_id").min())
         for name in params:
-            row[name] = group[name].iloc[0]
-        # ``error`` rows (crashes, input problems) are not picks: never in a rate's denominator.
-        errors = int((column(group, "failure_reason") == "error").sum())
-        row["n"] = len(group) - errors
-        row["n_error"] = errors
+            row[name] = everything[name].iloc[0]
+        group = frame_of(everything.loc[~column(everything, "_error")])
+        row["errors"] = int(column(everything, "_error").sum())  # never in a rate
+        row["fallback"] = int(column(group, "_fallback").sum())
+        row["n"] = len(group)
         row["successes"] = int(column(group, "success").sum())
         failed = group.loc[~column(group, "success"), "_reason"].value_counts()
         for reason in reasons:
             row[FAIL_PREFIX + reason] = int(failed.get(reason, 0))
-        row["median_n_passed_filter"] = float(column(group, "n_passed_filter").median())
-        row["median_n_feasible"] = float(column(group, "n_feasible").median())
-        row["median_wall_time_s"] = float(column(group, "wall_time_s").median())
+        for name in ("n_passed_filter", "n_feasible", "wall_time_s"):
+            values = column(group, name)
+            row[f"median_{name}"] = float(values.median()) if len(values) else math.nan
         row.update(_validity_counts(group))
         rows.append(row)
     summary = pd.DataFrame(rows)
@@ -160,10 +188,11 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         "point",
         *params,
         "n",
-        "n_error",
         "successes",
         *rates.columns,
         *validity,
+        "fallback",
+        "errors",
         *fail_columns,
         *medians,
     ]
@@ -175,6 +204,9 @@ def pooled(summary: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     """Sum n and successes of summary rows over everything but ``by``; rate and Wilson again."""
     params = param_columns(summary.columns)
     aggregations: dict[str, Any] = {"n": "sum", "successes": "sum"}
+    for name in ("fallback", "errors"):
+        if name in summary:
+            aggregations[name] = "sum"
     if "n_judged" in summary:
         aggregations.update(n_judged="sum", valid="sum")
     if "point_id" not in by:
@@ -194,50 +226,76 @@ def pooled(summary: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     return pd.concat(parts, axis=1)
 
 
+GROUP_KEY: list[str] = ["robot", "arm", "object"]
+
+
+def setting_params(summary: pd.DataFrame) -> list[str]:
+    """The swept settings: ``param.*`` columns that take more than one value for some robot,
+    arm and object. An axis that only picks the object (``object.mesh``) is not a setting: it
+    never varies once the object is fixed."""
+    params = param_columns(summary.columns)
+    if summary.empty:
+        return []
+    varying = summary.groupby(GROUP_KEY, sort=False, dropna=False)[params].nunique(dropna=True)
+    return [name for name in params if bool((varying[name] > 1).any())]
+
+
 def best_settings(summary: pd.DataFrame, objective: str = "reference") -> pd.DataFrame:
-    """Per robot, the point with the highest Wilson lower bound over its arms and objects, of
-    the reference success rate (``objective="reference"``) or of the valid rate (``"valid"``).
+    """Per robot, arm and object, the point with the highest Wilson lower bound of the
+    reference success rate (``objective="reference"``) or of the valid rate (``"valid"``),
+    ranked over the swept settings only (arms and objects are never pooled, never a setting).
 
     Ties go to the higher rate, then the larger sample, then the earlier point.
     """
     if objective not in OBJECTIVES:
         raise HarnessError(f"objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
-    per_point = pooled(summary, ["robot", "point"])
-    per_point["points_compared"] = per_point.groupby("robot")["point"].transform("count")
+    per_point = pooled(summary, [*GROUP_KEY, "point"])
+    per_point["points_compared"] = per_point.groupby(GROUP_KEY)["point"].transform("count")
     if "valid_rate" not in per_point:
         per_point = per_point.assign(
             valid_rate=math.nan, valid_ci_low=math.nan, valid_ci_high=math.nan
         )
+    for name in ("n_judged", "valid", "fallback", "errors"):
+        if name not in per_point:
+            per_point[name] = 0
     lo, rate = ("valid_ci_low", "valid_rate") if objective == "valid" else ("wilson_lo", "rate")
     ranked = per_point.sort_values(
-        ["robot", lo, rate, "n", "point_id"],
-        ascending=[True, False, False, False, True],
+        [*GROUP_KEY, lo, rate, "n", "point_id"],
+        ascending=[True, True, True, False, False, False, True],
         kind="stable",
+        na_position="last",
     )
-    best = ranked.groupby("robot", sort=True).head(1)
-    params = param_columns(summary.columns)
+    best = ranked.groupby(GROUP_KEY, sort=True).head(1)
+    settings = setting_params(summary)
     columns = [
-        "robot",
+        *GROUP_KEY,
         "point_id",
         "point",
-        *params,
+        *settings,
         "n",
         "successes",
         "rate",
         "wilson_lo",
         "wilson_hi",
+        "n_judged",
+        "valid",
         "valid_rate",
         "valid_ci_low",
         "valid_ci_high",
+        "fallback",
+        "errors",
         "points_compared",
     ]
     out = frame_of(best[columns]).reset_index(drop=True)
     out.attrs["objective"] = objective
+    out.attrs["settings"] = settings
     return out
 
 
 def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
-    """Failure counts per robot (rows) and reason (columns, only reasons that occur)."""
+    """Failure counts per robot (rows) and reason (columns, only reasons that occur); ``error``
+    rows are not failures of the pick and have their own table (``error_rows``)."""
+    frame = rated(frame)
     failed = frame.loc[~frame["success"]]
     if failed.empty:
         return pd.DataFrame(index=pd.Index(sorted(frame["robot"].unique()), name="robot"))
@@ -247,9 +305,18 @@ def failure_totals(frame: pd.DataFrame) -> pd.DataFrame:
     return frame_of(table[order])
 
 
+FUNNEL_COLUMNS: tuple[str, ...] = (
+    "robot", "episodes", "candidates_total", "candidates_passed_filter", "candidates_tested",
+    "candidates_feasible", "candidates_succeeded", "median_total", "median_passed_filter",
+    "median_feasible",
+    "episodes_filter_ok", "episodes_feasible", "episodes_success",
+)  # fmt: skip
+
+
 def funnel(frame: pd.DataFrame) -> pd.DataFrame:
     """Per robot: candidate sums (total -> passed filter -> feasible -> succeeded) and the
-    share of episodes reaching each stage."""
+    share of episodes reaching each stage (``error`` rows left out)."""
+    frame = rated(frame)
     rows = []
     for robot, group in frame.groupby("robot", sort=True):
         rows.append(
@@ -258,6 +325,9 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
                 "episodes": len(group),
                 "candidates_total": int(column(group, "n_total").sum()),
                 "candidates_passed_filter": int(column(group, "n_passed_filter").sum()),
+                "candidates_tested": int(column(group, "n_tested").sum())
+                if "n_tested" in group
+                else 0,
                 "candidates_feasible": int(column(group, "n_feasible").sum()),
                 "candidates_succeeded": int(column(group, "success").sum()),
                 "median_total": float(column(group, "n_total").median()),
@@ -268,11 +338,12 @@ def funnel(frame: pd.DataFrame) -> pd.DataFrame:
                 "episodes_success": float(column(group, "success").mean()),
             }
         )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=list(FUNNEL_COLUMNS))
 
 
 def error_messages(frame: pd.DataFrame) -> pd.DataFrame:
     """The most frequent (reason, message) pairs of failed episodes, with an example id."""
+    frame = rated(frame)
     failed = frame.loc[~frame["success"] & (frame["error_message"] != "")]
     if failed.empty:
         return pd.DataFrame(columns=["failure_reason", "message", "episodes", "example"])
@@ -284,3 +355,15 @@ def error_messages(frame: pd.DataFrame) -> pd.DataFrame:
         .sort_values(["episodes", "failure_reason"], ascending=[False, True], kind="stable")
     )
     return table.head(MAX_MESSAGES).reset_index(drop=True)
+
+
+ERROR_COLUMNS: tuple[str, ...] = (
+    "episode_id", "robot", "arm", "object", "point", "seed", "error_message",
+)  # fmt: skip
+
+
+def error_rows(frame: pd.DataFrame) -> pd.DataFrame:
+    """The ``error`` rows (left out of every rate), with their messages, in run order."""
+    errors = frame_of(frame.loc[error_mask(frame)])
+    present = [name for name in ERROR_COLUMNS if name in errors]
+    return frame_of(errors[present]).reset_index(drop=True)

@@ -43,6 +43,7 @@ RUN_OUTPUTS = (
     "recording.rrd",
     "episodes",
     "plots",
+    "videos",
 )
 
 
