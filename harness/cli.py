@@ -174,6 +174,20 @@ def _add_compare(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("report", "compare"))
 
 
+def _add_tune(sub: Subparsers) -> None:
+    """``harness tune TASK_OR_SWEEP... [--episodes N] [--step 5] [--objective ...]``"""
+    p = sub.add_parser("tune", help="dense approach x facing grid: best filter block per arm")
+    p.add_argument("files", nargs="+", metavar="TASK_OR_SWEEP")
+    p.add_argument("--episodes", type=EPISODES, help="episodes per setting (default 20)")
+    p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
+    p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
+    p.add_argument("--seed", type=SEED, help="sweep seed (default: the sweep's, else 0)")
+    p.add_argument("--out", metavar="DIR")
+    p.add_argument("--workers", type=WORKERS)
+    _add_objective(p)
+    p.set_defaults(func=_handler("tune", "main"))
+
+
 def _add_view(sub: Subparsers) -> None:
     """``harness view FILE.rrd``"""
     p = sub.add_parser("view", help="open a Rerun recording (or say how to)")
@@ -194,7 +208,7 @@ def _add_replay(sub: Subparsers) -> None:
 
 
 def _add_grasps(sub: Subparsers) -> None:
-    """``harness grasps inspect | generate``"""
+    """``harness grasps inspect | generate | audit``"""
     grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
     gsub = grasps.add_subparsers(dest="grasps_command", metavar="SUBCOMMAND", required=True)
     p = gsub.add_parser("inspect", help="filter and order the grasps of a file for a robot")
@@ -223,6 +237,10 @@ def _add_grasps(sub: Subparsers) -> None:
     p.add_argument("--scale", type=float, default=1.0)
     p.add_argument("--max-width", type=float, default=0.1)
     p.set_defaults(func=_handler("graspgen", "generate"))
+    p = gsub.add_parser("audit", help="executed grasps of a run: which never succeed and why")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("--min-trials", type=_bounded_int(1, 1_000_000), default=3)
+    p.set_defaults(func=_handler("grasps", "audit"))
 
 
 def _add_robots(sub: Subparsers) -> None:
@@ -269,6 +287,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_sweep,
     _add_report,
     _add_compare,
+    _add_tune,
     _add_view,
     _add_replay,
     _add_grasps,
