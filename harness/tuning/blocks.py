@@ -1,11 +1,11 @@
 """``tuned.yaml`` and ``tuned.md``: the tuned pick block per robot and arm, with its evidence.
 
-The block is the task's own pick block (its reference keys that differ from the defaults) with the tuned approach
-and facing filters written in that robot's keys: the approach filter on ``filter_<approach
-axis>_dir`` and the facing filter on ``filter_<facing axis>_dir`` (robots/<name>/robot.yaml
-``convention``; fr3 and split_aloha approach along EE z, lift2 along EE x). Harness-only keys
-(``semantics``, ``approach_filter``, ``timing``, ...) are left out, so the block pastes into an
-InternDataEngine task file as it is; the evidence (rate, interval, n, McNemar p) is in comments.
+The block is the task's own pick block (its reference keys that differ from the defaults) with
+the tuned filters in that robot's keys: the approach filter on ``filter_<approach axis>_dir``,
+the facing filter on ``filter_<facing axis>_dir`` (robots/<name>/robot.yaml ``convention``:
+fr3 and split_aloha approach along EE z, lift2 along EE x). Harness-only keys (``semantics``,
+``approach_filter``, ``timing``, ...) are left out, so the block pastes into an InternDataEngine
+task file as it is; the evidence (rate, interval, n, McNemar p) is in comments.
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ def tuned_markdown(chosen: pd.DataFrame, yaml_text: str, header: list[str],
         "",
         *header,
         "",
-        f"Object `{POOLED}` is the robot and arm pooled over its objects (the block in tuned.yaml).",
+        f"Object `{POOLED}`: the robot and arm pooled over its objects (the block in tuned.yaml).",
         "",
         *markdown_table(columns, rows),
         "",
