@@ -167,7 +167,9 @@ def _add_objective(p: argparse.ArgumentParser) -> None:
 
 def _add_compare(sub: Subparsers) -> None:
     """``harness compare RUN_A RUN_B [--csv FILE]``"""
-    p = sub.add_parser("compare", help="per-point success-rate differences between two runs")
+    p = sub.add_parser(
+        "compare", help="per-setting rate differences of two runs (McNemar / two-proportion)"
+    )
     p.add_argument("run_a", metavar="RUN_A")
     p.add_argument("run_b", metavar="RUN_B")
     p.add_argument("--csv", metavar="FILE")

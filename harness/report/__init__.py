@@ -2,14 +2,14 @@
 
 ``build_report(run_dir)`` reads the run's episodes (``harness.runs.store.ResultStore``) and writes
 summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build``);
-``compare_runs(run_a, run_b)`` matches points between two runs and tests each rate difference
-(``harness.report.compare``). The package's modules, each one concept:
+``compare_runs(run_a, run_b)`` matches the settings of two runs and tests each rate difference,
+paired by seed when it can (``harness.report.compare``). The package's modules, each one concept:
 
 - ``tables``: the run's episodes and the data tables computed from them (DataFrames);
 - ``labels``: parameter values and sweep points as text for people;
 - ``sections``: the overview and the formatted tables shared by Markdown and HTML;
 - ``plots``: the matplotlib figures; ``render``: report.md and report.html;
-- ``stats``: Wilson intervals and two-proportion tests.
+- ``stats``: Wilson intervals, two-proportion tests and the exact McNemar test.
 """
 
 from harness.report.build import BEST_NAME, SUMMARY_NAME, ReportPaths, build_report

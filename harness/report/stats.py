@@ -1,4 +1,4 @@
-"""Binomial statistics for success rates: Wilson intervals and two-proportion tests.
+"""Binomial statistics for success rates: Wilson intervals, two-proportion and McNemar tests.
 
 Success rates in a sweep come from small samples (tens of episodes per point), where the normal
 approximation interval is poor; the Wilson score interval stays inside [0, 1] and keeps close to
