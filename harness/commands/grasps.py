@@ -270,12 +270,14 @@ def audit(args: argparse.Namespace) -> int:
     if table.empty:
         console.print(f"{run_dir}: no episode executed a grasp")
         return 0
+    from harness.report.frames import column
+
     for obj, group in table.groupby("object"):
-        never = int((group["successes"] == 0).sum())
+        never = int((column(group, "successes") == 0).sum())
         console.print(
             f"[bold]{obj}[/]: {len(group)} annotated grasp(s) executed in "
-            f"{int(group['trials'].sum())} episode(s); {never} never succeeded, "
-            f"{int(group['flagged'].sum())} flagged (>= {args.min_trials} trials)",
+            f"{int(column(group, 'trials').sum())} episode(s); {never} never succeeded, "
+            f"{int(column(group, 'flagged').sum())} flagged (>= {args.min_trials} trials)",
             soft_wrap=True,
         )
     for row in flagged_rows(table):

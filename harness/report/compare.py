@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import pandas as pd
 
@@ -100,7 +100,7 @@ def _side(frame: pd.DataFrame) -> pd.DataFrame:
         paired = bool((seeds >= 0).all()) and seeds.is_unique
         rows.append(
             {
-                **dict(zip(MATCH_KEY, key, strict=True)),
+                **dict(zip(MATCH_KEY, cast(tuple[Any, ...], key), strict=True)),
                 "point_id": int(column(group, "point_id").min()),
                 "point": str(group["point"].iloc[0]),
                 "n": len(group),

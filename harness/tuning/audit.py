@@ -25,7 +25,7 @@ import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -80,7 +80,8 @@ def executed_grasps(run_dir: Path) -> pd.DataFrame:
     executed = frame_of(frame[column(frame, "chosen_index") >= 0]).copy()
     executed["grasp_file"] = ""
     executed["grasp_row"] = -1
-    for (name, point), group in executed.groupby(["task", "point"], sort=False):
+    for key, group in executed.groupby(["task", "point"], sort=False):
+        name, point = cast(tuple[Any, ...], key)
         task = apply_overrides(
             tasks[str(name)], point_overrides(tasks[str(name)], json.loads(str(point)))
         )
@@ -119,7 +120,8 @@ def audit_table(executed: pd.DataFrame, min_trials: int) -> pd.DataFrame:
     """One row per (object, grasp file, grasp row): trials, successes, robots, flag, causes."""
     rows: list[dict[str, Any]] = []
     widths: dict[str, np.ndarray] = {}
-    for (obj, path, grasp), group in executed.groupby(["object", "grasp_file", "grasp_row"]):
+    for key, group in executed.groupby(["object", "grasp_file", "grasp_row"]):
+        obj, path, grasp = cast(tuple[Any, ...], key)
         if path not in widths:
             widths[str(path)] = np.load(str(path))[:, 1]
         width = float(widths[str(path)][int(grasp)])
@@ -148,7 +150,8 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
     """Per grasp file with flagged rows: a copy without them, ``<object>_cleaned.npy``."""
     cleaned: dict[str, Path] = {}
     flagged = frame_of(table[column(table, "flagged")])
-    for (obj, path), group in flagged.groupby(["object", "grasp_file"]):
+    for key, group in flagged.groupby(["object", "grasp_file"]):
+        obj, path = cast(tuple[Any, ...], key)
         data = np.load(str(path))
         keep = np.ones(len(data), dtype=bool)
         keep[column(group, "grasp_row").to_numpy(np.int64)] = False

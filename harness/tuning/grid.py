@@ -107,8 +107,8 @@ def tune_sweep(
     """The tune sweep: tasks x (approach cones x facing cones x other axes) x seeds."""
     if not 1 <= step <= 90:
         raise ConfigError(f"--step {step}: expected 1 to 90 degrees")
-    approach = approach_values(step, bands)
-    facing = facing_values(step, bands)
+    approach: list[list[Any] | None] = [*approach_values(step, bands)]
+    facing: list[list[Any] | None] = [*facing_values(step, bands)]
     for task in tasks:
         for key, value in current_setting(task).items():
             values = approach if key == APPROACH_KEY else facing

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.patches import Rectangle
 
-from harness.report.frames import frame_of, series_rows
+from harness.report.frames import column, frame_of, series_rows
 from harness.tuning.analysis import filter_label
 
 ANNOTATE_MAX_CELLS = 400
@@ -95,7 +95,7 @@ def write_heatmaps(
                 & (per_object["object"] == obj)
             ]
         )
-        n = int(group["n"].max())
+        n = int(column(group, "n").max())
         title = f"{robot} {arm} arm, {obj}: {objective} success (n = {n} per cell)"
         best = (str(choice["approach"]), str(choice["facing"]))
         current = (str(choice["current_approach"]), str(choice["current_facing"]))

@@ -18,6 +18,7 @@ import pandas as pd
 import yaml
 
 from harness.config import TaskConfig
+from harness.report.frames import frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir
@@ -107,12 +108,12 @@ def analyse(run_dir: Path, objective: str = "reference") -> TuneResult:
     out.mkdir(parents=True, exist_ok=True)
     pd.concat([per_object, pooled]).to_csv(out / "success_map.csv", index=False)
     chosen.to_csv(out / "choices.csv", index=False)
-    per_object_choices = chosen[chosen["object"] != POOLED]
+    per_object_choices = frame_of(chosen[chosen["object"] != POOLED])
     heatmaps = write_heatmaps(per_object, per_object_choices, out / "heatmaps", objective)
     images = {
         (str(r), str(a), str(o)): p
         for (r, a, o), p in zip(
-            per_object_choices[["robot", "arm", "object"]].itertuples(index=False),
+            frame_of(per_object_choices[["robot", "arm", "object"]]).itertuples(index=False),
             heatmaps,
             strict=True,
         )
