@@ -206,3 +206,28 @@ def test_audit_flags_a_grasp_wider_than_the_jaw(tmp_path: Path) -> None:
     assert np.array_equal(cleaned, kept)
     assert cli_main(["grasps", "audit", str(run), "--min-trials", "1"]) == 0
     assert pd.read_csv(result.csv)["flagged"].sum() == len(flagged)
+
+
+@pytest.mark.slow
+def test_tuned_rate_on_fresh_seeds_lies_in_its_interval(tmp_path: Path) -> None:
+    """Tune the canonical fr3 and Split ALOHA left tasks (10 episodes per setting), paste each
+    tuned block into its task file and run it on 20 fresh seeds (another sweep seed): the fresh
+    rate lies within the tune's 95% interval."""
+    tasks = {("fr3", "left"): FR3, ("split_aloha", "left"): FR3.parent / "split_aloha_left.yaml"}
+    result = tune(list(tasks.values()), episodes=10, step=45, bands=0, out=tmp_path / "tune")
+    blocks = yaml.safe_load(result.tuned_yaml.read_text())
+    chosen = result.choices[result.choices["object"] == POOLED].set_index(["robot", "arm"])
+    for (robot, arm), path in tasks.items():
+        task = yaml.safe_load(path.read_text())
+        task["pick"] = blocks[robot][arm]["pick"]
+        pasted = tmp_path / f"{robot}_{arm}.yaml"
+        pasted.write_text(yaml.safe_dump(task, sort_keys=False))
+        assert cli_main(["validate", str(pasted)]) == 0
+        out = tmp_path / f"fresh_{robot}"
+        args = ["run", str(pasted), "--episodes", "20", "--seed", "424242", "--record", "none"]
+        assert cli_main([*args, "--out", str(out)]) == 0
+        fresh = load_episodes(out)
+        assert not set(fresh["seed"]) & set(load_episodes(result.run_dir)["seed"])
+        rate = float(fresh["success"].mean())
+        best = chosen.loc[(robot, arm)]
+        assert best["lo"] <= rate <= best["hi"], (robot, rate, best["lo"], best["hi"])

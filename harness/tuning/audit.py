@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from harness.config import TaskConfig, apply_overrides
+from harness.errors import HarnessError
 from harness.grasps.ee_poses import ee_poses_for_pick
 from harness.grasps.grasp_set import load_grasp_file
 from harness.objects.assets import find_grasp_file, resolve_mesh
@@ -62,7 +63,7 @@ def grasp_file(task: TaskConfig) -> Path:
         return path if path.is_absolute() or path.is_file() else mesh.parent / path
     found = find_grasp_file(mesh, task.pick.npy_name)
     if found is None:
-        raise FileNotFoundError(f"object {obj.name!r} ({mesh}) has no grasp file")
+        raise HarnessError(f"task {task.name!r}: object {obj.name!r} ({mesh}) has no grasp file")
     return found
 
 
