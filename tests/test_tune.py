@@ -231,3 +231,31 @@ def test_tuned_rate_on_fresh_seeds_lies_in_its_interval(tmp_path: Path) -> None:
         rate = float(fresh["success"].mean())
         best = chosen.loc[(robot, arm)]
         assert best["lo"] <= rate <= best["hi"], (robot, rate, best["lo"], best["hi"])
+
+
+def test_settings_pair_within_the_other_swept_keys() -> None:
+    """A sweep file's other axes (object.mesh) split the pairs: the same seed of cube and banana
+    is not a pair."""
+    from harness.tuning.analysis import paired_counts, settings_frame
+
+    rows = []
+    for mesh, ok_best, ok_current in (("cube", True, False), ("banana", False, True)):
+        for setting, ok in (("best", ok_best), ("current", ok_current)):
+            rows.append(
+                {
+                    "robot": "fr3",
+                    "arm": "left",
+                    "object": mesh,
+                    "task": "t",
+                    "seed": 7,
+                    "point_id": 0,
+                    "success": ok,
+                    "valid": False,
+                    "param.pick.approach_filter": setting,
+                    "param.pick.facing_filter": "f",
+                    "param.object.mesh": mesh,
+                }
+            )
+    settings = settings_frame(pd.DataFrame(rows), "reference")
+    assert paired_counts(settings, ("best", "f"), ("current", "f")) == (2, 1, 1)
+    assert not settings_frame(pd.DataFrame(rows), "valid")["ok"].any()

@@ -41,13 +41,13 @@ def settings_frame(frame: pd.DataFrame, objective: str) -> pd.DataFrame:
     """One row per episode: robot, arm, object, task, context, seed, approach, facing, ok.
 
     ``ok`` is the reference success or, with ``objective="valid"``, the validity verdict.
-    ``context`` is the JSON of the point's other swept keys (episodes pair within a context).
+    ``context`` joins the point's other swept values (episodes pair within a context).
     """
     missing = [c for c in (APPROACH_COLUMN, FACING_COLUMN) if c not in frame.columns]
     if missing:
         raise HarnessError(f"not a tune run: the episodes have no {missing[0]} column")
     others = [c for c in param_columns(frame.columns) if c not in (APPROACH_COLUMN, FACING_COLUMN)]
-    context = frame[others].astype(str).agg(json.dumps, axis=1) if others else "{}"
+    context = frame[others].astype(str).agg(" | ".join, axis=1) if others else ""
     verdict = "valid" if objective == "valid" else "success"
     return pd.DataFrame(
         {
