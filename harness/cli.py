@@ -179,7 +179,8 @@ def _add_compare(sub: Subparsers) -> None:
 def _add_tune(sub: Subparsers) -> None:
     """``harness tune TASK_OR_SWEEP... [--episodes N] [--step 5] [--objective ...]``"""
     p = sub.add_parser("tune", help="dense approach x facing grid: best filter block per arm")
-    p.add_argument("files", nargs="+", metavar="TASK_OR_SWEEP")
+    p.add_argument("files", nargs="*", metavar="TASK_OR_SWEEP")
+    p.add_argument("--analyse", metavar="RUN_DIR", help="only analyse a finished tune run again")
     p.add_argument("--episodes", type=EPISODES, help="episodes per setting (default 20)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")

@@ -144,7 +144,7 @@ def test_tuned_block_pastes_into_an_interndata_file(tuned, tmp_path: Path) -> No
     assert filters.filter_x_dir.as_list() == block["filter_x_dir"]
 
 
-def test_compare_matches_settings_paired_and_unpaired(tuned, tmp_path: Path) -> None:
+def test_compare_matches_settings_paired_and_unpaired(tuned, tmp_path: Path, capsys) -> None:
     same_seeds, new_seeds = tmp_path / "same", tmp_path / "new"
     base = ["run", str(FR3), "--episodes", str(EPISODES), "--record", "none", "--out"]
     assert cli_main([*base, str(same_seeds)]) == 0
@@ -162,6 +162,11 @@ def test_compare_matches_settings_paired_and_unpaired(tuned, tmp_path: Path) -> 
     unpaired = compare_runs(tuned.run_dir, new_seeds)
     row = unpaired[unpaired["present"] == "both"].iloc[0]
     assert row["test"] in ("z", "fisher") and row["pairs"] == 0
+    # The analysis alone, again (after an interrupted and resumed tune); a plain run is refused.
+    assert cli_main(["tune", "--analyse", str(tuned.run_dir)]) == 0
+    assert "fr3:" in capsys.readouterr().out
+    assert cli_main(["tune", "--analyse", str(same_seeds)]) == 2
+    assert "not a tune run" in capsys.readouterr().err
 
 
 def _wide_grasp_task(tmp_path: Path) -> tuple[Path, Path]:

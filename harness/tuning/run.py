@@ -37,6 +37,7 @@ class TuneResult:
     """Where a tune wrote its outputs, and the choices it made (``analysis.choices``)."""
 
     run_dir: Path
+    interrupted: bool
     tuned_yaml: Path
     tuned_md: Path
     heatmaps: list[Path]
@@ -77,6 +78,8 @@ def tune(
             backend=backend,
             progress=progress,
         )
+    if outcome.stats.interrupted:
+        return TuneResult(outcome.run_dir, True, Path(), Path(), [], pd.DataFrame(), "")
     return analyse(outcome.run_dir, objective)
 
 
@@ -129,4 +132,4 @@ def analyse(run_dir: Path, objective: str = "reference") -> TuneResult:
     tuned_path.write_text(text, encoding="utf-8")
     md_path = out / "tuned.md"
     md_path.write_text(tuned_markdown(chosen, text, header, images), encoding="utf-8")
-    return TuneResult(run_dir, tuned_path, md_path, heatmaps, chosen, text)
+    return TuneResult(run_dir, False, tuned_path, md_path, heatmaps, chosen, text)
