@@ -192,11 +192,30 @@ def _add_objective(p: argparse.ArgumentParser) -> None:
 
 def _add_compare(sub: Subparsers) -> None:
     """``harness compare RUN_A RUN_B [--csv FILE]``"""
-    p = sub.add_parser("compare", help="per-point success-rate differences between two runs")
+    p = sub.add_parser(
+        "compare", help="per-setting rate differences of two runs (McNemar / two-proportion)"
+    )
     p.add_argument("run_a", metavar="RUN_A", help="the baseline run directory (A)")
     p.add_argument("run_b", metavar="RUN_B", help="the run directory compared with it (B)")
     p.add_argument("--csv", metavar="FILE", help="also write the comparison table as CSV")
     p.set_defaults(func=_handler("report", "compare"))
+
+
+def _add_tune(sub: Subparsers) -> None:
+    """``harness tune TASK_OR_SWEEP... [--episodes N] [--step 5] [--objective ...]``"""
+    p = sub.add_parser("tune", help="dense approach x facing grid: best filter block per arm")
+    p.add_argument(
+        "files", nargs="*", metavar="TASK_OR_SWEEP", help="task or sweep YAML files to tune"
+    )
+    p.add_argument("--analyse", metavar="RUN_DIR", help="only analyse a finished tune run again")
+    p.add_argument("--episodes", type=EPISODES, help="episodes per setting (default 20)")
+    p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
+    p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
+    p.add_argument("--seed", type=SEED, help="sweep seed (default: the sweep's, else 0)")
+    p.add_argument("--out", metavar="DIR", help="the tune's run directory (default: reports/)")
+    p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
+    _add_objective(p)
+    p.set_defaults(func=_handler("tune", "main"))
 
 
 def _add_view(sub: Subparsers) -> None:
@@ -219,7 +238,7 @@ def _add_replay(sub: Subparsers) -> None:
 
 
 def _add_grasps(sub: Subparsers) -> None:
-    """``harness grasps inspect | generate``"""
+    """``harness grasps inspect | generate | audit``"""
     grasps = sub.add_parser("grasps", help="inspect or generate grasp annotation files")
     gsub = grasps.add_subparsers(dest="grasps_command", metavar="SUBCOMMAND", required=True)
     p = gsub.add_parser("inspect", help="filter and order the grasps of a file for a robot")
@@ -268,6 +287,15 @@ def _add_grasps(sub: Subparsers) -> None:
         "--max-width", type=float, default=0.1, help="largest gripper opening in m (0, 1]"
     )
     p.set_defaults(func=_handler("graspgen", "generate"))
+    p = gsub.add_parser("audit", help="executed grasps of a run: which never succeed and why")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (sweep, run or tune)")
+    p.add_argument(
+        "--min-trials",
+        type=_bounded_int(1, 1_000_000),
+        default=3,
+        help="trials a grasp needs before it can be flagged as never succeeding (default 3)",
+    )
+    p.set_defaults(func=_handler("grasps", "audit"))
 
 
 def _add_robots(sub: Subparsers) -> None:
@@ -319,6 +347,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_sweep,
     _add_report,
     _add_compare,
+    _add_tune,
     _add_view,
     _add_replay,
     _add_grasps,

@@ -313,13 +313,25 @@ def test_compare_runs_differences_and_p_values(fixture_run: Path, tmp_path: Path
     changed = comparison[(comparison["robot"] == "fr3") & (comparison["point_id"] == 1)].iloc[0]
     assert (changed["successes_a"], changed["successes_b"]) == (2, 5)
     assert changed["difference"] == pytest.approx(0.6)
-    assert changed["test"] == "fisher"
-    assert changed["p_value"] == pytest.approx(20 / 120)  # k1 = 2 or 5 of 7 successes
+    # Same seeds: paired. The 2 successes of A succeed in B too; 3 pairs succeed in B only, so
+    # the exact McNemar p is P(Binomial(3, 1/2) in {0, 3}) = 2 / 8.
+    assert changed["test"] == "mcnemar"
+    assert (changed["pairs"], changed["only_a"], changed["only_b"]) == (5, 0, 3)
+    assert changed["p_value"] == pytest.approx(0.25)
     same = comparison[(comparison["present"] == "both") & (comparison["difference"] == 0)]
     assert len(same) == 7 and (same["p_value"] == 1.0).all()
     only_a = comparison[comparison["present"] == "a only"]
     assert only_a[["robot", "arm", "point_id"]].values.tolist() == [["split_aloha", "right", 2]]
     assert only_a["p_value"].isna().all()
+
+    def new_seeds(frame: pd.DataFrame) -> pd.DataFrame:
+        frame = fix_fr3_point_1(frame)
+        return frame.assign(seed=frame["seed"] + 1_000_000)
+
+    unpaired = compare_runs(fixture_run, modified_run(fixture_run, tmp_path / "c", new_seeds))
+    changed = unpaired[(unpaired["robot"] == "fr3") & (unpaired["point_id"] == 1)].iloc[0]
+    assert changed["test"] == "fisher" and changed["pairs"] == 0
+    assert changed["p_value"] == pytest.approx(20 / 120)  # k1 = 2 or 5 of 7 successes
 
 
 def test_compare_uses_the_z_test_for_large_samples(tmp_path: Path) -> None:

@@ -254,3 +254,41 @@ def inspect(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"\nwrote {args.plot}")
     return 0
+
+
+def audit(args: argparse.Namespace) -> int:
+    """``harness grasps audit RUN_DIR``: executed grasps, never-succeeding ones, cleaned files."""
+    from harness.commands.console import make_console
+    from harness.tuning.audit import audit_run, flagged_rows
+
+    run_dir = Path(args.run_dir)
+    if not run_dir.is_dir():
+        raise HarnessError(f"{run_dir}: run directory not found")
+    result = audit_run(run_dir, args.min_trials)
+    console = make_console()
+    table = result.table
+    if table.empty:
+        console.print(f"{run_dir}: no episode executed a grasp")
+        return 0
+    from harness.report.frames import column
+
+    for obj, group in table.groupby("object"):
+        never = int((column(group, "successes") == 0).sum())
+        console.print(
+            f"[bold]{obj}[/]: {len(group)} annotated grasp(s) executed in "
+            f"{int(column(group, 'trials').sum())} episode(s); {never} never succeeded, "
+            f"{int(column(group, 'flagged').sum())} flagged (>= {args.min_trials} trials)",
+            soft_wrap=True,
+        )
+    for row in flagged_rows(table):
+        console.print(
+            f"  {row['object']} grasp {row['grasp_row']} (width {row['width_m'] * 1000:.0f} mm): "
+            f"0/{row['trials']} on {row['robots']}: {row['causes']}",
+            soft_wrap=True,
+            highlight=False,
+            markup=False,
+        )
+    for source, target in result.cleaned.items():
+        console.print(f"  cleaned  {source} -> {target}", soft_wrap=True, highlight=False)
+    console.print(f"  audit    {result.csv}", soft_wrap=True, highlight=False)
+    return 0

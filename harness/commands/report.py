@@ -111,14 +111,15 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
 
 
 def compare(args: argparse.Namespace) -> int:
-    """Per-point success-rate differences between two runs, with a two-proportion test."""
+    """Per-setting success-rate differences between two runs: McNemar on shared seeds, else a
+    two-proportion test (``harness.report.compare``)."""
     comparison = compare_runs(Path(args.run_a), Path(args.run_b))
     console = make_console()
     params = varying_params(comparison) or [c for c in comparison.columns if c.startswith("param.")]
-    table = Table(title=f"B - A per point   A = {args.run_a}   B = {args.run_b}")
+    table = Table(title=f"B - A per setting   A = {args.run_a}   B = {args.run_b}")
     for column in ("robot", "arm", "object", *[_short(p) for p in params]):
         table.add_column(column)
-    for column in ("A", "B", "B - A", "p", "test"):
+    for column in ("A", "B", "B - A", "p", "test", "pairs"):
         table.add_column(column, justify="right")
     for row in series_rows(comparison):
         a = f"{row['successes_a']}/{row['n_a']}" if row["n_a"] else "—"
@@ -142,12 +143,13 @@ def compare(args: argparse.Namespace) -> int:
             difference,
             p_text,
             str(row["test"]),
+            str(row["pairs"]) if row["test"] == "mcnemar" else "",
         )
     console.print(table)
     both = frame_of(comparison[comparison["present"] == "both"])
     significant = int((column_of(both, "p_value") < SIGNIFICANCE).sum())
     console.print(
-        f"{len(both)} matched point(s), {significant} with p < {SIGNIFICANCE} "
+        f"{len(both)} matched setting(s), {significant} with p < {SIGNIFICANCE} "
         f"(not corrected for multiple comparisons)",
         soft_wrap=True,
     )

@@ -2,8 +2,8 @@
 
 ``build_report(run_dir)`` reads the run's episodes (``harness.runs.store.ResultStore``) and writes
 summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build``);
-``compare_runs(run_a, run_b)`` matches points between two runs and tests each rate difference
-(``harness.report.compare``). The package's modules, each one concept:
+``compare_runs(run_a, run_b)`` matches the settings of two runs and tests each rate difference,
+paired by seed when it can (``harness.report.compare``). The package's modules, each one concept:
 
 - ``tables``: the run's episodes and the data tables computed from them (DataFrames);
 - ``labels``: parameter values and sweep points as text for people;
@@ -12,7 +12,7 @@ summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build
 - ``plots``: the matplotlib figures; ``heatmaps``: the interactive plotly heatmaps;
 - ``videos``: replayed MP4s of one success and one failure per robot arm;
 - ``render``: report.md; ``page``: report.html (self-contained, interactive);
-- ``stats``: Wilson intervals and two-proportion tests.
+- ``stats``: Wilson intervals, two-proportion tests and the exact McNemar test.
 """
 
 from harness.report.build import BEST_NAME, SUMMARY_NAME, ReportPaths, build_report

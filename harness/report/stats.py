@@ -1,4 +1,4 @@
-"""Binomial statistics for success rates: Wilson intervals and two-proportion tests.
+"""Binomial statistics for success rates: Wilson intervals, two-proportion and McNemar tests.
 
 Success rates in a sweep come from small samples (tens of episodes per point), where the normal
 approximation interval is poor; the Wilson score interval stays inside [0, 1] and keeps close to
@@ -101,3 +101,32 @@ def compare_proportions(k1: int, n1: int, k2: int, n2: int) -> Comparison:
     if min(expected) < MIN_EXPECTED_COUNT:
         return Comparison(rate1, rate2, rate2 - rate1, z, fisher_exact_p(k1, n1, k2, n2), "fisher")
     return Comparison(rate1, rate2, rate2 - rate1, z, p_z, "z")
+
+
+@dataclass(frozen=True)
+class McNemar:
+    """Exact McNemar test of two paired success records (same seeds, two settings).
+
+    ``only_a`` pairs succeed under A alone, ``only_b`` under B alone; the concordant pairs carry
+    no information about the difference. The two-sided p-value is the exact binomial test of
+    ``only_b`` out of the ``only_a + only_b`` discordant pairs against 1/2 (1 when there are none).
+    """
+
+    only_a: int
+    only_b: int
+    p_value: float
+
+    @property
+    def discordant(self) -> int:
+        return self.only_a + self.only_b
+
+
+def mcnemar_exact(only_a: int, only_b: int) -> McNemar:
+    """The exact McNemar test from the discordant pair counts (see :class:`McNemar`)."""
+    if only_a < 0 or only_b < 0:
+        raise ValueError(f"discordant counts must be >= 0, got {only_a}, {only_b}")
+    total = only_a + only_b
+    if total == 0:
+        return McNemar(only_a, only_b, 1.0)
+    result = scipy_stats.binomtest(only_b, total, 0.5, alternative="two-sided")
+    return McNemar(only_a, only_b, min(1.0, float(result.pvalue)))

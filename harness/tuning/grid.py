@@ -1,0 +1,127 @@
+"""The tune grid: which approach and facing cones ``harness tune`` tries, as one sweep.
+
+The grid is robot-neutral (``pick.approach_filter`` x ``pick.facing_filter``), so one sweep spans
+robots whose approach axis is EE z (fr3, split_aloha) or EE x (lift2); the sweep's expansion
+replaces each task's own filter on that axis (``harness.runs.expansion.filter_overrides``).
+
+Approach cone (angle from base +Z, ``docs/reference-pick-skill.md`` section 4.2):
+``[downward, a]`` for a = 90, 90 + step, ... below 180 (``downward 90`` keeps every axis that
+points down at all, ``downward 175`` only axes within 5 degrees of straight down; 180 would keep
+exactly vertical axes only, an empty mask and the reference's unfiltered fallback), plus ``bands``
+equal bands ``[downward, lo, hi]`` over 90-180 (an approach between lo and hi degrees from +Z).
+
+Facing cone (angle from base +X): ``[forward, b]`` for b = 2 step, 4 step, ... up to 180
+(``forward 180`` keeps every facing, i.e. no facing filter), plus ``bands`` bands
+``[forward, hi, lo]`` over 0-180 (forward bands take the larger angle first).
+
+The task's current setting is added to both axes, so it is a grid point and the best setting is
+compared with it on the same seeds. Other axes of a sweep file (``object.mesh``, ...) are kept.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
+from harness.grasps import neutral_form, resolve_filters
+from harness.robots.facts import reference_convention
+from harness.runs.expansion import absolute_paths, load_sweep_tasks
+
+APPROACH_KEY = "pick.approach_filter"
+FACING_KEY = "pick.facing_filter"
+SELECTION_KEYS = (
+    "filter_x_dir",
+    "filter_y_dir",
+    "filter_z_dir",
+    "approach_filter",
+    "facing_filter",
+    "direction_to_obj",
+)
+
+
+def _bands(low: float, high: float, count: int) -> list[tuple[float, float]]:
+    width = (high - low) / count if count else 0.0
+    return [(low + i * width, low + (i + 1) * width) for i in range(count)]
+
+
+def approach_values(step: int, bands: int) -> list[list[Any]]:
+    """``[downward, a]`` for a in [90, 180) by ``step``, then ``bands`` bands over 90-180."""
+    singles: list[list[Any]] = [["downward", float(a)] for a in range(90, 180, step)]
+    return singles + [["downward", lo, hi] for lo, hi in _bands(90.0, 180.0, bands)]
+
+
+def facing_values(step: int, bands: int) -> list[list[Any]]:
+    """``[forward, b]`` for b = 2 step ... 180, then ``bands`` bands over 0-180 (larger first)."""
+    singles: list[list[Any]] = [["forward", float(b)] for b in range(2 * step, 181, 2 * step)]
+    if not singles or singles[-1][1] != 180.0:
+        singles.append(["forward", 180.0])
+    return singles + [["forward", hi, lo] for lo, hi in _bands(0.0, 180.0, bands)]
+
+
+def current_setting(task: TaskConfig) -> dict[str, list[Any] | None]:
+    """The task's own approach and facing filters in neutral form (None when it sets none)."""
+    convention = reference_convention(task.robot)
+    neutral = neutral_form(resolve_filters(task.pick, convention), convention)
+    return {
+        key: (spec.as_list() if (spec := neutral.get(key.removeprefix("pick."))) else None)
+        for key in (APPROACH_KEY, FACING_KEY)
+    }
+
+
+def load_inputs(paths: list[Path]) -> tuple[list[TaskConfig], dict[str, list[Any]], int | None]:
+    """Tasks of task and sweep files, the sweeps' non-filter axes, and the first sweep's seed."""
+    tasks: list[TaskConfig] = []
+    axes: dict[str, list[Any]] = {}
+    seed: int | None = None
+    for path in paths:
+        data = read_yaml(path).data
+        if isinstance(data, dict) and "tasks" in data:
+            sweep = load_sweep(path)
+            if sweep.mode != "grid":
+                raise ConfigError("tune takes grid sweeps (mode: grid)", file=path, key="mode")
+            tasks.extend(load_sweep_tasks(sweep, path))
+            seed = sweep.seed if seed is None else seed
+            for key, values in sweep.axes.items():
+                if key.split(".")[-1] in SELECTION_KEYS:
+                    continue  # tune chooses the filters
+                merged = axes.setdefault(key, [])
+                merged.extend(v for v in values if v not in merged)
+        else:
+            tasks.append(absolute_paths(load_task(path)))
+    if not tasks:
+        raise ConfigError("tune needs at least one task or sweep file")
+    return tasks, axes, seed
+
+
+def tune_sweep(
+    tasks: list[TaskConfig],
+    extra_axes: dict[str, list[Any]],
+    *,
+    step: int,
+    bands: int,
+    episodes: int,
+    seed: int,
+    name: str = "tune",
+) -> SweepConfig:
+    """The tune sweep: tasks x (approach cones x facing cones x other axes) x seeds."""
+    if not 1 <= step <= 90:
+        raise ConfigError(f"--step {step}: expected 1 to 90 degrees")
+    approach: list[list[Any] | None] = [*approach_values(step, bands)]
+    facing: list[list[Any] | None] = [*facing_values(step, bands)]
+    for task in tasks:
+        for key, value in current_setting(task).items():
+            values = approach if key == APPROACH_KEY else facing
+            if value not in values:
+                values.append(value)
+    data = {
+        "name": name,
+        "tasks": [
+            task.model_dump(mode="json", exclude={"source"}, exclude_none=True) for task in tasks
+        ],
+        "axes": {APPROACH_KEY: approach, FACING_KEY: facing, **extra_axes},
+        "episodes_per_point": episodes,
+        "seed": seed,
+        "record": "none",
+    }
+    return SweepConfig.model_validate(data)

@@ -1,0 +1,103 @@
+"""Tune heatmaps: the success map of one robot, arm and object over approach x facing cones.
+
+Rows are approach settings, columns facing settings, each sorted (single angles ascending, then
+bands, then no filter); the colour is the rate, each
+cell says k/n when the grid is small enough to read. The best setting is outlined in black, the
+current one in white dashes.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.patches import Rectangle
+
+from harness.report.frames import column, frame_of, series_rows
+from harness.tuning.analysis import filter_label
+
+ANNOTATE_MAX_CELLS = 400
+
+
+def _order(table: pd.DataFrame, key: str) -> list[str]:
+    """Settings of ``key`` sorted: single angles ascending, then bands, then no filter."""
+
+    def rank(text: str) -> tuple[int, list[float]]:
+        value = json.loads(text) if text else None
+        if not value:
+            return 2, []
+        return len(value) - 2, sorted(float(a) for a in value[1:])
+
+    return sorted({str(v) for v in table[key]}, key=rank)
+
+
+def heatmap(
+    table: pd.DataFrame,
+    title: str,
+    best: tuple[str, str],
+    current: tuple[str, str],
+    path: Path,
+) -> Path:
+    """Write the heatmap PNG of one success map (``success_map`` rows of one group)."""
+    rows, cols = _order(table, "approach"), _order(table, "facing")
+    rates = np.full((len(rows), len(cols)), np.nan)
+    counts: dict[tuple[int, int], str] = {}
+    for row in series_rows(table):
+        i, j = rows.index(str(row["approach"])), cols.index(str(row["facing"]))
+        rates[i, j] = float(row["rate"])
+        counts[(i, j)] = f"{int(row['successes'])}/{int(row['n'])}"
+    width = min(22.0, max(7.0, 4.0 + 0.55 * len(cols)))
+    height = min(22.0, max(4.5, 2.5 + 0.32 * len(rows)))
+    fig, ax = plt.subplots(figsize=(width, height), dpi=100)
+    image = ax.imshow(rates, cmap="viridis", vmin=0.0, vmax=1.0, aspect="auto")
+    fig.colorbar(image, ax=ax, label="success rate")
+    ax.set_xticks(range(len(cols)), [filter_label(c) for c in cols], rotation=60, ha="right")
+    ax.set_yticks(range(len(rows)), [filter_label(r) for r in rows])
+    ax.set_xlabel("facing_filter (facing axis angle from base +X)")
+    ax.set_ylabel("approach_filter (angle from base +Z)")
+    ax.set_title(title)
+    if rates.size <= ANNOTATE_MAX_CELLS:
+        for (i, j), text in counts.items():
+            dark = rates[i, j] < 0.6
+            ax.text(j, i, text, ha="center", va="center", fontsize=7,
+                    color="white" if dark else "black")  # fmt: skip
+    for (approach, facing), style in ((current, "--"), (best, "-")):
+        if approach in rows and facing in cols:
+            i, j = rows.index(approach), cols.index(facing)
+            colour = "white" if style == "--" else "black"
+            ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, lw=2.2,
+                                   ls=style, edgecolor=colour))  # fmt: skip
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def write_heatmaps(
+    per_object: pd.DataFrame, chosen: pd.DataFrame, out_dir: Path, objective: str
+) -> list[Path]:
+    """One PNG per robot, arm and object: ``<out_dir>/<robot>_<arm>_<object>.png``."""
+    paths: list[Path] = []
+    for choice in series_rows(chosen):
+        robot, arm, obj = str(choice["robot"]), str(choice["arm"]), str(choice["object"])
+        group = frame_of(
+            per_object[
+                (per_object["robot"] == robot)
+                & (per_object["arm"] == arm)
+                & (per_object["object"] == obj)
+            ]
+        )
+        n = int(column(group, "n").max())
+        title = f"{robot} {arm} arm, {obj}: {objective} success (n = {n} per cell)"
+        best = (str(choice["approach"]), str(choice["facing"]))
+        current = (str(choice["current_approach"]), str(choice["current_facing"]))
+        paths.append(heatmap(group, title, best, current, out_dir / f"{robot}_{arm}_{obj}.png"))
+    return paths
