@@ -29,10 +29,17 @@ def tests(session: nox.Session) -> None:
 
 @nox.session(python=PYTHON)
 def demo(session: nox.Session) -> None:
-    """The main job: the default sweep over the three robots, with report and recording."""
+    """The main job: the default sweep over the three robots (report, videos, recording), then
+    a tune of every robot arm's approach x facing filters (success maps, tuned.yaml).
+
+    Arguments after ``--`` replace the sweep's (the tune is then skipped)."""
     session.install("-e", ".")
-    args = session.posargs or ["tasks/sweeps/demo.yaml", "--videos"]
-    session.run("harness", "sweep", *args, env=RENDER_ENV)
+    if session.posargs:
+        session.run("harness", "sweep", *session.posargs, env=RENDER_ENV)
+        return
+    session.run("harness", "sweep", "tasks/sweeps/demo.yaml", "--videos", env=RENDER_ENV)
+    tune = ["tasks/sweeps/demo.yaml", "--step", "15", "--bands", "1", "--episodes", "10"]
+    session.run("harness", "tune", *tune, env=RENDER_ENV)
 
 
 @nox.session(python=PYTHON)

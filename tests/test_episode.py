@@ -54,8 +54,18 @@ def episode(task, seed: int = 0, cache: dict | None = None, **spec):
 # The canonical tasks (tasks/pick/*.yaml, default cube)
 
 
+# Where the table is physical for the arm (Split ALOHA and Lift-2 right-arm files), a tilted
+# grasp planned through it (the reference's planning world ignores the table) stops where the
+# fingertips meet the table top: measured on split_aloha_right seeds 1, 8 and 9 (approach 24-25
+# degrees from vertical), the TCP stops 16-17 mm short with the fingers 1.0-1.4 mm into the
+# table, and the grasp still holds (valid). Such a stop is allowed up to this distance.
+TABLE_STOP_M = 0.025
+TABLE_TOUCH_M = 0.0008  # fingers pressed on the table top (the contact depth MuJoCo allows)
+
+
 def check_pick(result) -> None:
-    """Success, with the object really lifted and the TCP at grasp within 1 cm of the plan."""
+    """Success, with the object really lifted and the TCP at grasp within 1 cm of the plan --
+    or, on a physical table that the fingertips pressed on, within ``TABLE_STOP_M``."""
     row, trace = result.row, result.trace
     assert result.success, f"{row['failure_reason']}: {row['error_message']}"
     # At the verdict: the last row before the validity phase (which tugs the object after it).
@@ -63,7 +73,12 @@ def check_pick(result) -> None:
     z_before, z_after = trace.object_pose[0, 2], trace.object_pose[last, 2]
     assert z_after - z_before > 0.02, (z_before, z_after)
     assert row["lift_height_m"] > 0.02
-    assert row["tcp_grasp_error_m"] < 0.01
+    table_stop = (
+        result.spec.task.physics.table_contact and row["table_penetration_m"] > TABLE_TOUCH_M
+    )
+    assert row["tcp_grasp_error_m"] < (TABLE_STOP_M if table_stop else 0.01), (
+        row["tcp_grasp_error_m"], row["table_penetration_m"]
+    )  # fmt: skip
 
 
 def test_one_fr3_episode_from_the_task_file(cache: dict) -> None:

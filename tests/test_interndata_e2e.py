@@ -85,17 +85,18 @@ def check_rows(
 
 def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.ndarray:
     """Horizontal distance (m) from the picking arm's base to the object, per row, from the real
-    scene reset with each episode's seed (its first draws; ``harness run`` seeds episode k as a
+    scene reset with each episode's seed (its scene stream; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
     from harness.episode import SETTLE_TIME_S
     from harness.episode_ids import episode_seed
+    from harness.episode_streams import EpisodeStreams
     from harness.scene_cache import get_scene
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene
     distances = []
     for index in rows["episode_index"]:
-        rng = np.random.default_rng(episode_seed(0, int(index)))
+        rng = EpisodeStreams(episode_seed(0, int(index))).scene()
         scene.reset(task, rng, settle_time=SETTLE_TIME_S)
         offset = scene.T_world_object(task.target_object.name)[:3, 3]
         offset = offset - scene.T_world_base(task.arm)[:3, 3]
@@ -152,12 +153,18 @@ def test_canonical_file_runs_end_to_end(
         assert successes >= EPISODES - 1
         return
     # The small arms (Piper, R5a) pick what is in reach; the file's object region reaches
-    # 0.70-0.78 m from their bases (docs/robots.md, Reach), beyond their top-down reach, and the
-    # objects they fail on are the far ones.
+    # 0.70-0.78 m from their bases (docs/robots.md, Reach), beyond their top-down reach: every
+    # failure is a reach failure (no IK solution at the pre-grasp, or along the lift line), and
+    # the objects they fail on are farther on average. (The margin depends on which grasps the
+    # draw picks: 0.06-0.12 m over these 10 seeds under the old and the per-purpose streams.)
     assert successes >= 1
+    failed = rows.loc[~rows["success"]]
+    assert (failed["failure_reason"] == "plan_failed").all(), failed["failure_reason"].tolist()
+    reach = failed["error_message"].str.match(r"^(ik_pregrasp|ik_grasp|lift|approach): ")
+    assert reach.all(), failed["error_message"].tolist()
     distances = object_distances(path, bottle, rows)
     succeeded = rows["success"].to_numpy()
-    assert distances[~succeeded].mean() > distances[succeeded].mean() + 0.08, distances
+    assert distances[~succeeded].mean() > distances[succeeded].mean() + 0.04, distances
 
 
 # --------------------------------------------------------------------------------------------
