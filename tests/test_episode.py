@@ -109,7 +109,7 @@ def test_reference_plans_through_a_physical_table_strict_does_not() -> None:
     """Issue 16 item 1: the reference planner never sees the table, even where robot-table
     contact is physical (the right-arm reference files omit ``neglect_collision_names``).
     Measured on 20 seeds (``harness run tasks/pick/lift2_left.yaml --episodes 20 --set
-    physics.table_contact=true``): 19/20 with the reference planning world, 0/20 when the
+    physics.table_contact=true``): 20/20 with the reference planning world, 0/20 when the
     planner avoided the table. Here three of those seeds."""
     task = apply_overrides(
         load_task(TASKS_DIR / "lift2_left.yaml"), {"physics.table_contact": True}
