@@ -23,6 +23,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from harness.candidate_cache import SELECTION_KEYS
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
 from harness.grasps import neutral_form, resolve_filters
 from harness.robots.facts import reference_convention
@@ -30,14 +31,6 @@ from harness.runs.expansion import absolute_paths, load_sweep_tasks
 
 APPROACH_KEY = "pick.approach_filter"
 FACING_KEY = "pick.facing_filter"
-SELECTION_KEYS = (
-    "filter_x_dir",
-    "filter_y_dir",
-    "filter_z_dir",
-    "approach_filter",
-    "facing_filter",
-    "direction_to_obj",
-)
 
 
 def _bands(low: float, high: float, count: int) -> list[tuple[float, float]]:
