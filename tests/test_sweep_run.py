@@ -217,7 +217,9 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
     import sys
     import time
 
-    sweep_path = write_sweep(tmp_path, episodes=6)
+    # 2 points x 20 seeds: the second point of each seed is answered from the shared candidate
+    # cache in milliseconds, so a short sweep could finish before the signal lands.
+    sweep_path = write_sweep(tmp_path, episodes=20)
     run_dir = tmp_path / "run"
     harness = [sys.executable, "-m", "harness.cli", "sweep"]
     process = subprocess.Popen(
@@ -240,7 +242,7 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
     assert "interrupted" in out and "--resume" in out
     assert "Traceback" not in err
     kept = rows(run_dir)
-    assert 3 <= len(kept) < 12 and kept["episode_id"].is_unique
+    assert 3 <= len(kept) < 40 and kept["episode_id"].is_unique
     assert (kept["failure_reason"] != "error").all()  # no worker "crashed"
 
     resumed = subprocess.run(
