@@ -228,6 +228,9 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        # As from a terminal: a shell starts background jobs with SIGINT ignored, and a child
+        # inherits that (CI scripts run so), which would make the harness deaf to Ctrl-C.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     store = run_dir / "episodes.jsonl"
     deadline = time.monotonic() + 120
