@@ -297,9 +297,7 @@ def feasibility(planning: Planning) -> Choice:
     planning.ik_time_before = planner.ik.total_time
     known = setup.evaluation.verdicts
     known_before = set(known)
-    verdicts, chosen, _ = walk_candidates(
-        order.indices.tolist(), order.scores.tolist(), test, known
-    )
+    verdicts, chosen = walk_candidates(order.indices.tolist(), order.scores.tolist(), test, known)
     reused = {v.pose_index for v in verdicts} & known_before
     stats = setup.evaluation.stats
     stats.verdict_hits += len(reused)

@@ -24,8 +24,8 @@ def walk_candidates(
     scores: list[float],
     test: CandidateTest,
     known: dict[int, CandidateVerdict] | None = None,
-) -> tuple[list[CandidateVerdict], CandidateVerdict | None, int]:
-    """Walk the ordered candidates until one passes; (verdicts, chosen, answers reused).
+) -> tuple[list[CandidateVerdict], CandidateVerdict | None]:
+    """Walk the ordered candidates until one passes; (verdicts, chosen).
 
     ``test`` runs the feasibility test (``pick.test_mode``) of one candidate. ``known`` holds
     the verdicts already found for this scene and seed, by pose index, and receives the new
@@ -36,12 +36,10 @@ def walk_candidates(
     """
     memory: dict[int, CandidateVerdict] = {} if known is None else known
     verdicts: list[CandidateVerdict] = []
-    reused = 0
     for position, pose_index in enumerate(indices):
         score = float(scores[position])
         previous = memory.get(pose_index)
         if previous is not None:
-            reused += 1
             verdict = CandidateVerdict(
                 position, pose_index, score, previous.feasible, previous.stage, previous.detail,
                 previous.ik_pregrasp, previous.ik_grasp, previous.plan, 0.0,
@@ -52,8 +50,8 @@ def walk_candidates(
             memory[pose_index] = verdict
         verdicts.append(verdict)
         if verdict.feasible:
-            return verdicts, verdict, reused
-    return verdicts, None, reused
+            return verdicts, verdict
+    return verdicts, None
 
 
 def candidate_failures(verdicts: list[CandidateVerdict]) -> dict[str, int]:

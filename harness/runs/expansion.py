@@ -14,7 +14,6 @@ numbers. Episode ids hash (task, point, episode index), so resuming runs exactly
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import itertools
 import sys
@@ -33,10 +32,10 @@ from harness.config import (
     validate_model,
 )
 from harness.episode_ids import episode_id, episode_seed
+from harness.robots.facts import reference_convention
 
 if TYPE_CHECKING:
     from harness.episode import EpisodeSpec
-    from harness.grasps.conventions import GripperConvention
 
 
 def absolute_paths(task: TaskConfig) -> TaskConfig:
@@ -142,14 +141,6 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
 FILTER_KEYS = {"x": "filter_x_dir", "y": "filter_y_dir", "z": "filter_z_dir"}
 
 
-@functools.cache
-def _convention(robot: str) -> GripperConvention:
-    """A robot's EE convention, read once per process (a dense grid asks it per point)."""
-    from harness.robots import RobotModel
-
-    return RobotModel.load(robot).convention
-
-
 def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     """A point's overrides, plus clearing whatever filter it replaces on the same EE axis.
 
@@ -164,7 +155,7 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     ]
     if not swept:
         return point
-    convention = _convention(task.robot)
+    convention = reference_convention(task.robot)  # robot.yaml read once per process
     axis_of = {"approach_filter": convention.approach_axis, "facing_filter": convention.facing_axis}
     cleared: dict[str, Any] = {}
     for key in swept:

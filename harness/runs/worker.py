@@ -57,8 +57,7 @@ def execute(
         cache = _candidate_cache() if share else None
         with episode_budget(limits.wall_time_s, limits.sim_steps):
             result = run_episode(episode, scene_cache=_SCENE_CACHE, candidate_cache=cache)
-        failed = not bool(result.row.get("success"))
-        if result.shared and (episode.record or (record_policy == "failures" and failed)):
+        if result.shared and _wants_recording(episode, result.row, record_policy):
             with episode_budget(limits.wall_time_s, limits.sim_steps):
                 result = run_episode(episode, scene_cache=_SCENE_CACHE)  # for its trace
         row = dict(result.row)
@@ -72,11 +71,15 @@ def execute(
     row.update(identity_columns(episode))
     row.setdefault("wall_time_s", time.perf_counter() - start)
     row["worker_peak_rss_mb"] = _peak_rss_mb()
-    failed = not bool(row.get("success"))
-    wants = episode.record or (record_policy == "failures" and failed)
+    wants = _wants_recording(episode, row, record_policy)
     if wants and result is not None and getattr(result, "trace", None) is not None:
         _record(result, episode, Path(run_dir), row)
     return row
+
+
+def _wants_recording(episode: EpisodeSpec, row: dict[str, Any], record_policy: str) -> bool:
+    """The episode is recorded: chosen for it, or failed under ``--record failures``."""
+    return episode.record or (record_policy == "failures" and not bool(row.get("success")))
 
 
 def _record(result: Any, episode: EpisodeSpec, run_dir: Path, row: dict[str, Any]) -> None:
