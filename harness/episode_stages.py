@@ -25,8 +25,9 @@ from harness.candidate_cache import WALL_TIME_COLUMNS, ExecutedOutcome, ResetFac
 from harness.config import PickConfig, TaskConfig
 from harness.episode_spec import EpisodeResult, EpisodeSpec
 from harness.episode_streams import EpisodeStreams
-from harness.episode_trace import make_trace, planned_tcp
+from harness.episode_trace import add_failure_point, make_trace, planned_tcp
 from harness.failures import FailureReason
+from harness import location
 from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.executor import PickExecutor
@@ -41,7 +42,7 @@ from harness.pick.targets import CandidatePoses, PickTargets
 from harness.pick.validity import validity_columns
 from harness.planning.chain_timing import time_plan
 from harness.planning.planner import PickPlanner
-from harness.planning.plans import CandidateVerdict
+from harness.planning.plans import CandidateVerdict, FailurePoint
 from harness.planning.timing import TimingError
 from harness.scene_cache import SceneBundle, get_scene, grasp_file_for
 from harness.sim import Scene
@@ -182,10 +183,19 @@ class Planning:
         row["plan_time_s"] = time.perf_counter() - self.t0
         row["ik_time_s"] = self.setup.planner.ik.total_time - self.ik_time_before
 
-    def stop(self, reason: FailureReason, message: str) -> EpisodeStopError:
-        """Record the planning time and the trace so far, and end the episode."""
+    def stop(
+        self,
+        reason: FailureReason,
+        message: str,
+        where: dict[str, Any] | None = None,
+        point: FailurePoint | None = None,
+    ) -> EpisodeStopError:
+        """Record the planning time, where it failed (``harness.location``) and the trace so
+        far (with the failing configuration), and end the episode."""
         self.record_plan_time()
+        self.setup.row.update(where or {})
         self.finish_trace(None, None, None)
+        add_failure_point(self.setup.result.trace, self.setup.scene, self.setup.arm, point)
         return EpisodeStopError(reason, message)
 
 
@@ -224,9 +234,11 @@ def reset(
         setup.used_shared = True
         evaluation.stats.reset_hits += 1
     facts = setup.facts
+    result.row.update(location.placement_columns(facts.T_world_base, facts.T_world_object))
     result.timings["settle_steps"] = float(facts.settle_steps)
     result.timings["setup_s"] = time.perf_counter() - clock
     if facts.unstable is not None:
+        result.row.update(location.stage_failure("settle"))
         raise EpisodeStopError("sim_unstable", f"while settling: {facts.unstable}")
     return setup
 
@@ -258,6 +270,7 @@ def candidates(setup: Setup) -> Planning:
     )  # fmt: skip
     planning = Planning(setup, selection, poses, facts.T_world_object, t0)
     if selection.order.outcome == "filter_empty":
+        row.update(location.stage_failure("filter"))
         planning.finish_trace(None, None, None)
         raise EpisodeStopError("filter_empty", selection.order.note or "no pose passed the filters")
     return planning
@@ -311,8 +324,10 @@ def feasibility(planning: Planning) -> Choice:
     if chosen is None:
         if not semantics.fall_back_to_last_tested or not verdicts:
             raise planning.stop(
-                "no_feasible_candidate", none_feasible_message(verdicts, pick.test_mode)
-            )
+                "no_feasible_candidate", none_feasible_message(verdicts, pick.test_mode),
+                location.feasibility_failure(verdicts),
+                verdicts[-1].failure_point if verdicts else None,
+            )  # fmt: skip
         chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
         planning.chosen = chosen
     row["chosen_index"] = chosen.pose_index
@@ -369,11 +384,13 @@ def _execution_plan(
             setup.streams.execution(choice.chosen.pose_index),
         )  # fmt: skip
     except PlanFailedError as exc:
-        raise planning.stop("plan_failed", str(exc)) from None
+        where = location.plan_failure(exc.stage, exc.point)
+        raise planning.stop("plan_failed", str(exc), where, exc.point) from None
     try:
         segments = time_plan(plan, scene, arm, task)
     except TimingError as exc:
-        raise planning.stop("plan_failed", f"timing: {exc}") from None
+        where = location.stage_failure("plan:timing")
+        raise planning.stop("plan_failed", f"timing: {exc}", where) from None
     planning.record_plan_time()
     row["traj_duration_s"] = sum(s.duration for s in segments.values())
     targets = PickTargets(plan.T_world_pregrasp, plan.T_world_grasp, plan.T_world_lift, segments)
@@ -397,6 +414,7 @@ def _execute(
     scene.step(warmup_steps)
     result.timings["warmup_steps"] = float(warmup_steps)
     if (reason := scene.unstable()) is not None:
+        row.update(location.stage_failure("warmup"))
         raise EpisodeStopError("sim_unstable", f"during the warm-up steps: {reason}")
     executor = PickExecutor(
         scene, setup.task, targets, setup.facts.object_init_position,
@@ -424,4 +442,5 @@ def _execute(
     )
     row.update(validity_columns(executor.validity, outcome.table_penetration_m, outcome.validity))
     if outcome.failure_reason:
+        row.update(location.execution_failure(outcome.failure_phase, outcome.collision_pair))
         raise EpisodeStopError(outcome.failure_reason, outcome.message)

@@ -17,7 +17,7 @@ from harness.pick.outcome import PickOutcome
 from harness.pick.recorder import FingerContacts, ValidityTrace
 from harness.pick.targets import PickTargets
 from harness.planning.ik import WholeBodyIK
-from harness.planning.plans import CandidateVerdict
+from harness.planning.plans import CandidateVerdict, FailurePoint
 from harness.planning.timing import Trajectory
 from harness.sim import Scene
 
@@ -73,6 +73,25 @@ class EpisodeTrace:
     tested_status: np.ndarray | None = None  # (K,) str: infeasible/feasible/chosen/fallback
     tested_T_world_pregrasp: np.ndarray | None = None  # (K, 4, 4)
     tested_T_world_grasp: np.ndarray | None = None  # (K, 4, 4)
+    # The configuration that failed planning (full qpos: the reset state with the arm at the
+    # best IK attempt or the colliding configuration) and its colliding pair of bodies.
+    failure_qpos: np.ndarray | None = None  # (nq,)
+    failure_pair: tuple[str, str] | None = None
+
+
+def add_failure_point(
+    trace: EpisodeTrace | None, scene: Scene, arm: str, point: FailurePoint | None
+) -> None:
+    """Put the failing configuration of a planning failure into ``trace`` (the scene holds
+    the reset state the planner planned from)."""
+    if trace is None or point is None or point.q is None:
+        return
+    qpos = scene.data.qpos.copy() if trace.qpos_start is None else trace.qpos_start.copy()
+    active = scene.arms[arm].active_qpos
+    if len(point.q) == len(active):
+        qpos[active] = point.q
+        trace.failure_qpos = qpos
+    trace.failure_pair = point.pair
 
 
 def planned_tcp(

@@ -16,13 +16,21 @@ from harness.config import PickConfig
 from harness.pick.semantics import Semantics
 from harness.pick.targets import CandidatePoses
 from harness.planning.planner import PickPlanner
-from harness.planning.plans import CandidateVerdict, ChainPlan
+from harness.planning.plans import CandidateVerdict, ChainPlan, FailurePoint
 
 PLAN_RETRIES = 2  # extra attempts for a randomised (RRT / restart) plan failure
 
 
 class PlanFailedError(Exception):
-    """The chosen candidate's motion could not be planned; the message is ``stage: detail``."""
+    """The chosen candidate's motion could not be planned; the message is ``stage: detail``.
+
+    ``stage`` is where it failed (ik_pregrasp, transport, approach, lift, return) and ``point``
+    the configuration that failed there (for the row's colliding pair and for viewers)."""
+
+    def __init__(self, stage: str, detail: str, point: FailurePoint | None) -> None:
+        super().__init__(f"{stage}: {detail}")
+        self.stage = stage
+        self.point = point
 
 
 def plan_chosen(
@@ -50,7 +58,7 @@ def plan_chosen(
         # A forward test without the carry: the chosen plan ends at the grasp; plan it now.
         plan, stage, why = planner.plan_carry(plan, T_lift, pick.return_to_pregrasp)
         if plan is None:
-            raise PlanFailedError(f"{stage}: {why}")
+            raise PlanFailedError(stage, why, planner.last_failure)
     while plan is None and attempts <= PLAN_RETRIES:
         attempts += 1
         tested = chosen.ik_pregrasp
@@ -63,5 +71,5 @@ def plan_chosen(
         if failure.stage not in ("transport", "ik_pregrasp"):
             break  # deterministic failures do not change on a retry
     if plan is None:
-        raise PlanFailedError(f"{failure.stage}: {failure.detail}")
+        raise PlanFailedError(failure.stage, failure.detail, failure.failure_point)
     return plan

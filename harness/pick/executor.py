@@ -289,6 +289,8 @@ class PickExecutor:
         pairs = checker.contacts(q, phase, EXECUTION_PENETRATION)
         if pairs:
             self.out.collisions.append(f"t={self.time:.3f}s {checker.describe(pairs)}")
+            if self.out.collision_pair is None:
+                self.out.collision_pair = checker.pair_names(pairs[0])
 
     def _attached(self) -> bool:
         """The attach event has passed: the object is in the hand (carry rules)."""
@@ -327,6 +329,7 @@ class PickExecutor:
         if not self.out.failure_reason:
             self.out.failure_reason = reason
             self.out.message = message
+            self.out.failure_phase = self._phase_label()
 
     # -- run ------------------------------------------------------------------------------------
 

@@ -74,6 +74,8 @@ class PickOutcome:
     object_z_after: float = float("nan")
     contact_during_close: bool = False
     collisions: list[str] = field(default_factory=list)
+    collision_pair: tuple[str, str] | None = None  # bodies of the first strict collision
+    failure_phase: str = ""  # the command (function:target) running when the failure was set
     trace: ExecutionTrace | None = None
     # Deepest robot geom below the table top during the motion (m), measured geometrically.
     table_penetration_m: float = 0.0

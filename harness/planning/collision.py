@@ -158,6 +158,12 @@ class CollisionChecker:
         order = _van_der_corput_order(count + 1)
         return any(self.collides(qa + (qb - qa) * (k / count), phase) for k in order)
 
+    def pair_names(self, pair: tuple[int, int]) -> tuple[str, str]:
+        """The bodies of a colliding (geom, geom) pair, by name (as ``describe`` writes them)."""
+        m = self.model
+        a, b = pair
+        return m.body(int(m.geom_bodyid[a])).name, m.body(int(m.geom_bodyid[b])).name
+
     def describe(self, pairs: list[tuple[int, int]]) -> str:
         m = self.model
         return ", ".join(

@@ -32,7 +32,7 @@ import numpy as np
 from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
 from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
-from harness.planning.plans import CandidateVerdict, ChainPlan
+from harness.planning.plans import CandidateVerdict, ChainPlan, FailurePoint
 from harness.planning.world import PlanningWorld
 from harness.sim.scene import Scene
 
@@ -68,8 +68,17 @@ class PickPlanner:
         self.checker = CollisionChecker(scene, arm, self.settings.penetration_tolerance)
         self.lower = ik.lower
         self.upper = ik.upper
+        # The configuration (and colliding pair) of the last failed check, for the verdict.
+        self.last_failure: FailurePoint | None = None
 
     # -- helpers --------------------------------------------------------------------------------
+
+    def _note(self, q: np.ndarray, pairs: list[tuple[int, int]] | None = None) -> str:
+        """Remember ``q`` (and its first colliding pair) as the last failure; the pairs
+        described as in the failure messages."""
+        names = self.checker.pair_names(pairs[0]) if pairs else None
+        self.last_failure = FailurePoint(np.array(q, dtype=float), names)
+        return self.checker.describe(pairs) if pairs else ""
 
     def sync(self, world: PlanningWorld) -> None:
         """Take the scene's current state and ``world`` as the planning world and IK posture.
@@ -110,8 +119,9 @@ class PickPlanner:
                 pairs = self.checker.contacts(result.q, phase)
                 if not pairs:
                     return result, ""
-                colliding = (result, f"IK solution in collision ({self.checker.describe(pairs)})")
+                colliding = (result, f"IK solution in collision ({self._note(result.q, pairs)})")
             elif attempt == 0:
+                self._note(result.q)  # the best attempt at an unreachable target
                 return result, ""  # not reachable at all: restarts were already spent
             if rng is None or attempt == attempts:
                 break
@@ -133,10 +143,10 @@ class PickPlanner:
         """Collision-free joint path: direct line, else RRT-Connect. (waypoints, used_rrt, why)."""
         if self.checker.collides(q_to, phase):
             pairs = self.checker.contacts(q_to, phase)
-            return None, False, f"goal in collision ({self.checker.describe(pairs)})"
+            return None, False, f"goal in collision ({self._note(q_to, pairs)})"
         if self.checker.collides(q_from, phase):
             pairs = self.checker.contacts(q_from, phase)
-            return None, False, f"start in collision ({self.checker.describe(pairs)})"
+            return None, False, f"start in collision ({self._note(q_from, pairs)})"
         edge_free = self.edge_free(phase)
         if edge_free(q_from, q_to):
             return np.stack([q_from, q_to]), False, ""
@@ -154,6 +164,7 @@ class PickPlanner:
             s.rrt_max_nodes,
         )
         if path is None:
+            self._note(q_to)  # no single configuration failed: show the goal it did not reach
             return None, True, "RRT-Connect found no path within its budget"
         path = shortcut(path, edge_free, rng, s.shortcut_iterations)
         return np.stack(path), True, ""
@@ -172,15 +183,17 @@ class PickPlanner:
             T = interpolate_pose(T_from, T_to, k / count)
             result = self.ik.solve(T, q, None, s.ik)
             if not result.success:
+                self._note(result.q)
                 return None, (
                     f"IK failed at {k}/{count} of the line ({result.position_error * 1e3:.1f} mm, "
                     f"{result.orientation_error:.3f} rad)"
                 )
             if float(np.max(np.abs(result.q - q))) > s.max_joint_jump:
+                self._note(result.q)
                 return None, f"joint jump at {k}/{count} of the line (IK branch change)"
             if self.checker.segment_collides(q, result.q, phase, s.collision_resolution):
                 pairs = self.checker.contacts(result.q, phase)
-                return None, f"collision at {k}/{count} ({self.checker.describe(pairs)})"
+                return None, f"collision at {k}/{count} ({self._note(result.q, pairs)})"
             waypoints.append(result.q)
             q = result.q
         return np.stack(waypoints), ""
@@ -202,6 +215,7 @@ class PickPlanner:
         checked for collisions (as the reference's collision-aware IK does; the grasp with the
         approach rules, so the fingers may touch the object)."""
         start = time.perf_counter()
+        self.last_failure = None
         pre, why = self.collision_free_ik(T_world_pregrasp, [q_current], "transport", rng)
         verdict = CandidateVerdict(position, pose_index, score, False, "", ik_pregrasp=pre)
         if not pre.success or why:
@@ -214,6 +228,8 @@ class PickPlanner:
                 verdict.stage = "ik_grasp"
                 verdict.detail = why or _ik_detail(grasp)
         verdict.feasible = verdict.stage == ""
+        if not verdict.feasible:
+            verdict.failure_point = self.last_failure
         verdict.time_s = time.perf_counter() - start
         return verdict
 
@@ -237,8 +253,11 @@ class PickPlanner:
         start = time.perf_counter()
         verdict = CandidateVerdict(position, pose_index, score, False, "")
 
+        self.last_failure = None
+
         def fail(stage: str, detail: str) -> CandidateVerdict:
             verdict.stage, verdict.detail = stage, detail
+            verdict.failure_point = self.last_failure
             verdict.time_s = time.perf_counter() - start
             return verdict
 

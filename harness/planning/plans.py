@@ -28,6 +28,16 @@ class ChainPlan:
     used_rrt: bool = False
 
 
+@dataclass(frozen=True)
+class FailurePoint:
+    """Where a candidate's test failed, for viewers and the row: the active-joint configuration
+    that failed (the best IK attempt for an unreachable target, the colliding configuration
+    for a collision) and the first colliding pair of bodies (None when no collision)."""
+
+    q: np.ndarray | None
+    pair: tuple[str, str] | None = None
+
+
 @dataclass
 class CandidateVerdict:
     """Outcome of testing one candidate (one entry of the ordered candidate list)."""
@@ -45,6 +55,7 @@ class CandidateVerdict:
     # The world poses the candidate was tested at (set by the candidate walk, for viewers).
     T_world_pregrasp: np.ndarray | None = None
     T_world_grasp: np.ndarray | None = None
+    failure_point: FailurePoint | None = None  # set when the test failed
 
 
 @dataclass
