@@ -49,9 +49,9 @@ def _bounded_int(low: int, high: int) -> Callable[[str], int]:
 
 def _record_policy(text: str) -> str:
     """An argparse type: none | failures | all | sample:N."""
-    if text in ("none", "failures", "all") or re.fullmatch(r"sample:\d+", text):
+    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:\d+", text):
         return text
-    raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, all or sample:N")
+    raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, invalid, all or sample:N")
 
 
 SEED = _bounded_int(0, 2**63 - 1)
@@ -110,7 +110,7 @@ def _add_run(sub: Subparsers) -> None:
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument(
-        "--record", type=_record_policy, default="failures", help="none|failures|all|sample:N"
+        "--record", type=_record_policy, default="failures", help="none|failures|invalid|all|sample:N"
     )
     p.set_defaults(func=_handler("run", "main"))
 
@@ -142,7 +142,7 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
     p.add_argument(
-        "--record", type=_record_policy, help="none|failures|all|sample:N (overrides the sweep)"
+        "--record", type=_record_policy, help="none|failures|invalid|all|sample:N (overrides the sweep)"
     )
     p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
     p.add_argument(

@@ -101,7 +101,7 @@ class SweepConfig(StrictModel):
     episodes_per_point: int = Field(default=10, ge=1, le=100_000)
     seed: int = Field(default=0, ge=0)
     workers: int | None = Field(default=None, ge=1, le=1024)
-    record: str = Field(default="failures", pattern=r"^(none|failures|all|sample:\d+)$")
+    record: str = Field(default="failures", pattern=r"^(none|failures|invalid|all|sample:\d+)$")
     share: bool = Field(
         default=True,
         description="Points that differ only in selection keys (filters, direction_to_obj) "

@@ -56,8 +56,14 @@ class TablePenetration:
 
     def depth(self, data: mujoco.MjData) -> float:
         """Penetration depth now (m): 0 when every geom over the table is above its top."""
+        return self.deepest(data)[0]
+
+    def deepest(self, data: mujoco.MjData) -> tuple[float, int, np.ndarray]:
+        """(depth now in m, the deepest geom's id or -1, its lowest point in world): what a
+        viewer marks for a finger through the table."""
+        none = (0.0, -1, np.zeros(3))
         if len(self.geoms) == 0:
-            return 0.0
+            return none
         pos = data.geom_xpos[self.geoms]
         z_axes = data.geom_xmat[self.geoms][:, 6:9]  # row 2 of R: world z of each local axis
         centre_z = pos[:, 2] + np.einsum("ij,ij->i", z_axes, self.offset)
@@ -69,6 +75,8 @@ class TablePenetration:
         )
         over = np.all(np.abs(pos[:, :2] - self.table_xy) <= self.table_half_xy, axis=1)
         if not over.any():
-            return 0.0
-        lowest = float(np.min((centre_z - extent)[over]))
-        return max(0.0, self.table_top - lowest)
+            return none
+        lowest = np.where(over, centre_z - extent, np.inf)
+        k = int(np.argmin(lowest))
+        point = np.array([pos[k, 0], pos[k, 1], lowest[k]])
+        return max(0.0, self.table_top - float(lowest[k])), int(self.geoms[k]), point

@@ -77,9 +77,20 @@ def execute(
     return row
 
 
+def invalid_success(row: dict[str, Any]) -> bool:
+    """A reference success whose validity phase judged it not physically valid."""
+    reason = str(row.get("invalid_reason") or "")
+    return bool(row.get("success")) and not bool(row.get("valid")) and reason not in ("", "not_run")
+
+
 def _wants_recording(episode: EpisodeSpec, row: dict[str, Any], record_policy: str) -> bool:
-    """The episode is recorded: chosen for it, or failed under ``--record failures``."""
-    return episode.record or (record_policy == "failures" and not bool(row.get("success")))
+    """The episode is recorded: chosen for it (``all``, ``sample:N``), or under ``failures`` a
+    failure or an invalid reference success, or under ``invalid`` an invalid success only."""
+    if episode.record:
+        return True
+    if record_policy == "failures":
+        return not bool(row.get("success")) or invalid_success(row)
+    return record_policy == "invalid" and invalid_success(row)
 
 
 def _record(result: Any, episode: EpisodeSpec, run_dir: Path, row: dict[str, Any]) -> None:
