@@ -110,7 +110,10 @@ def _add_run(sub: Subparsers) -> None:
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument(
-        "--record", type=_record_policy, default="failures", help="none|failures|invalid|all|sample:N"
+        "--record",
+        type=_record_policy,
+        default="failures",
+        help="none|failures|invalid|all|sample:N",
     )
     p.set_defaults(func=_handler("run", "main"))
 
@@ -142,7 +145,9 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
     p.add_argument(
-        "--record", type=_record_policy, help="none|failures|invalid|all|sample:N (overrides the sweep)"
+        "--record",
+        type=_record_policy,
+        help="none|failures|invalid|all|sample:N (overrides the sweep)",
     )
     p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
     p.add_argument(

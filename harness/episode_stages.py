@@ -21,13 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from harness import location
 from harness.candidate_cache import WALL_TIME_COLUMNS, ExecutedOutcome, ResetFacts, SeedEvaluation
 from harness.config import PickConfig, TaskConfig
 from harness.episode_spec import EpisodeResult, EpisodeSpec
 from harness.episode_streams import EpisodeStreams
 from harness.episode_trace import add_failure_point, make_trace, planned_tcp
 from harness.failures import FailureReason
-from harness import location
 from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.executor import PickExecutor

@@ -41,3 +41,19 @@ def test_version(argv, capsys):
         main(argv)
     assert info.value.code == 0
     assert capsys.readouterr().out.startswith("pick-harness ")
+
+
+@pytest.mark.parametrize("name, content", [("episodes.csv", b"a,b\n1,2\n"), ("fake.rrd", b"hello")])
+def test_view_refuses_what_is_not_a_recording(tmp_path: Path, capsys, name: str, content: bytes):
+    path = tmp_path / name
+    path.write_bytes(content)
+    assert main(["view", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a Rerun recording" in err[0]
+
+
+def test_view_refuses_etc_passwd(capsys):
+    if not Path("/etc/passwd").is_file():
+        pytest.skip("no /etc/passwd on this system")
+    assert main(["view", "/etc/passwd"]) == 2
+    assert "not a Rerun recording" in capsys.readouterr().err

@@ -13,7 +13,7 @@ import pytest
 
 from harness.episode import run_episode
 from harness.runs.replay import find_episode, row_differences
-from harness.viz.video import frame_indices
+from harness.viz.video import HOLD_S, frame_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -60,13 +60,19 @@ def test_replay_reproduces_a_stored_row_and_writes_a_playable_mp4(tmp_path: Path
     assert "row reproduced exactly" in replay.stdout
     frames = imageio.imread(video)
     assert frames.shape[1:] == (480, 640, 3)
-    # One frame per 1/30 s of the episode's trace (execution and validity phase).
+    # One frame per 1/30 s of the episode's trace (execution and validity phase), plus the
+    # HOLD_S the video rests on the frame that shows the outcome's cause.
     spec, _ = find_episode(run_dir, episode_id)
     trace = run_episode(spec).trace
     assert trace is not None
     executed_s = float(executed.iloc[0]["sim_time_s"])
-    assert len(frames) == len(frame_indices(trace.time)) > 30 * executed_s - 2
+    hold = round(HOLD_S * 30)
+    assert len(frames) - hold == len(frame_indices(trace.time)) > 30 * executed_s - 2
     assert frames.std() > 10  # a picture, not a blank frame
+    poster = imageio.imread(video.with_suffix(".png"))
+    assert poster.shape == (480, 640, 3) and poster.std() > 10
+    # The replay prints both verdicts.
+    assert "valid" in replay.stdout
 
 
 def test_replay_of_an_unknown_episode_is_one_line(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ def main(args: argparse.Namespace) -> int:
     use_offscreen_gl()  # before mujoco is first imported
     from harness.episode import run_episode
     from harness.runs.replay import find_episode, row_differences
+    from harness.viz.headline import headline
 
     console = make_console()
     run_dir = Path(args.run_dir)
@@ -22,7 +23,7 @@ def main(args: argparse.Namespace) -> int:
     console.print(f"replaying {args.episode_id} (seed {spec.seed}) ...", highlight=False)
     result = run_episode(spec)
     differences = row_differences(stored, result.row)
-    outcome = "success" if result.success else f"failure: {result.failure_reason}"
+    outcome = headline(result.row)
     if differences:
         console.print(f"[red]the replay differs from the stored row[/] ({outcome}):")
         for line in differences:
@@ -38,5 +39,6 @@ def main(args: argparse.Namespace) -> int:
         from harness.viz.video import write_episode_video
 
         frames = write_episode_video(result, Path(args.video))
-        console.print(f"  video     {args.video} ({frames} frames)", highlight=False)
+        poster = Path(args.video).with_suffix(".png")
+        console.print(f"  video     {args.video} ({frames} frames; poster {poster})", highlight=False)
     return 1 if differences else 0

@@ -18,12 +18,32 @@ def has_display() -> bool:
     )
 
 
+RRD_MAGIC = b"RRF"  # an .rrd stream starts with the FourCC RRF2 (rerun-sdk 0.41; RRF0/1 before)
+
+
+def is_recording(path: Path) -> bool:
+    """An ``.rrd`` file whose first bytes are Rerun's magic: anything else (a CSV, a text file)
+    is refused instead of being handed to the viewer."""
+    if path.suffix != ".rrd":
+        return False
+    try:
+        with path.open("rb") as handle:
+            return handle.read(len(RRD_MAGIC)) == RRD_MAGIC
+    except OSError:
+        return False
+
+
 def main(args: argparse.Namespace) -> int:
     path = Path(args.file)
     if path.is_dir():  # a run directory: its sweep overview recording
         path = path / "recording.rrd"
     if not path.is_file():
         raise HarnessError(f"{path}: no such recording")
+    if not is_recording(path):
+        raise HarnessError(
+            f"{path}: not a Rerun recording (expected an .rrd file starting with the Rerun "
+            "magic bytes RRF; a run directory opens its recording.rrd)"
+        )
     viewer = shutil.which("rerun")
     if has_display() and viewer:
         # Loopback only: the viewer's server must not listen on every interface.

@@ -120,9 +120,9 @@ def _pair_point(model: Any, qpos: np.ndarray, row: Any) -> np.ndarray | None:
     for k in range(data.ncon):
         contact = data.contact[k]
         bodies = {model.body(int(model.geom_bodyid[g])).name for g in contact.geom}
-        if bodies == names or (len(names) == 1 and names <= bodies):
-            if best is None or contact.dist < best[0]:
-                best = (float(contact.dist), contact.pos.copy())
+        pair = bodies == names or (len(names) == 1 and names <= bodies)
+        if pair and (best is None or contact.dist < best[0]):
+            best = (float(contact.dist), contact.pos.copy())
     if best is not None:
         return best[1]
     ids = [model.body(n).id for n in names if n and _has_body(model, n)]
@@ -185,7 +185,8 @@ def _slip_cause(trace: Any, reason: str) -> Cause:
     for k in range(end_close + 1, last + 1):
         moved = float(np.linalg.norm(in_hand(k) - reference))
         if moved > SLIP_M:
-            label = f"object slips {moved * 1e3:.0f} mm in the hand at t={trace.time[k]:.2f} s ({reason})"
+            at = f"t={trace.time[k]:.2f} s"
+            label = f"object slips {moved * 1e3:.0f} mm in the hand at {at} ({reason})"
             return Cause(trace.qpos[k], k, trace.object_pose[k, :3], label)
     height = trace.object_pose[last, 2] - trace.object_pose[0, 2]
     label = f"{reason}: object rose {height * 1e3:.0f} mm" if math.isfinite(height) else reason

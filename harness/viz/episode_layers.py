@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.viz.headline import caption, headline
 from harness.viz.scene_geometry import rerun_sdk
 
 # Candidate verdict -> RGB. Chosen is drawn on top, thicker; ``fallback`` is the infeasible
@@ -26,7 +27,11 @@ VERDICT_COLORS: dict[str, tuple[int, int, int]] = {
     "chosen": (220, 30, 200),
     "fallback": (230, 40, 40),
 }
-LABELLED = ("infeasible", "feasible", "chosen", "fallback")  # the tested verdicts
+TESTED = ("infeasible", "feasible", "chosen", "fallback")  # drawn as arrows, the rest as points
+ALWAYS_LABELLED = ("chosen", "fallback")
+MAX_LABELS = 3  # per other tested verdict: the first few in test order carry a label
+FAILURE_POSE_TIME_S = 0.5  # sim_time at which an unexecuted failing configuration is posed
+CAUSE_COLOR = (255, 30, 30)
 AXIS_COLORS = ((230, 60, 60), (60, 200, 60), (60, 90, 230))  # x, y, z of a target's frame
 TARGET_AXIS_M = 0.03
 FORCE_ARROW_M_PER_N = 0.005  # a finger contact force of 10 N is drawn 5 cm long
@@ -48,9 +53,22 @@ def candidate_label(status: str, index: int, detail: str) -> str:
     return f"#{index} {stage}".rstrip()
 
 
+def _label_rows(trace: Any, status: str, rows: np.ndarray) -> set[int]:
+    """The rows of ``status`` that carry a visible label: chosen / fallback always, else the
+    first ``MAX_LABELS`` in test order (every label stays readable; the rest show on hover)."""
+    if status in ALWAYS_LABELLED:
+        return set(rows.tolist())
+    order = trace.tested_index.tolist() if trace.tested_index is not None else []
+    rank = {index: k for k, index in enumerate(order)}
+    ranked = sorted(rows.tolist(), key=lambda r: rank.get(int(trace.candidate_index[r]), 1 << 30))
+    return set(ranked[:MAX_LABELS])
+
+
 def log_candidates(rec: Any, trace: Any, approach_index: int, tcp_offset: float) -> None:
-    """Every candidate as an arrow from its EE origin to its TCP, one entity per verdict; the
-    tested ones labelled with their pose index and the stage they failed at."""
+    """The tested candidates as arrows from their EE origin to their TCP (the chosen or
+    fallback one and the first few of each verdict labelled with pose index and failing
+    stage, the others labelled on hover only), the untested ones as points at their TCP; one
+    entity per verdict."""
     rr = rerun_sdk()
     statuses = np.asarray(trace.candidate_status, dtype=str)
     for status in dict.fromkeys(statuses.tolist()):
@@ -58,26 +76,66 @@ def log_candidates(rec: Any, trace: Any, approach_index: int, tcp_offset: float)
         T = np.asarray(trace.candidate_T_world_ee)[rows]
         origins = T[:, :3, 3]
         vectors = T[:, :3, approach_index] * tcp_offset
-        labels = None
-        if status in LABELLED:
-            labels = [
-                candidate_label(status, int(trace.candidate_index[r]), trace.candidate_detail[r])
-                for r in rows
-            ]
         color = VERDICT_COLORS.get(status, (255, 255, 255))
-        radius = 0.004 if status in ("chosen", "fallback") else 0.0015
+        entity = f"/world/candidates/{status}"
+        if status not in TESTED:
+            rec.log(
+                entity,
+                rr.Points3D(origins + vectors, colors=[color], radii=[0.0025]),
+                static=True,
+            )
+            continue
+        shown = _label_rows(trace, status, rows)
+        labels = [
+            candidate_label(status, int(trace.candidate_index[r]), trace.candidate_detail[r])
+            for r in rows
+        ]
+        radius = 0.004 if status in ALWAYS_LABELLED else 0.0015
         rec.log(
-            f"/world/candidates/{status}",
+            entity,
             rr.Arrows3D(
                 origins=origins,
                 vectors=vectors,
                 colors=[color] * len(rows),
                 radii=[radius] * len(rows),
                 labels=labels,
-                show_labels=labels is not None,
+                show_labels=False,
             ),
             static=True,
         )
+        # Hover shows every arrow's instance; the readable few carry their label in the scene.
+        picked = [k for k, r in enumerate(rows.tolist()) if r in shown]
+        if picked:
+            rec.log(
+                f"{entity}/labels",
+                rr.Points3D(
+                    (origins + vectors)[picked],
+                    colors=[color],
+                    radii=[0.001],
+                    labels=[labels[k] for k in picked],
+                    show_labels=True,
+                ),
+                static=True,
+            )
+
+
+def log_cause(rec: Any, cause: Any, time_s: float | None) -> None:
+    """The cause's mark (``harness.viz.cause``): a red sphere at its point, labelled, static so
+    it shows at any time (its label says when, for an executed moment)."""
+    rr = rerun_sdk()
+    if cause.point is None:
+        return
+    rec.log(
+        "/world/cause",
+        rr.Points3D(
+            [np.asarray(cause.point, dtype=float)],
+            colors=[CAUSE_COLOR],
+            radii=[0.015],
+            labels=[cause.label],
+            show_labels=True,
+        ),
+        static=True,
+    )
 
 
 def log_targets(rec: Any, trace: Any, approach_index: int, tcp_offset: float) -> None:
@@ -182,17 +240,22 @@ ROW_KEYS = (
     "candidate_failures", "chosen_index", "chosen_score", "approach_angle_deg", "lift_height_m",
     "finger_force_left_n", "finger_force_right_n", "slip_m", "tcp_grasp_error_m", "valid",
     "invalid_reason", "robustness_g", "hold_slip_m", "min_finger_force_n", "table_penetration_m",
+    "failure_stage", "collision_a", "collision_b", "object_x_m", "object_y_m",
+    "object_distance_m",
 )  # fmt: skip
 
 
 def verdict_title(row: dict[str, Any]) -> str:
-    return "SUCCESS" if row.get("success") else f"FAILURE: {row.get('failure_reason', '')}"
+    """The outcome headline with both verdicts (``harness.viz.headline``)."""
+    return headline(row)
 
 
-def verdict_markdown(row: dict[str, Any], trace: Any | None) -> str:
-    """The verdict, the failure message, the failures per stage, each tested candidate's
-    reason, and the row's main columns."""
-    lines = [f"# {verdict_title(row)}", ""]
+def verdict_markdown(row: dict[str, Any], trace: Any | None, cause: str = "") -> str:
+    """The headline, what the episode was, the cause shown in the scene, the failure message,
+    the failures per stage, each tested candidate's reason, and the row's main columns."""
+    lines = [f"# {verdict_title(row)}", "", caption(row), ""]
+    if cause:
+        lines += [f"**Shown in the scene** (red mark, `/world/cause`): {_cell(cause)}", ""]
     if row.get("error_message"):
         lines += ["**Why:** " + _cell(str(row["error_message"])), ""]
     failures = _failure_counts(row.get("candidate_failures"))
@@ -234,7 +297,9 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def log_verdict(rec: Any, row: dict[str, Any], trace: Any | None, end_time: float) -> None:
+def log_verdict(
+    rec: Any, row: dict[str, Any], trace: Any | None, end_time: float, cause: str = ""
+) -> None:
     """The verdict as the last event at the episode's end, and as the ``/verdict`` document."""
     rr = rerun_sdk()
     rec.set_time("sim_time", duration=end_time)
@@ -243,6 +308,6 @@ def log_verdict(rec: Any, row: dict[str, Any], trace: Any | None, end_time: floa
     rec.log("/events", rr.TextLog(f"verdict: {verdict_title(row)}{message}", level=level))
     rec.log(
         "/verdict",
-        rr.TextDocument(verdict_markdown(row, trace), media_type="text/markdown"),
+        rr.TextDocument(verdict_markdown(row, trace, cause), media_type="text/markdown"),
         static=True,
     )

@@ -23,9 +23,12 @@ import numpy as np
 from harness.files import WRITE_TIMEOUT_S, bounded, write_atomic
 from harness.robots import RobotModel
 from harness.transforms import wxyz_to_xyzw
+from harness.viz.cause import find_cause
 from harness.viz.episode_layers import (
+    FAILURE_POSE_TIME_S,
     VERDICT_COLORS,
     log_candidates,
+    log_cause,
     log_contacts,
     log_targets,
     log_verdict,
@@ -129,7 +132,9 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     """Write one episode's recording (``EpisodeResult`` with a trace and its scene's model).
 
     Whatever the outcome, the scene is posed: an episode that stopped before execution (no
-    candidate, none feasible, no plan) shows its reset state at ``sim_time`` 0."""
+    candidate, none feasible, no plan) shows its reset state at ``sim_time`` 0 and, when a
+    planned configuration failed, that configuration at ``FAILURE_POSE_TIME_S`` (where the
+    viewer opens). The cause (``harness.viz.cause``) is marked at ``/world/cause``."""
     rr = _rr()
     trace = result.trace
     model = result.model
@@ -143,6 +148,8 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     times = np.asarray(trace.time, dtype=float)
     frames = _frame_indices(times)
     _log_scene(rec, model, trace, frames)
+    cause = find_cause(row, trace, model, getattr(result, "scene", None))
+    log_cause(rec, cause, float(times[cause.row]) if cause.row is not None and len(times) else None)
     convention = RobotModel.load(task.robot).convention
     tcp_offset = task.pick.tcp_offset or convention.tcp_offset
     log_candidates(rec, trace, convention.approach_index, tcp_offset)
@@ -154,7 +161,12 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     for t, text in trace.events:
         rec.set_time("sim_time", duration=float(t))
         rec.log("/events", rr.TextLog(text, level=rr.TextLogLevel.INFO))
-    log_verdict(rec, row, trace, float(times[-1]) if len(times) else 0.0)
+    end = (
+        float(times[-1])
+        if len(times)
+        else (FAILURE_POSE_TIME_S if trace.failure_qpos is not None else 0.0)
+    )
+    log_verdict(rec, row, trace, end, cause.label)
     return save_recording(rec, stream, Path(path))
 
 
@@ -172,6 +184,9 @@ def _log_scene(rec: Any, model: Any, trace: Any, frames: np.ndarray) -> None:
         times, qpos = np.asarray(trace.time)[frames], np.asarray(trace.qpos)[frames]
     elif trace.qpos_start is not None:
         times, qpos = np.zeros(1), np.asarray(trace.qpos_start)[None, :]
+        if trace.failure_qpos is not None:  # then the configuration that failed planning
+            times = np.array([0.0, FAILURE_POSE_TIME_S])
+            qpos = np.stack([trace.qpos_start, trace.failure_qpos])
     else:
         return
     _log_body_motion_with_mocap(rec, model, data, times, qpos, body_ids)

@@ -99,7 +99,7 @@ def write_episode_video(
     path.parent.mkdir(parents=True, exist_ok=True)
     overlay = Overlay(row, cause.label, width)
     table_alpha = TABLE_ALPHA if "through the table" in cause.label else None
-    with _lit(model, table_alpha):
+    with _Lit(model, table_alpha):
         poster = _write(
             mujoco, imageio, model, data, camera, frames, cause, overlay, path, fps, (width, height)
         )
@@ -107,7 +107,7 @@ def write_episode_video(
     return len(frames)
 
 
-class _lit:
+class _Lit:
     """Brighter headlight (the scene's own light is dim) and, optionally, a translucent table,
     restored afterwards."""
 
@@ -211,7 +211,9 @@ class Overlay:
         draw.rectangle((0, 0, width, 2 * line + 4), fill=(20, 22, 26, 210))
         room = width - 12
         draw.text((6, 3), self.caption, fill=(235, 235, 235), font=self._fit(self.caption, room))
-        draw.text((6, 3 + line), self.headline, fill=self.color, font=self._fit(self.headline, room))
+        draw.text(
+            (6, 3 + line), self.headline, fill=self.color, font=self._fit(self.headline, room)
+        )
         if self.cause:
             draw.rectangle(
                 (0, height - line - 6, width, height), fill=(20, 22, 26, 200 if marked else 140)
