@@ -22,3 +22,8 @@ def __getattr__(name: str) -> Any:
 
         return getattr(api, name)
     raise AttributeError(f"module 'harness' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """``dir(harness)`` lists the API, although its functions are imported on first use."""
+    return sorted({*globals(), *__all__})

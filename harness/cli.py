@@ -120,6 +120,8 @@ def _add_run(sub: Subparsers) -> None:
 
 def _add_sweep(sub: Subparsers) -> None:
     """``harness sweep [SWEEP.yaml] [--resume RUN_DIR] ...``"""
+    from harness.runs.limits import MAX_EPISODES  # the help says the number
+
     p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
     p.add_argument(
         "sweep", metavar="SWEEP.yaml", nargs="?", help="a sweep YAML (omit with --resume)"
@@ -159,7 +161,8 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument(
         "--max-episodes",
         type=_bounded_int(1, 10**9),
-        help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
+        metavar="N",
+        help=f"refuse sweeps larger than this many episodes (default: {MAX_EPISODES:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_objective(p)
@@ -333,6 +336,8 @@ def _add_objects(sub: Subparsers) -> None:
 
 def _add_bench(sub: Subparsers) -> None:
     """``harness bench [--quick] [--json FILE] [--only SECTION...]``"""
+    from harness.benchmarks.framework import SECTIONS
+
     p = sub.add_parser("bench", help="measure speed on this machine")
     p.add_argument("--quick", action="store_true", help="fewer repetitions (~25 s)")
     p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
@@ -340,7 +345,7 @@ def _add_bench(sub: Subparsers) -> None:
         "--only",
         nargs="+",
         metavar="SECTION",
-        help="run only these sections: grasps ik timing episodes graspgen sweeps",
+        help=f"run only these sections: {' '.join(SECTIONS)}",
     )
     p.set_defaults(func=_handler("bench", "main"))
 

@@ -665,7 +665,7 @@ def test_sweep_mode_matches_its_axes() -> None:
     assert (err.key, err.message) == ("random_axes", "random_axes are only used with mode: random")
 
 
-@pytest.mark.parametrize("record", ["none", "failures", "all", "sample:1", "sample:250"])
+@pytest.mark.parametrize("record", ["none", "failures", "invalid", "all", "sample:1", "sample:250"])
 def test_record_pattern_accepted(record: str) -> None:
     assert check(SweepConfig, sweep(record=record)).record == record
 
@@ -674,7 +674,9 @@ def test_record_pattern_accepted(record: str) -> None:
 def test_record_pattern_rejected(record: str) -> None:
     err = error(SweepConfig, sweep(record=record))
     assert err.key == "record"
-    assert err.message.startswith("String should match pattern '^(none|failures|all|sample:\\d+)$'")
+    assert err.message.startswith(
+        "String should match pattern '^(none|failures|invalid|all|sample:\\d+)$'"
+    )
 
 
 @pytest.mark.parametrize(

@@ -40,5 +40,7 @@ def main(args: argparse.Namespace) -> int:
 
         frames = write_episode_video(result, Path(args.video))
         poster = Path(args.video).with_suffix(".png")
-        console.print(f"  video     {args.video} ({frames} frames; poster {poster})", highlight=False)
+        console.print(
+            f"  video     {args.video} ({frames} frames; poster {poster})", highlight=False
+        )
     return 1 if differences else 0

@@ -9,7 +9,7 @@ from pydantic import Field, field_validator, model_validator
 from harness.config.errors import KeyedValueError
 from harness.config.messages import suggest
 from harness.config.pick import PickConfig
-from harness.config.task import GripperChoice, TaskConfig
+from harness.config.task import GripperChoice, ObjectConfig, TaskConfig
 from harness.config.values import FiniteFloat, StrictModel
 
 
@@ -48,6 +48,30 @@ def canonical_key(key: str) -> str:
     return ".".join(parts)
 
 
+def _nested_keys() -> dict[str, frozenset[str]]:
+    """Dotted keys under each task section that has a model of its own (``pick.*``, ...)."""
+    out: dict[str, frozenset[str]] = {
+        "pick": frozenset(PickConfig.model_fields),
+        "object": frozenset(ObjectConfig.model_fields),
+    }
+    for name, info in TaskConfig.model_fields.items():
+        fields = getattr(info.annotation, "model_fields", None)
+        if name != "pick" and isinstance(fields, dict):
+            out[name] = frozenset(fields)
+    return out
+
+
+def _suggest_task_key(key: str) -> str:
+    """``; did you mean 'pick.filter_z_dir'?`` when the key is a section's key without its
+    section (``filter_z_dir=...``); else the closest top-level task key, or ``""``."""
+    head, _, rest = key.partition(".")
+    for section, keys in _nested_keys().items():
+        if head in keys:
+            return f"; did you mean {'.'.join([section, head] + ([rest] if rest else []))!r}?"
+    dotted = [f"{section}.{k}" for section, keys in _nested_keys().items() for k in keys]
+    return suggest(head, TASK_KEYS) or suggest(key, dotted)
+
+
 def check_dotted_key(key: str) -> str:
     """``key`` if it names a task key (``object.`` is the target object), else KeyedValueError."""
     parts = key.split(".")
@@ -61,7 +85,7 @@ def check_dotted_key(key: str) -> str:
         head = "objects"
     if head not in TASK_KEYS:
         raise KeyedValueError(
-            (key,), f"axis key {key!r}: unknown task key {head!r}{suggest(head, TASK_KEYS)}"
+            (key,), f"axis key {key!r}: unknown task key {head!r}{_suggest_task_key(key)}"
         )
     if head == "robot" and len(parts) > 1 and parts[1] not in ROBOT_KEYS:
         raise KeyedValueError(

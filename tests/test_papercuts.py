@@ -1,0 +1,44 @@
+"""Small things a newcomer meets first: did-you-mean for a section key without its section,
+help texts without Python symbols, ``dir(harness)`` showing the API."""
+
+from __future__ import annotations
+
+import pytest
+
+import harness
+from harness.cli import build_parser, main
+
+
+@pytest.mark.parametrize(
+    "key, hint", [("filter_z_dir", "pick.filter_z_dir"), ("mass", "object.mass")]
+)
+def test_set_of_a_section_key_suggests_its_dotted_name(key: str, hint: str, capsys) -> None:
+    code = main(["run", "tasks/pick/fr3.yaml", "--set", f"{key}=1", "--episodes", "1"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert f"did you mean '{hint}'?" in err and len(err.strip().splitlines()) == 1
+
+
+def _help(command: str) -> str:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    return sub.choices[command].format_help()  # type: ignore[union-attr]
+
+
+def test_sweep_help_prints_the_episode_limit_not_a_python_symbol() -> None:
+    text = _help("sweep")
+    assert "harness.runs" not in text and "MAX_EPISODES" not in text
+    assert "200,000" in " ".join(text.split())
+
+
+def test_bench_only_help_lists_every_section() -> None:
+    from harness.benchmarks.framework import SECTIONS
+
+    text = " ".join(_help("bench").split())
+    assert "sharing" in SECTIONS and all(name in text for name in SECTIONS)
+
+
+def test_dir_of_the_package_shows_the_api() -> None:
+    names = dir(harness)
+    for name in ("load_task", "run_episode", "sweep", "load_run", "__version__"):
+        assert name in names
