@@ -91,6 +91,16 @@ def load_sweep_tasks(
                 )
             path = Path(entry["interndata"])
             path = path if path.is_absolute() else base / path
+            if not path.is_file():
+                raise ConfigError(
+                    f"InternDataEngine task file not found: {path}. It lies outside this "
+                    "repository: fetch the InternDataEngine task files and assets (the examples "
+                    "expect them in ../shared/datasets/interndata-examples beside the "
+                    "repository) or point 'interndata' and 'objects' at your copy; "
+                    "docs/interndata.md",
+                    file=sweep_path,
+                    key=f"tasks[{index}].interndata",
+                )
             root = entry.get("asset_root")
             objects = {k: str(base / v) for k, v in (entry.get("objects") or {}).items()}
             picks = load_interndata_tasks(
