@@ -6,6 +6,7 @@ reference fallback ran. Returned as HTML fragments without plotly.js (the page e
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from typing import Any, cast
@@ -34,11 +35,31 @@ class Heatmap:
     fallback_cells: int
 
 
+def axis_key(value: Any) -> tuple[int, str, list[float], str]:
+    """Sort key of one axis value in its axis's own order: numbers ascending; filters
+    (``["downward", 140]``, as JSON text) by direction, then single angles ascending before
+    bands; anything else by its text. A setting added to a grid (a tune's current setting)
+    therefore takes its place among the others instead of coming last."""
+    text = str(value)
+    try:
+        parsed = json.loads(text) if isinstance(value, str) else value
+    except (json.JSONDecodeError, TypeError):
+        parsed = text
+    if isinstance(parsed, bool) or parsed is None:
+        return 3, text, [], text
+    if isinstance(parsed, (int, float)):
+        return 0, "", [float(parsed)], text
+    if isinstance(parsed, list) and parsed and isinstance(parsed[0], str):
+        angles = [float(a) for a in parsed[1:] if isinstance(a, (int, float))]
+        return 1, parsed[0], [float(len(angles)), *angles], text
+    return 2, text, [], text
+
+
 def _axis_values(group: pd.DataFrame, name: str) -> list[Any]:
     values = frame_of(group[[name, "point_id"]]).dropna(subset=[name])
     if pd.api.types.is_numeric_dtype(group[name]):
         return sorted(values[name].unique().tolist())
-    return values.sort_values("point_id", kind="stable")[name].drop_duplicates().tolist()
+    return sorted(values[name].drop_duplicates().tolist(), key=axis_key)
 
 
 def _failures(row: Any) -> str:

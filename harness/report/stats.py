@@ -30,18 +30,18 @@ def _check_counts(successes: int, n: int) -> None:
 
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson score interval of ``successes / n``; ``(0, 1)`` when there are no trials."""
+    """Wilson score interval of ``successes / n`` (scipy's ``binomtest(...).proportion_ci``,
+    method ``wilson``); ``(0, 1)`` when there are no trials."""
     _check_counts(successes, n)
+    _z_for(confidence)  # the same ValueError for a confidence outside (0, 1)
     if n == 0:
         return 0.0, 1.0
-    z = _z_for(confidence)
-    p = successes / n
-    denominator = 1.0 + z * z / n
-    centre = (p + z * z / (2.0 * n)) / denominator
-    half = z * math.sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n)) / denominator
+    interval = scipy_stats.binomtest(int(successes), int(n)).proportion_ci(
+        confidence_level=confidence, method="wilson"
+    )
     # Exact 0 and 1 at the extremes (rounding would leave 1e-17 instead).
-    low = 0.0 if successes == 0 else max(0.0, centre - half)
-    high = 1.0 if successes == n else min(1.0, centre + half)
+    low = 0.0 if successes == 0 else max(0.0, float(interval.low))
+    high = 1.0 if successes == n else min(1.0, float(interval.high))
     return low, high
 
 
