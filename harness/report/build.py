@@ -9,7 +9,9 @@
   the swept settings, so a lucky 2/2 does not beat a solid 18/20;
 - ``plots/``: success per robot, arm and object over the swept settings, failure reasons per
   point, the candidate funnel;
-- ``videos/`` (with ``videos=True``): one success and one failure per robot arm, replayed;
+- ``plots/placement.png``: outcome vs the object's placement per robot arm (reach);
+- ``videos/`` (with ``videos=True``): one episode per outcome class and one success and one
+  failure per robot arm, replayed (kept on the page by later reports without ``videos``);
 - ``report.md`` (tables, links, plot links) and ``report.html`` (self-contained and interactive:
   plotly heatmaps, sortable tables, embedded plots and videos; ``harness.report.page``).
 """
@@ -29,9 +31,11 @@ from harness.report.episode_sections import (
     failure_groups_table,
     recording_links,
 )
+from harness.report.findings import findings
 from harness.report.heatmaps import success_heatmaps
 from harness.report.labels import varying_params
 from harness.report.page import render_page
+from harness.report.placement import plot_placement
 from harness.report.plots import plot_failures, plot_funnel, plot_success
 from harness.report.render import render_markdown
 from harness.report.sections import Table, funnel_tables, report_tables
@@ -44,7 +48,7 @@ from harness.report.tables import (
     setting_params,
     summarize,
 )
-from harness.report.videos import Clip, render_clips
+from harness.report.videos import Clip, load_clips, render_clips
 from harness.runs.store import JSONL_NAME, ResultStore
 
 SUMMARY_NAME = "summary.csv"
@@ -116,16 +120,23 @@ def build_report(
         "failures": plot_failures(summary, plots_dir / "failures.png"),
         "funnel": plot_funnel(funnel(frame), plots_dir / "funnel.png"),
     }
+    placement = plot_placement(frame, plots_dir / "placement.png")
+    if placement is not None:
+        plots["placement"] = placement
     tables = [
         *report_tables(frame, summary, best),
         *episode_tables(run_dir, frame, summary),
         *funnel_tables(funnel(frame)),
     ]
-    clips = render_clips(run_dir, frame) if videos else []
+    # Without rendering, the videos of an earlier report stay on the page (videos/clips.json).
+    clips = render_clips(run_dir, frame) if videos else load_clips(run_dir)
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
     write_atomic(report_md, render_markdown(run_dir, frame, tables, plots, clips))
     links = recording_links(run_dir, frame)
-    page = render_page(run_dir, frame, tables, plots, success_heatmaps(summary), clips, links)
+    page = render_page(
+        run_dir, frame, tables, plots, success_heatmaps(summary), clips, links,
+        findings(frame, best),
+    )  # fmt: skip
     write_atomic(report_html, page)
     return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots, clips)

@@ -1,22 +1,28 @@
-"""``report.html``: one self-contained, interactive page that opens offline.
+"""``report.html``: one self-contained, interactive page that opens offline, rendered with a
+Jinja2 template (``harness.report.page_template``, autoescaped).
 
-plotly.js is embedded once (no CDN), followed by the interactive heatmaps (one per robot, arm
-and object, hover for intervals, n, failures); the tables sort on a click on their header (a
-few lines of inline JavaScript); episode ids link to their recordings in the run directory;
-the replayed videos and the static plots are embedded as base64 (MP4, PNG).
+At the top the summary (what to change, with its evidence: ``harness.report.findings``) and
+the contents; then plotly.js embedded once (no CDN) with the interactive heatmaps (one per
+robot, arm and object, hover for intervals, n, failures, in each axis's own order), the outcome
+vs placement plot, the tables (sort on a click on a header, filter by typing above them,
+long ones folded), episode ids linked to their recordings with how to open them, the replayed
+videos with their posters and captions, and the static plots, embedded as base64.
 """
 
 from __future__ import annotations
 
 import base64
-import html
+import re
 from collections.abc import Mapping, Sequence
 from itertools import groupby
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
+from harness.report.findings import MIN_SHARE, Finding
 from harness.report.heatmaps import Heatmap
+from harness.report.page_template import FIGURE, TEMPLATE
 from harness.report.render import PLOT_CAPTIONS
 from harness.report.sections import FALLBACK_MARK, Table, overview
 from harness.report.videos import Clip
@@ -48,6 +54,15 @@ video { width: 320px; height: 240px; background: #24292f; border-radius: 6px; }
 figure { margin: 1em 0 2em; }
 figure img { max-width: 100%; border: 1px solid #d0d7de; border-radius: 6px; }
 figcaption { color: #57606a; font-size: .85em; margin-top: .3em; max-width: 320px; }
+ul.findings li { margin: .4em 0; }
+span.evidence { color: #57606a; font-size: .9em; }
+nav.contents ol { columns: 2; font-size: .92em; }
+input.filter { margin: .3em 0 0; padding: .2em .4em; width: 18em; font-size: .85em; }
+details > summary { cursor: pointer; color: #0969da; margin: .4em 0; }
+.videos figure { border-top: 4px solid #d0d7de; padding-top: .3em; }
+.videos figure.valid { border-color: #2da44e; }
+.videos figure.invalid { border-color: #e3a21a; }
+.videos figure.failed { border-color: #cf222e; }
 .plots figcaption { max-width: none; }
 """
 
@@ -86,6 +101,22 @@ SORTER = """
 """
 
 NUMERIC_MARKS = ("%", "/", "–", ".", ",", FALLBACK_MARK, " ")
+COLLAPSE_ROWS = 40  # longer tables start folded (a tune's per-point table has hundreds of rows)
+
+# Type in the box above a table to keep only the rows that contain the text.
+FILTER = """
+(function () {
+  document.querySelectorAll('input.filter').forEach(function (box) {
+    var table = box.nextElementSibling;
+    box.addEventListener('input', function () {
+      var text = box.value.toLowerCase();
+      Array.from(table.tBodies[0].rows).forEach(function (row) {
+        row.style.display = row.textContent.toLowerCase().indexOf(text) >= 0 ? '' : 'none';
+      });
+    });
+  });
+})();
+"""
 
 
 def _numeric(text: str) -> bool:
@@ -95,97 +126,64 @@ def _numeric(text: str) -> bool:
     return bool(stripped) and stripped.replace("-", "").isdigit()
 
 
-def _cell(table: Table, i: int, j: int, text: str) -> str:
-    esc = html.escape
-    pieces = table.links.get((i, j))
-    if pieces is not None:
-        inner = ", ".join(
-            f'<a href="{esc(href)}" title="recording">{esc(t)}</a>' if href else esc(t)
-            for t, href in pieces
-        )
-    else:
-        inner = esc(text)
-    if table.header[j] == "message":
-        return f'<td class="msg">{inner}</td>'
-    return f'<td class="num">{inner}</td>' if _numeric(text) else f"<td>{inner}</td>"
+def _slug(text: str, taken: set[str]) -> str:
+    base = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") or "section"
+    slug, k = base, 2
+    while slug in taken:
+        slug, k = f"{base}-{k}", k + 1
+    taken.add(slug)
+    return slug
 
 
-def table_html(table: Table) -> list[str]:
-    esc = html.escape
-    parts = [f"<h2>{esc(table.title)}</h2>"]
-    if table.note:
-        parts.append(f'<p class="note">{esc(table.note)}</p>')
-    parts.append('<table class="sortable"><thead><tr>')
-    parts += [f"<th>{esc(h)}</th>" for h in table.header]
-    parts.append("</tr></thead><tbody>")
-    for i, row in enumerate(table.rows):
-        cells = "".join(_cell(table, i, j, text) for j, text in enumerate(row))
-        flag = ' class="flag"' if i in table.flagged else ""
-        parts.append(f"<tr{flag}>{cells}</tr>")
-    parts.append("</tbody></table>")
-    return parts
+def _cells(table: Table, i: int, row: list[str]) -> list[dict[str, Any]]:
+    cells = []
+    for j, text in enumerate(row):
+        pieces = table.links.get((i, j))
+        linked = [{"text": t, "href": h} for t, h in pieces] if pieces is not None else None
+        cls = "msg" if table.header[j] == "message" else ("num" if _numeric(text) else "")
+        cells.append({"pieces": linked or [{"text": text, "href": None}], "cls": cls})
+    return cells
 
 
-def heatmaps_html(heatmaps: Sequence[Heatmap]) -> list[str]:
-    if not heatmaps:
-        return []
-    flagged = sum(h.fallback_cells for h in heatmaps)
-    parts = [
-        "<h2>Success per robot, arm and object over the swept settings</h2>",
-        '<p class="note">Cells: reference successes / rated episodes, rate, valid successes / '
-        "judged episodes. Hover a cell for the 95% Wilson intervals, the failures and the "
-        f"error rows. {FALLBACK_MARK}: the reference fallback supplied the candidates "
-        f"(the filter kept none; dotted frame){f': {flagged} cell(s)' if flagged else ''}.</p>",
+def _table_context(table: Table, taken: set[str]) -> dict[str, Any]:
+    rows = [
+        {"cells": _cells(table, i, row), "flag": i in table.flagged}
+        for i, row in enumerate(table.rows)
     ]
-    for robot, maps in groupby(heatmaps, key=lambda h: h.robot):
-        parts.append(f"<h3>{html.escape(robot)}</h3>")
-        parts.append('<div class="heatmaps">')
-        parts += [h.html for h in maps]
-        parts.append("</div>")
-    return parts
+    return {
+        "id": _slug(table.title, taken),
+        "title": table.title,
+        "note": table.note,
+        "header": table.header,
+        "rows": rows,
+        "collapsed": len(rows) > COLLAPSE_ROWS,
+    }
 
 
-def videos_html(
-    run_dir: Path, clips: Sequence[Clip], links: Mapping[str, str] | None = None
-) -> list[str]:
-    if not clips:
-        return []
-    esc = html.escape
-    parts = [
-        "<h2>Videos: one success and one failure per robot arm</h2>",
-        '<p class="note">Replayed from the stored rows when the report was built (harness '
-        "replay), rendered offscreen with MuJoCo.</p>",
-        '<div class="videos">',
-    ]
-    for clip in clips:
-        recording = (links or {}).get(clip.episode_id)
-        episode = esc(clip.episode_id)
-        if recording:
-            episode = f'<a href="{esc(recording)}" title="recording">{episode}</a>'
-        caption = (
-            f"{clip.robot} · {clip.arm} · {clip.object}: <b>{esc(clip.outcome)}</b><br>"
-            f"{episode}, seed {clip.seed}" + (f"<br><i>{esc(clip.note)}</i>" if clip.note else "")
-        )
-        if clip.path is not None:
-            data = base64.b64encode((run_dir / clip.path).read_bytes()).decode("ascii")
-            media = (
-                f'<video controls muted loop playsinline preload="auto" '
-                f'src="data:video/mp4;base64,{data}"></video>'
-            )
-        else:
-            media = "<div>no video</div>"
-        parts.append(f"<figure>{media}<figcaption>{caption}</figcaption></figure>")
-    parts.append("</div>")
-    return parts
+def _data_uri(path: Path, mime: str) -> str:
+    return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
 
 
-def _figure(name: str, path: Path) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    caption = html.escape(PLOT_CAPTIONS.get(name, name))
-    return (
-        f'<figure><img alt="{caption}" src="data:image/png;base64,{data}">'
-        f"<figcaption>{caption}</figcaption></figure>"
-    )
+def _figure(name: str, path: Path) -> dict[str, str]:
+    return {"caption": PLOT_CAPTIONS.get(name, name), "src": _data_uri(path, "image/png")}
+
+
+def _clip_context(run_dir: Path, clip: Clip, links: Mapping[str, str]) -> dict[str, Any]:
+    video = run_dir / clip.path if clip.path is not None else None
+    poster = run_dir / clip.poster if clip.poster is not None else None
+    return {
+        "headline": clip.headline or clip.outcome,
+        "kind": clip.kind or ("valid" if clip.outcome == "success" else "failed"),
+        "robot": clip.robot,
+        "arm": clip.arm,
+        "object": clip.object,
+        "seed": clip.seed,
+        "episode_id": clip.episode_id,
+        "recording": clip.recording or links.get(clip.episode_id),
+        "note": clip.note,
+        "video": _data_uri(video, "video/mp4") if video is not None and video.is_file() else "",
+        "poster": _data_uri(poster, "image/png") if poster is not None and poster.is_file() else "",
+    }
 
 
 def render_page(
@@ -196,33 +194,43 @@ def render_page(
     heatmaps: Sequence[Heatmap] = (),
     clips: Sequence[Clip] = (),
     links: Mapping[str, str] | None = None,
+    findings: Sequence[Finding] = (),
 ) -> str:
-    """The whole page. The static success plot is left out when the heatmaps show it."""
+    """The whole page (Jinja2, autoescaped). The static success plot is left out when the
+    heatmaps show it."""
+    from jinja2 import Environment
     from plotly.offline import get_plotlyjs  # only when a page is drawn
 
-    esc = html.escape
-    parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>pick-harness report: {esc(run_dir.name)}</title>",
-        f"<style>{STYLE}</style>",
-        f'<script type="text/javascript">{get_plotlyjs()}</script>' if heatmaps else "",
-        "</head><body>",
-        f"<h1>pick-harness report: {esc(run_dir.name)}</h1>",
-        '<dl class="overview">',
-    ]
-    parts += [f"<dt>{esc(k)}</dt><dd>{esc(str(v))}</dd>" for k, v in overview(run_dir, frame)]
-    parts.append("</dl>")
-    parts += heatmaps_html(heatmaps)
-    if not heatmaps and "success" in plots:
-        parts.append(_figure("success", plots["success"]))
-    for table in tables:
-        parts += table_html(table)
-    parts += videos_html(run_dir, clips, links)
-    others = {name: path for name, path in plots.items() if name != "success"}
+    env = Environment(autoescape=True, trim_blocks=False)
+    template = env.from_string(FIGURE + TEMPLATE)
+    taken = {"summary", "heatmaps", "placement", "recordings", "videos", "plots"}
+    table_contexts = [_table_context(t, taken) for t in tables]
+    others = {n: p for n, p in plots.items() if n not in ("success", "placement")}
+    contents = [("summary", "Summary: what to change")]
+    if heatmaps or "success" in plots:
+        contents.append(("heatmaps", "Success over the swept settings"))
+    if "placement" in plots:
+        contents.append(("placement", "Outcome vs placement per robot arm"))
+    contents += [(t["id"], t["title"]) for t in table_contexts]
+    if clips:
+        contents.append(("videos", "Videos"))
     if others:
-        parts.append('<h2>Plots</h2><div class="plots">')
-        parts += [_figure(name, path) for name, path in others.items()]
-        parts.append("</div>")
-    parts.append(f"<script>{SORTER}</script></body></html>")
-    return "\n".join(parts)
+        contents.append(("plots", "Plots"))
+    return template.render(
+        name=run_dir.name,
+        style=STYLE,
+        plotly_js=get_plotlyjs() if heatmaps else "",
+        overview=overview(run_dir, frame),
+        findings=list(findings),
+        min_share=f"{MIN_SHARE:.0%}",
+        contents=contents,
+        heatmaps=[(robot, list(maps)) for robot, maps in groupby(heatmaps, key=lambda h: h.robot)],
+        fallback_mark=FALLBACK_MARK,
+        fallback_cells=sum(h.fallback_cells for h in heatmaps),
+        success_plot=_figure("success", plots["success"]) if "success" in plots else None,
+        placement=_figure("placement", plots["placement"]) if "placement" in plots else None,
+        tables=table_contexts,
+        clips=[_clip_context(run_dir, c, links or {}) for c in clips],
+        plots=[_figure(n, p) for n, p in others.items()],
+        sorter=SORTER + FILTER,
+    )

@@ -18,6 +18,7 @@ PLOT_CAPTIONS: dict[str, str] = {
     "success": "Success rate over the swept parameters (cells: successes/episodes)",
     "failures": "Outcome of every episode per point",
     "funnel": "Candidate funnel per robot",
+    "placement": "Outcome vs the object's placement at reset, per robot arm (reach)",
 }
 
 
@@ -46,9 +47,10 @@ def render_markdown(
         lines += markdown_table(table.header, _markdown_rows(table))
         lines.append("")
     if clips:
-        lines += ["## Videos (one success and one failure per robot arm, replayed)", ""]
+        lines += ["## Videos (one per outcome class, one success and one failure per arm)", ""]
         for clip in clips:
-            head = f"{clip.robot} {clip.arm} {clip.object}, {clip.outcome}: {clip.episode_id}"
+            outcome = clip.headline or clip.outcome
+            head = f"{clip.robot} {clip.arm} {clip.object}, {outcome}: {clip.episode_id}"
             body = f"[{clip.path}]({clip.path})" if clip.path else "no video"
             note = f" ({clip.note})" if clip.note else ""
             lines.append(f"- {head} (seed {clip.seed}): {body}{note}")

@@ -1,23 +1,30 @@
-"""Short videos for the report: one success and one failure per robot arm, rendered at report
-time by replaying their stored rows (episodes are deterministic in task, point and seed) with
-the offscreen renderer of ``harness replay --video`` (``harness.viz.video``), small and at a low
-frame rate so the clips stay a few hundred KB and a few seconds of work each.
+"""Short videos for the report: one episode of each outcome class the run produced (a valid
+success, a reference success that is not valid per validity reason, a failure per failure
+reason) plus one success and one failure per robot arm, rendered at report time by replaying
+their stored rows (episodes are deterministic in task, point and seed) with the offscreen
+renderer of ``harness replay --video`` (``harness.viz.video``: caption, cause frame, poster),
+small and at a low frame rate so the clips stay a few hundred KB and a few seconds of work each.
+An episode filmed without a recording of its own also gets one (``episodes/<id>.rrd``), so every
+outcome class has a recording and a video.
 
-The MP4s go to ``RUN_DIR/videos/``; ``report.html`` embeds them. A replay whose verdict differs
-from its stored row says so in its caption (never silently shown as the stored episode); a clip
-that cannot be rendered (no GL, an episode that stopped before its scene) is reported, and the
-report is written without it.
+The MP4s and posters go to ``RUN_DIR/videos/`` with ``clips.json`` describing them, which a
+later ``harness report --no-videos`` reads to keep them on the page. A replay whose verdict
+differs from its stored row says so in its caption (never silently shown as the stored
+episode); a clip that cannot be rendered (no GL, an episode that stopped before its scene) is
+reported, and the report is written without it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from harness.report.frames import column, frame_of
+from harness.files import write_atomic
+from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import rated
 from harness.runs.safety import safe_file_name
 
@@ -25,7 +32,8 @@ VIDEOS_DIR = "videos"
 SWEEP_YAML = "sweep.yaml"  # harness.runs.rundir.SWEEP_YAML (rundir imports the report)
 FPS = 10
 WIDTH, HEIGHT = 320, 240
-MAX_CLIPS = 16
+MAX_CLIPS = 24
+MANIFEST = "clips.json"
 CHECKED = ("success", "failure_reason", "chosen_index")  # what a caption must be true about
 
 
@@ -42,23 +50,67 @@ class Clip:
     path: Path | None  # the MP4, relative to the run directory; None when rendering failed
     frames: int = 0
     note: str = ""  # why there is no video, or how the replay differed from the row
+    outcome_class: str = ""  # harness.viz.headline.outcome_class
+    headline: str = ""  # both verdicts (harness.viz.headline.headline)
+    kind: str = ""  # valid | invalid | failed
+    poster: Path | None = None  # the cause frame (PNG), relative to the run directory
+    recording: str | None = None  # the episode's .rrd, relative to the run directory
+
+    def as_json(self) -> dict[str, Any]:
+        data = asdict(self)
+        for key in ("path", "poster"):
+            data[key] = None if data[key] is None else str(data[key])
+        return data
+
+
+def save_manifest(run_dir: Path, clips: list[Clip]) -> None:
+    """``videos/clips.json``: what a later report without rendering shows."""
+    text = json.dumps([clip.as_json() for clip in clips], indent=1)
+    write_atomic(run_dir / VIDEOS_DIR / MANIFEST, text)
+
+
+def load_clips(run_dir: Path) -> list[Clip]:
+    """The clips of an earlier report whose files are still there (``--no-videos`` keeps
+    them); [] when there is no readable manifest."""
+    path = run_dir / VIDEOS_DIR / MANIFEST
+    try:
+        entries = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    clips = []
+    for entry in entries if isinstance(entries, list) else []:
+        try:
+            video = Path(entry["path"]) if entry.get("path") else None
+            poster = Path(entry["poster"]) if entry.get("poster") else None
+            if video is None or not (run_dir / video).is_file():
+                continue
+            if poster is not None and not (run_dir / poster).is_file():
+                poster = None
+            clips.append(Clip(**{**entry, "path": video, "poster": poster}))
+        except (KeyError, TypeError):
+            continue
+    return clips
 
 
 def chosen_episodes(frame: pd.DataFrame, max_clips: int = MAX_CLIPS) -> pd.DataFrame:
-    """Per robot and arm, the first success and the first failure (run order), at most
-    ``max_clips`` rows; ``error`` rows are never chosen."""
+    """The first episode (run order) of each outcome class, then per robot and arm the first
+    success and the first failure not already chosen; at most ``max_clips`` rows; ``error``
+    rows are never chosen."""
+    from harness.viz.headline import outcome_class
+
     frame = rated(frame)
     order = [c for c in ("point_id", "episode_index") if c in frame]
     frame = frame_of(frame.sort_values(order, kind="stable")) if order else frame
-    picked = []
+    if frame.empty:
+        return frame.head(0)
+    classes = pd.Series([outcome_class(row) for row in series_rows(frame)], index=frame.index)
+    picked: list[Any] = list(classes.drop_duplicates().index)
     for _, group in frame.groupby(["robot", "arm"], sort=True):
         success = column(group, "success").astype(bool)
         for mask in (success, ~success):
-            if mask.any():
-                picked.append(frame_of(group.loc[mask]).head(1))
-    if not picked:
-        return frame.head(0)
-    return frame_of(pd.concat(picked).head(max_clips))
+            if mask.any() and not set(group.index[mask]) & set(picked):
+                picked.append(group.index[mask][0])
+    return frame_of(frame.loc[picked[:max_clips]])
 
 
 def _specs(run_dir: Path, wanted: set[str]) -> dict[str, Any]:
@@ -98,14 +150,32 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
     (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
     scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
-    return [
+    clips = [
         _film(run_dir, row, specs.get(str(row["episode_id"])), scenes)
         for _, row in chosen.iterrows()
     ]
+    save_manifest(run_dir, clips)
+    return clips
 
 
-def _clip(row: Any, path: Path | None, frames: int = 0, note: str = "") -> Clip:
+def _stored_recording(run_dir: Path, row: Any) -> str | None:
+    value = row.get("recording")
+    if isinstance(value, str) and value and (run_dir / value).is_file():
+        return value
+    return None
+
+
+def _clip(
+    row: Any,
+    path: Path | None,
+    frames: int = 0,
+    note: str = "",
+    recording: str | None = None,
+) -> Clip:
+    from harness.viz.headline import headline, outcome_class, outcome_kind
+
     outcome = "success" if bool(row["success"]) else str(row["failure_reason"])
+    poster = path.with_suffix(".png") if path is not None else None
     return Clip(
         str(row["robot"]),
         str(row["arm"]),
@@ -116,6 +186,11 @@ def _clip(row: Any, path: Path | None, frames: int = 0, note: str = "") -> Clip:
         path,
         frames,
         note,
+        outcome_class(row),
+        headline(row),
+        outcome_kind(row),
+        poster,
+        recording,
     )
 
 
@@ -126,9 +201,27 @@ def _film(run_dir: Path, row: Any, spec: Any, scenes: dict[Any, Any]) -> Clip:
     from harness.viz.video import write_episode_video
 
     relative = Path(VIDEOS_DIR) / safe_file_name(str(row["episode_id"]), ".mp4")
+    recording = _stored_recording(run_dir, row)
     try:
         result = run_episode(spec, scenes)
         frames = write_episode_video(result, run_dir / relative, FPS, WIDTH, HEIGHT)
     except Exception as exc:  # no GL context, no scene: the report goes on without this clip
         return _clip(row, None, note=f"not rendered: {type(exc).__name__}: {exc}")
-    return _clip(row, relative, frames, _differences(row, result.row))
+    if recording is None:
+        recording = _record(run_dir, row, result, spec)
+    return _clip(row, relative, frames, _differences(row, result.row), recording)
+
+
+def _record(run_dir: Path, row: Any, result: Any, spec: Any) -> str | None:
+    """Write the filmed episode's recording when the run kept none (None if that fails)."""
+    from harness.viz.recording import record_episode
+
+    relative = Path("episodes") / safe_file_name(str(row["episode_id"]), ".rrd")
+    if (run_dir / "episodes").is_symlink():
+        return None
+    try:
+        (run_dir / "episodes").mkdir(exist_ok=True)
+        record_episode(result, run_dir / relative, spec.task)
+    except Exception:  # the video stands without it
+        return None
+    return str(relative)

@@ -66,7 +66,20 @@ def find_cause(row: Any, trace: Any, model: Any, scene: Any | None = None) -> Ca
     if reason == "collision":
         point = _pair_point(model, trace.qpos[last], row)
         return Cause(trace.qpos[last], last, point, _pair_label(row) or "collision")
-    return Cause(trace.qpos[last], last, None, reason or "end of the episode")
+    if reason:
+        return Cause(trace.qpos[last], last, None, reason)
+    return Cause(trace.qpos[last], last, trace.object_pose[last, :3], _held(row))
+
+
+def _held(row: Any) -> str:
+    """What a valid grasp survived (the validity phase's robustness)."""
+    try:
+        robustness = float(row.get("robustness_g"))
+    except (TypeError, ValueError):
+        robustness = math.nan
+    if math.isfinite(robustness) and robustness > 0:
+        return f"held: 1 s hold, tugs up to {robustness:g} g in six directions"
+    return "end of the episode"
 
 
 def _pair_label(row: Any) -> str:

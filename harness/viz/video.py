@@ -31,6 +31,7 @@ WIDTH, HEIGHT = 640, 480
 HOLD_S = 1.5  # seconds the video rests on the cause frame
 START_S = 0.5  # seconds of the reset pose before a configuration that was never executed
 MARK_RADIUS_M = 0.018
+CAUSE_DISTANCE_M = 0.6  # the camera closes in on the cause while the video holds on it
 TABLE_ALPHA = 0.35  # the table's opacity when a finger went through it
 
 
@@ -42,11 +43,11 @@ def frame_indices(trace_time: np.ndarray, fps: int = FPS) -> np.ndarray:
     return np.clip(np.searchsorted(trace_time, times, side="right") - 1, 0, len(trace_time) - 1)
 
 
-def _camera(mujoco: Any, look_at: np.ndarray) -> Any:
+def _camera(mujoco: Any, look_at: np.ndarray, distance: float = 1.5) -> Any:
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.lookat[:] = look_at
-    camera.distance = 1.5
+    camera.distance = distance
     camera.azimuth = 140.0
     camera.elevation = -28.0
     return camera
@@ -96,13 +97,17 @@ def write_episode_video(
     # Between the object and the robots (which stand at -y, facing +y), a little above the table.
     look_at = np.asarray(trace.T_world_object_start)[:3, 3] + [0.0, -0.2, 0.15]
     camera = _camera(mujoco, look_at)
+    close = camera
+    if cause.point is not None and outcome_kind(row) != "valid":
+        close = _camera(mujoco, cause.point, CAUSE_DISTANCE_M)
     path.parent.mkdir(parents=True, exist_ok=True)
     overlay = Overlay(row, cause.label, width)
     table_alpha = TABLE_ALPHA if "through the table" in cause.label else None
     with _Lit(model, table_alpha):
         poster = _write(
-            mujoco, imageio, model, data, camera, frames, cause, overlay, path, fps, (width, height)
-        )
+            mujoco, imageio, model, data, (camera, close), frames, cause, overlay, path, fps,
+            (width, height),
+        )  # fmt: skip
     imageio.imwrite(path.with_suffix(".png"), poster)
     return len(frames)
 
@@ -143,12 +148,35 @@ def _mark(mujoco: Any, scene: Any, point: np.ndarray) -> None:
     scene.ngeom += 1
 
 
+def project(cameras: Any, point: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
+    """Pixel (x, y) of a world point in a mono render of an ``mjvScene`` (None behind the
+    camera). The scene keeps two eye cameras; a mono render uses their average."""
+    camera = cameras[0]
+    position, forward, up = (
+        (np.asarray(getattr(cameras[0], name)) + np.asarray(getattr(cameras[1], name))) / 2.0
+        for name in ("pos", "forward", "up")
+    )
+    right = np.cross(forward, up)
+    offset = np.asarray(point, dtype=float) - position
+    depth = float(offset @ forward)
+    if depth <= 1e-6:
+        return None
+    x = float(offset @ right) / depth * camera.frustum_near
+    y = float(offset @ up) / depth * camera.frustum_near
+    # mjr_render sets the frustum's width from the viewport's aspect ratio.
+    span = (camera.frustum_top - camera.frustum_bottom) * width / height
+    left = camera.frustum_center - span / 2.0
+    u = (x - left) / span * width
+    v = (camera.frustum_top - y) / (camera.frustum_top - camera.frustum_bottom) * height
+    return u, v
+
+
 def _write(
     mujoco: Any,
     imageio: Any,
     model: Any,
     data: Any,
-    camera: Any,
+    cameras: tuple[Any, Any],
     frames: list[tuple[np.ndarray, bool]],
     cause: Cause,
     overlay: Overlay,
@@ -156,7 +184,8 @@ def _write(
     fps: int,
     size: tuple[int, int],
 ) -> np.ndarray:
-    """Render and encode the frames; returns the poster (the first marked frame)."""
+    """Render and encode the frames (the marked ones from the close camera); returns the
+    poster (the first marked frame)."""
     width, height = size
     poster: np.ndarray | None = None
     with (
@@ -166,10 +195,12 @@ def _write(
         for qpos, marked in frames:
             data.qpos[:] = qpos
             mujoco.mj_kinematics(model, data)
-            renderer.update_scene(data, camera)
+            renderer.update_scene(data, cameras[1] if marked else cameras[0])
+            ring = None
             if marked and cause.point is not None:
                 _mark(mujoco, renderer.scene, cause.point)
-            image = overlay.draw(renderer.render(), marked)
+                ring = project(renderer.scene.camera, cause.point, width, height)
+            image = overlay.draw(renderer.render(), marked, ring)
             if marked and poster is None:
                 poster = image
             writer.append_data(image)
@@ -201,7 +232,9 @@ class Overlay:
             font = ImageFont.load_default(size=size)
         return font
 
-    def draw(self, image: np.ndarray, marked: bool) -> np.ndarray:
+    def draw(
+        self, image: np.ndarray, marked: bool, ring: tuple[float, float] | None = None
+    ) -> np.ndarray:
         from PIL import Image, ImageDraw
 
         picture = Image.fromarray(image)
@@ -209,6 +242,11 @@ class Overlay:
         width, height = picture.size
         line = self.size + 4
         draw.rectangle((0, 0, width, 2 * line + 4), fill=(20, 22, 26, 210))
+        if ring is not None:  # the cause's place, visible even behind the robot
+            radius = max(8, width // 40)
+            x, y = ring
+            box = (x - radius, y - radius, x + radius, y + radius)
+            draw.ellipse(box, outline=(255, 40, 40), width=max(2, width // 200))
         room = width - 12
         draw.text((6, 3), self.caption, fill=(235, 235, 235), font=self._fit(self.caption, room))
         draw.text(

@@ -1,0 +1,132 @@
+"""Outcome vs placement per robot arm (``plots/placement.png``): where reach ends, from the rows.
+
+One row of panels per robot arm (objects and settings pooled, since the placement of episode k
+is the same at every point of a sweep):
+
+- left: every episode at its object position in the arm base frame (x forward, y left; the
+  ``object_x_m`` / ``object_y_m`` columns), green valid, orange a reference success that is not
+  valid, red a failure; the arm base at the origin, rings every 10 cm of distance;
+- right: the reference and the valid rate per 5 cm bin of ``object_distance_m`` with their 95%
+  Wilson intervals (scipy), so the distance where the rate falls is the arm's reach boundary
+  under this task's filters.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from harness.report.frames import column, frame_of
+from harness.report.stats import wilson_interval
+from harness.report.tables import rated
+
+PLACEMENT_COLUMNS = ("object_x_m", "object_y_m", "object_distance_m")
+BIN_M = 0.05
+KIND_COLOURS = {"valid": "#2da44e", "invalid": "#e3a21a", "failed": "#cf222e"}
+DPI = 110
+
+
+def outcome_kinds(frame: pd.DataFrame) -> pd.Series:
+    """valid / invalid / failed per row (``harness.viz.headline.outcome_kind`` on columns)."""
+    success = column(frame, "success").astype(bool)
+    reason = (
+        column(frame, "invalid_reason").fillna("").astype(str)
+        if "invalid_reason" in frame
+        else pd.Series("", index=frame.index)
+    )
+    valid = (
+        column(frame, "valid").fillna(False).astype(bool)
+        if "valid" in frame
+        else pd.Series(False, index=frame.index)
+    )
+    invalid = success & ~valid & ~reason.isin(["", "not_run"])
+    kinds = np.where(~success, "failed", np.where(invalid, "invalid", "valid"))
+    return pd.Series(kinds, index=frame.index)
+
+
+def distance_rates(frame: pd.DataFrame, bin_m: float = BIN_M) -> pd.DataFrame:
+    """Per distance bin: n, reference and valid successes, rates and Wilson intervals."""
+    distance = column(frame, "object_distance_m").astype(float)
+    bins = np.floor(distance / bin_m) * bin_m
+    kinds = outcome_kinds(frame)
+    rows = []
+    for start, index in frame.groupby(bins, sort=True).groups.items():
+        n = len(index)
+        reference = int((kinds.loc[index] != "failed").sum())
+        valid = int((kinds.loc[index] == "valid").sum())
+        lo, hi = wilson_interval(reference, n)
+        vlo, vhi = wilson_interval(valid, n)
+        rows.append({"bin_m": float(start), "centre_m": float(start) + bin_m / 2, "n": n,
+                     "reference": reference, "valid": valid, "rate": reference / n,
+                     "lo": lo, "hi": hi, "valid_rate": valid / n, "valid_lo": vlo,
+                     "valid_hi": vhi})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def plot_placement(frame: pd.DataFrame, path: Path) -> Path | None:
+    """Write the placement figure; None when the rows have no placement columns."""
+    if any(name not in frame for name in PLACEMENT_COLUMNS):
+        return None
+    frame = frame_of(rated(frame))
+    frame = frame_of(frame[np.isfinite(column(frame, "object_distance_m").astype(float))])
+    if frame.empty:
+        return None
+    arms = sorted({(str(r), str(a)) for r, a in zip(frame["robot"], frame["arm"], strict=True)})
+    fig, axes = plt.subplots(len(arms), 2, figsize=(11, 3.6 * len(arms)), dpi=DPI, squeeze=False)
+    limit = float(column(frame, "object_distance_m").max()) * 1.1
+    for (robot, arm), (left, right) in zip(arms, axes, strict=True):
+        mine = frame_of(frame[(frame["robot"] == robot) & (frame["arm"] == arm)])
+        _scatter(left, mine, limit)
+        left.set_title(f"{robot} {arm} arm: object at reset (arm base frame)", fontsize=10)
+        _rates(right, mine, limit)
+        right.set_title(f"{robot} {arm} arm: success vs distance (95% Wilson)", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _scatter(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+    kinds = outcome_kinds(frame)
+    for kind, colour in KIND_COLOURS.items():
+        mask = (kinds == kind).to_numpy()
+        label = {"valid": "valid success", "invalid": "reference success, not valid",
+                 "failed": "failure"}[kind]  # fmt: skip
+        ax.scatter(frame["object_x_m"][mask], frame["object_y_m"][mask], s=14, c=colour,
+                   alpha=0.75, label=f"{label} ({int(mask.sum())})", edgecolors="none")  # fmt: skip
+    for radius in np.arange(0.1, limit + 0.1, 0.1):
+        ax.add_patch(plt.Circle((0, 0), radius, fill=False, lw=0.5, ls=":", color="#8c959f"))
+    ax.plot([0], [0], marker="^", color="black", ms=7)
+    ax.set_xlim(0, limit)
+    ax.set_ylim(-limit / 2, limit / 2)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("object x (m, forward)")
+    ax.set_ylabel("object y (m, left)")
+    ax.legend(fontsize=7, loc="upper left")
+
+
+def _rates(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+    table = distance_rates(frame)
+    for prefix, colour, label in (("", "#0969da", "reference"), ("valid_", "#2da44e", "valid")):
+        rate = table[f"{prefix}rate" if prefix else "rate"]
+        lo = table[f"{prefix}lo" if prefix else "lo"]
+        hi = table[f"{prefix}hi" if prefix else "hi"]
+        ax.errorbar(table["centre_m"], rate, yerr=[rate - lo, hi - rate], fmt="o-", ms=4,
+                    capsize=3, color=colour, label=f"{label} rate")  # fmt: skip
+    for _, row in table.iterrows():
+        ax.annotate(f"n={int(row['n'])}", (row["centre_m"], 0.02), fontsize=6, ha="center",
+                    color="#57606a")  # fmt: skip
+    ax.set_xlim(0, limit if math.isfinite(limit) else 1.0)
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel(f"object distance from the arm base (m, {BIN_M * 100:.0f} cm bins)")
+    ax.set_ylabel("success rate")
+    ax.legend(fontsize=7, loc="lower left")
