@@ -36,7 +36,7 @@ def far_result(cube: Path):
 
 
 def test_placement_columns_are_the_object_pose_in_the_arm_base_frame(far_result) -> None:
-    task, result = far_result
+    _, result = far_result
     row, scene = result.row, result.scene
     T_base_object = invert_T(scene.T_world_base("left")) @ scene.T_world_object("target")
     # The scene now holds the reset state the episode planned from (nothing was executed).
@@ -104,14 +104,20 @@ def test_plan_failure_video_holds_on_the_failing_configuration(far_result, tmp_p
 ROWS = {
     "success_valid": {"success": True, "valid": True, "invalid_reason": ""},
     "success_invalid:table_penetration": {
-        "success": True, "valid": False, "invalid_reason": "table_penetration",
+        "success": True,
+        "valid": False,
+        "invalid_reason": "table_penetration",
         "table_penetration_m": 0.0123,
-    },  # fmt: skip
+    },
     "failure:plan_failed": {
-        "success": False, "valid": False, "invalid_reason": "not_run",
-        "failure_reason": "plan_failed", "failure_stage": "plan:approach",
-        "collision_a": "link6", "collision_b": "table",
-    },  # fmt: skip
+        "success": False,
+        "valid": False,
+        "invalid_reason": "not_run",
+        "failure_reason": "plan_failed",
+        "failure_stage": "plan:approach",
+        "collision_a": "link6",
+        "collision_b": "table",
+    },
 }
 
 

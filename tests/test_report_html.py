@@ -4,6 +4,7 @@ fallback flagged, seeds in full, episode ids linked to their recordings, replaye
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 from pathlib import Path
@@ -16,6 +17,7 @@ from harness.cli import main as cli_main
 from harness.report import build_report, load_episodes, summarize
 from harness.report.sections import FALLBACK_MARK
 from harness.runs.store import ResultStore
+from harness.viz.headline import outcome_class
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "tasks" / "pick"
@@ -156,23 +158,63 @@ def test_no_fallback_no_flag(real_run: Path) -> None:
 
 
 @pytest.mark.slow
-def test_videos_of_one_success_and_one_failure_per_arm(real_run: Path, tmp_path: Path) -> None:
+def test_videos_of_each_outcome_class_and_per_arm_kept_without_rendering(
+    real_run: Path, tmp_path: Path
+) -> None:
+    """One video per outcome class and one success and one failure per arm, each with its
+    poster and recording; a later ``report --no-videos`` keeps them on the page."""
     imageio = pytest.importorskip("imageio.v3")
     run = copy_run(real_run, tmp_path / "videos")
     paths = build_report(run, videos=True)
     frame = load_episodes(run)
-    expected = 0
+    classes = {outcome_class(row) for _, row in frame.iterrows()}
+    assert {clip.outcome_class for clip in paths.videos} == classes
+    per_arm = 0
     for _, group in frame.groupby(["robot", "arm"]):
-        expected += int(group["success"].any()) + int((~group["success"]).any())
-    assert len(paths.videos) == expected
+        per_arm += int(group["success"].any()) + int((~group["success"]).any())
+    assert max(len(classes), per_arm) <= len(paths.videos) <= len(classes) + per_arm
     for clip in paths.videos:
         assert clip.path is not None, clip.note
         assert clip.note == ""  # the replay reproduced the stored verdict
         frames = imageio.imread(run / clip.path)
         assert frames.shape[0] == clip.frames and frames.shape[1:3] == (240, 320)
+        assert clip.poster is not None and imageio.imread(run / clip.poster).shape == (240, 320, 3)
+        assert clip.headline and clip.headline.split(":")[0] in {
+            "SUCCESS · VALID", "REFERENCE SUCCESS · INVALID", "FAILURE"
+        }  # fmt: skip
     page = paths.report_html.read_text(encoding="utf-8")
+    expected = len(paths.videos)
     assert page.count('src="data:video/mp4;base64,') == expected
+    assert page.count('poster="data:image/png;base64,') == expected
     videos = page[page.index("<h2>Videos") :]
     recordings = frame.set_index("episode_id")["recording"]
     for clip in paths.videos:  # every episode of this run was recorded: captions link to them
         assert f'<a href="{recordings[clip.episode_id]}" title="recording">' in videos
+    again = build_report(run, videos=False)  # harness report --no-videos
+    assert [c.episode_id for c in again.videos] == [c.episode_id for c in paths.videos]
+    kept = again.report_html.read_text(encoding="utf-8")
+    assert kept.count('src="data:video/mp4;base64,') == expected
+
+
+def test_the_page_opens_on_a_summary_and_contents_with_filterable_tables(real_run: Path) -> None:
+    page = (real_run / "report.html").read_text(encoding="utf-8")
+    summary, contents = page.index('id="summary"'), page.index("<h2>Contents</h2>")
+    assert summary < contents < page.index('id="heatmaps"')
+    assert page.count('<input class="filter"') == page.count('<table class="sortable">') > 3
+    assert "harness view" in page and "rerun --web-viewer" in page  # how to open recordings
+    assert (real_run / "plots" / "placement.png").is_file() and 'id="placement"' in page
+
+
+def test_a_hostile_task_name_is_escaped_in_the_page(real_run: Path, tmp_path: Path) -> None:
+    run = copy_run(real_run, tmp_path / "hostile")
+    hostile = "<script>alert('pwned')</script>&<b>"
+    jsonl = run / "episodes.jsonl"
+    rows = [json.loads(line) for line in jsonl.read_text(encoding="utf-8").splitlines()]
+    for row in rows:
+        row["task"] = row["run"] = hostile
+        row["error_message"] = hostile if row["error_message"] else ""
+    jsonl.write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+    paths = build_report(run, export=True)
+    page = paths.report_html.read_text(encoding="utf-8")
+    assert hostile not in page and "<script>alert(" not in page
+    assert "&lt;script&gt;alert(&#39;pwned&#39;)&lt;/script&gt;&amp;&lt;b&gt;" in page

@@ -23,15 +23,9 @@ import pandas as pd
 
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.labels import point_label
-from harness.report.placement import outcome_kinds
+from harness.report.placement import REACH_STAGES, outcome_kinds
 from harness.report.tables import rated
 
-REACH_STAGES = (
-    "plan:ik_pregrasp",
-    "plan:ik_grasp",
-    "feasibility:ik_pregrasp",
-    "feasibility:ik_grasp",
-)
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "

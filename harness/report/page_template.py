@@ -50,26 +50,27 @@ TEMPLATE = """<!DOCTYPE html>
 <p class="note" id="recordings">Recordings (<code>.rrd</code>, linked from episode ids): open one with <code>harness view RUN_DIR/episodes/ID.rrd</code>, or in a browser with <code>rerun --web-viewer RUN_DIR/episodes/ID.rrd</code> (<code>pip install rerun-sdk==0.41.*</code>); a plain click downloads the file.</p>
 
 {% for t in tables %}
-<h2 id="{{ t.id }}">{{ t.title }}</h2>
+<section id="{{ t.id }}"><h2>{{ t.title }}</h2>
 {% if t.note %}<p class="note">{{ t.note }}</p>{% endif %}
 {% if t.collapsed %}<details><summary>{{ t.rows|length }} rows (show)</summary>{% endif %}
 <input class="filter" type="search" placeholder="filter rows (any text)" aria-label="filter {{ t.title }}">
 <table class="sortable"><thead><tr>{% for h in t.header %}<th>{{ h }}</th>{% endfor %}</tr></thead><tbody>
-{% for row in t.rows %}<tr{% if row.flag %} class="flag"{% endif %}>{% for cell in row.cells %}<td{% if cell.cls %} class="{{ cell.cls }}"{% endif %}>{% for piece in cell.pieces %}{% if not loop.first %}, {% endif %}{% if piece.href %}<a href="{{ piece.href }}" title="recording: open with harness view {{ piece.href }}">{{ piece.text }}</a>{% else %}{{ piece.text }}{% endif %}{% endfor %}</td>{% endfor %}</tr>
+{% for row in t.rows %}<tr{% if row.flag %} class="flag"{% endif %}>{% for cell in row.cells %}<td{% if cell.cls %} class="{{ cell.cls }}"{% endif %}>{% for piece in cell.pieces %}{% if not loop.first %}, {% endif %}{% if piece.href %}<a href="{{ piece.href }}" title="recording">{{ piece.text }}</a>{% else %}{{ piece.text }}{% endif %}{% endfor %}</td>{% endfor %}</tr>
 {% endfor %}</tbody></table>
 {% if t.collapsed %}</details>{% endif %}
+</section>
 {% endfor %}
 
 {% if clips %}
-<h2 id="videos">Videos: one per outcome class, one success and one failure per robot arm</h2>
+<section id="videos"><h2>Videos: one per outcome class, one success and one failure per robot arm</h2>
 <p class="note">Replayed from the stored rows (harness replay), rendered offscreen with MuJoCo. Each holds on the frame that shows the cause (red mark); the poster is that frame.</p>
 <div class="videos">
 {% for c in clips %}<figure class="{{ c.kind }}">
 {% if c.video %}<video controls muted loop playsinline preload="none"{% if c.poster %} poster="{{ c.poster }}"{% endif %} src="{{ c.video }}"></video>{% else %}<div class="novideo">no video</div>{% endif %}
 <figcaption><b>{{ c.headline }}</b><br>{{ c.robot }} {{ c.arm }} arm · {{ c.object }} · seed {{ c.seed }}<br>
-{% if c.recording %}<a href="{{ c.recording }}" title="open with harness view {{ c.recording }}">{{ c.episode_id }}</a>{% else %}{{ c.episode_id }}{% endif %}
+{% if c.recording %}<a href="{{ c.recording }}" title="recording">{{ c.episode_id }}</a>{% else %}{{ c.episode_id }}{% endif %}
 {% if c.note %}<br><i>{{ c.note }}</i>{% endif %}</figcaption></figure>
-{% endfor %}</div>
+{% endfor %}</div></section>
 {% endif %}
 
 {% if plots %}

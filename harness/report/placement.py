@@ -3,9 +3,11 @@
 One row of panels per robot arm (objects and settings pooled, since the placement of episode k
 is the same at every point of a sweep):
 
-- left: every episode at its object position in the arm base frame (x forward, y left; the
-  ``object_x_m`` / ``object_y_m`` columns), green valid, orange a reference success that is not
-  valid, red a failure; the arm base at the origin, rings every 10 cm of distance;
+- left: every distinct object position in the arm base frame (x forward, y left; the
+  ``object_x_m`` / ``object_y_m`` columns; episode k of a sweep has the same placement at every
+  point), an outer disc coloured by its reference rate and an inner dot by its valid rate (red 0,
+  green 1), a black x where an episode failed for reach (IK at the pre-grasp or grasp); the arm
+  base at the origin, rings every 10 cm of distance;
 - right: the reference and the valid rate per 5 cm bin of ``object_distance_m`` with their 95%
   Wilson intervals (scipy), so the distance where the rate falls is the arm's reach boundary
   under this task's filters.
@@ -95,14 +97,50 @@ def plot_placement(frame: pd.DataFrame, path: Path) -> Path | None:
     return path
 
 
-def _scatter(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+REACH_STAGES = (
+    "plan:ik_pregrasp",
+    "plan:ik_grasp",
+    "feasibility:ik_pregrasp",
+    "feasibility:ik_grasp",
+)
+
+
+def placements(frame: pd.DataFrame) -> pd.DataFrame:
+    """Per distinct object position (to the mm): n, reference and valid rate, and how many
+    episodes failed for reach (IK at the pre-grasp or grasp)."""
     kinds = outcome_kinds(frame)
-    for kind, colour in KIND_COLOURS.items():
-        mask = (kinds == kind).to_numpy()
-        label = {"valid": "valid success", "invalid": "reference success, not valid",
-                 "failed": "failure"}[kind]  # fmt: skip
-        ax.scatter(frame["object_x_m"][mask], frame["object_y_m"][mask], s=14, c=colour,
-                   alpha=0.75, label=f"{label} ({int(mask.sum())})", edgecolors="none")  # fmt: skip
+    stage = (
+        column(frame, "failure_stage").fillna("").astype(str)
+        if "failure_stage" in frame
+        else pd.Series("", index=frame.index)
+    )
+    table = pd.DataFrame({
+        "x": column(frame, "object_x_m").astype(float).round(3),
+        "y": column(frame, "object_y_m").astype(float).round(3),
+        "reference": (kinds != "failed").astype(int),
+        "valid": (kinds == "valid").astype(int),
+        "reach": stage.isin(REACH_STAGES).astype(int),
+    })  # fmt: skip
+    grouped = table.groupby(["x", "y"], sort=False)
+    out = grouped[["reference", "valid", "reach"]].sum()
+    out["n"] = grouped.size()
+    out["rate"] = out["reference"] / out["n"]
+    out["valid_rate"] = out["valid"] / out["n"]
+    return out.reset_index()
+
+
+def _scatter(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+    """Each distinct placement: outer disc coloured by the reference rate, inner dot by the
+    valid rate (red 0 -> green 1), a black x where some episode failed for reach."""
+    table = placements(frame)
+    cmap = plt.get_cmap("RdYlGn")
+    ax.scatter(table["x"], table["y"], s=70, c=cmap(table["rate"]), edgecolors="#57606a",
+               linewidths=0.4, label="reference rate (outer)")  # fmt: skip
+    ax.scatter(table["x"], table["y"], s=16, c=cmap(table["valid_rate"]), edgecolors="none",
+               label="valid rate (inner)")  # fmt: skip
+    reach = table[table["reach"] > 0]
+    ax.scatter(reach["x"], reach["y"], s=40, marker="x", c="black", linewidths=1.0,
+               label=f"IK out of reach ({int(reach['reach'].sum())} episodes)")  # fmt: skip
     for radius in np.arange(0.1, limit + 0.1, 0.1):
         ax.add_patch(plt.Circle((0, 0), radius, fill=False, lw=0.5, ls=":", color="#8c959f"))
     ax.plot([0], [0], marker="^", color="black", ms=7)
@@ -125,7 +163,8 @@ def _rates(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
     for _, row in table.iterrows():
         ax.annotate(f"n={int(row['n'])}", (row["centre_m"], 0.02), fontsize=6, ha="center",
                     color="#57606a")  # fmt: skip
-    ax.set_xlim(0, limit if math.isfinite(limit) else 1.0)
+    low = float(table["bin_m"].min()) if len(table) else 0.0
+    ax.set_xlim(max(0.0, low - BIN_M), limit if math.isfinite(limit) else 1.0)
     ax.set_ylim(0, 1.05)
     ax.set_xlabel(f"object distance from the arm base (m, {BIN_M * 100:.0f} cm bins)")
     ax.set_ylabel("success rate")
