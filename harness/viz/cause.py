@@ -64,7 +64,7 @@ def find_cause(row: Any, trace: Any, model: Any, scene: Any | None = None) -> Ca
     if reason in SLIPS:
         return _slip_cause(trace, reason)
     if reason == "collision":
-        point = _pair_point(model, trace.qpos[last], row)
+        point = _pair_point(model, trace.qpos[last], row, trace)
         return Cause(trace.qpos[last], last, point, _pair_label(row) or "collision")
     if reason:
         return Cause(trace.qpos[last], last, None, reason)
@@ -100,7 +100,9 @@ def _planning_cause(row: Any, trace: Any, model: Any) -> Cause:
     stage = str(row.get("failure_stage") or "")
     pair = _pair_label(row)
     if pair:
-        return Cause(trace.failure_qpos, None, _pair_point(model, trace.failure_qpos, row), pair)
+        return Cause(
+            trace.failure_qpos, None, _pair_point(model, trace.failure_qpos, row, trace), pair
+        )
     target = "grasp" if stage.endswith("ik_grasp") else "pre-grasp"
     message = str(row.get("error_message") or "")
     residual = (
@@ -119,27 +121,32 @@ def _planning_cause(row: Any, trace: Any, model: Any) -> Cause:
     return Cause(trace.failure_qpos, None, point, label)
 
 
-def _pair_point(model: Any, qpos: np.ndarray, row: Any) -> np.ndarray | None:
-    """The deepest contact point between the two named bodies at ``qpos`` (any model contact
-    between them; None when they do not touch in the physics model)."""
+def _pair_point(model: Any, qpos: np.ndarray, row: Any, trace: Any) -> np.ndarray | None:
+    """Where the two named bodies meet at ``qpos``: the midpoint of the closest points between
+    their geoms (``mj_geomDistance``, which also measures pairs the physics excludes, such as
+    a robot's own links); None when a body is unknown."""
     import mujoco
 
-    names = {str(row.get("collision_a") or ""), str(row.get("collision_b") or "")}
+    names = [str(row.get("collision_a") or ""), str(row.get("collision_b") or "")]
+    if not all(_has_body(model, name) for name in names):
+        return None
     data = mujoco.MjData(model)
+    if model.nmocap:
+        data.mocap_pos[:], data.mocap_quat[:] = trace.mocap_pos, trace.mocap_quat
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
-    mujoco.mj_collision(model, data)
+    ids = [model.body(name).id for name in names]
+    geoms = [np.flatnonzero(model.geom_bodyid == i) for i in ids]
     best: tuple[float, np.ndarray] | None = None
-    for k in range(data.ncon):
-        contact = data.contact[k]
-        bodies = {model.body(int(model.geom_bodyid[g])).name for g in contact.geom}
-        pair = bodies == names or (len(names) == 1 and names <= bodies)
-        if pair and (best is None or contact.dist < best[0]):
-            best = (float(contact.dist), contact.pos.copy())
+    fromto = np.zeros(6)
+    for a in geoms[0]:
+        for b in geoms[1]:
+            distance = mujoco.mj_geomDistance(model, data, int(a), int(b), 0.5, fromto)
+            if best is None or distance < best[0]:
+                best = (float(distance), (fromto[:3] + fromto[3:]) / 2.0)
     if best is not None:
         return best[1]
-    ids = [model.body(n).id for n in names if n and _has_body(model, n)]
-    return np.mean([data.xpos[i] for i in ids], axis=0) if ids else None
+    return np.mean([data.xpos[i] for i in ids], axis=0)
 
 
 def _has_body(model: Any, name: str) -> bool:
