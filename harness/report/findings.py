@@ -16,6 +16,7 @@ and ``harness compare``.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,7 @@ from harness.report.labels import point_label
 from harness.report.placement import REACH_STAGES, outcome_kinds
 from harness.report.tables import rated
 
+FARTHER_M = 0.02  # reach failures this much farther (median) than successes: a reach boundary
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "
@@ -53,7 +55,8 @@ def findings(frame: pd.DataFrame, best: pd.DataFrame) -> list[Finding]:
     if frame.empty:
         return []
     out: list[Finding] = []
-    for (robot, arm), group in frame.groupby(["robot", "arm"], sort=True):
+    for key, group in frame.groupby(["robot", "arm"], sort=True):
+        robot, arm = key if isinstance(key, tuple) else (key, "")
         subject = f"{robot} {arm} arm"
         group = frame_of(group)
         out += _failure_findings(subject, group)
@@ -73,8 +76,9 @@ def _failure_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
         if "failure_stage" in failed
         else pd.Series("", index=failed.index)
     )
-    keys = failed["failure_reason"].astype(str) + " at " + stage.where(stage != "", "?")
-    top, count = keys.value_counts().index[0], int(keys.value_counts().iloc[0])
+    reasons = column(failed, "failure_reason").astype(str).tolist()
+    stages = [str(s) or "?" for s in stage.tolist()]
+    top, count = _top([f"{r} at {s}" for r, s in zip(reasons, stages, strict=True)])
     evidence = f"{len(failed)} of {n} episodes fail; {count} are {top}"
     found = []
     top_stage = top.split(" at ", 1)[1]
@@ -82,14 +86,21 @@ def _failure_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
         distance = column(group, "object_distance_m").astype(float)
         bad = distance[~success & (stage.reindex(group.index) == top_stage)]
         good = distance[success]
+        change = (
+            f"{top}: the grasp poses are out of reach at the same distances as the successes: "
+            "check the approach filter and the object's yaw range (see the placement plot)"
+        )
         if len(good) and len(bad):
             evidence += (
                 f"; their objects lie at a median {np.median(bad):.2f} m from the arm base "
                 f"(successes {np.median(good):.2f} m, range {good.min():.2f}–{good.max():.2f} m)"
             )
-        found.append(Finding(subject, "objects are placed beyond its reach: narrow the "
-                             "placement region towards the arm (see the placement plot)",
-                             evidence))  # fmt: skip
+            if np.median(bad) > np.median(good) + FARTHER_M:
+                change = (
+                    "objects are placed beyond its reach: narrow the placement region towards "
+                    "the arm (see the placement plot)"
+                )
+        found.append(Finding(subject, change, evidence))
     else:
         found.append(Finding(subject, f"fix the main failure, {top}", evidence))
     if "collision_a" in failed:
@@ -98,12 +109,19 @@ def _failure_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
             + " / "
             + failed["collision_b"].fillna("").astype(str)
         )
-        pairs = pairs[pairs != " / "]
-        if len(pairs) >= MIN_SHARE * n:
-            pair, hits = pairs.value_counts().index[0], int(pairs.value_counts().iloc[0])
+        named = [p for p in pairs.tolist() if p != " / "]
+        if named and len(named) >= MIN_SHARE * n:
+            pair, hits = _top(named)
             found.append(Finding(subject, f"avoid the collision {pair}",
                                  f"{hits} of {len(failed)} failures collide there"))  # fmt: skip
     return found
+
+
+def _top(values: list[str]) -> tuple[str, int]:
+    """The most frequent value and its count (first seen wins a tie)."""
+    counts = Counter(values)
+    best = max(counts.values())
+    return next(v for v in values if counts[v] == best), best
 
 
 def _validity_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
@@ -111,11 +129,10 @@ def _validity_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
         return []
     kinds = outcome_kinds(group)
     successes = int((kinds != "failed").sum())
-    invalid = group[kinds == "invalid"]
-    if not successes or len(invalid) < MIN_SHARE * successes:
+    invalid = frame_of(group[(kinds == "invalid").to_numpy()])
+    if not successes or invalid.empty or len(invalid) < MIN_SHARE * successes:
         return []
-    reason = str(invalid["invalid_reason"].value_counts().index[0])
-    count = int(invalid["invalid_reason"].value_counts().iloc[0])
+    reason, count = _top(column(invalid, "invalid_reason").astype(str).tolist())
     evidence = (
         f"{len(invalid)} of {successes} reference successes are not physically valid "
         f"({count} {reason})"
@@ -127,18 +144,26 @@ def _validity_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
 
 
 def _best_findings(best: pd.DataFrame) -> list[Finding]:
+    """One point for the best swept settings: where to find them, and which groups have a
+    best setting below a perfect rate (the ones where a change could matter)."""
     params = [c for c in best.columns if str(c).startswith("param.")]
-    out = []
-    for row in series_rows(best):
-        compared = int(row.get("points_compared", 1) or 1)
-        if compared < 2:
-            continue
-        subject = f"{row['robot']} {row['arm']} arm, {row['object']}"
-        evidence = (
-            f"{int(row['successes'])}/{int(row['n'])} (95% CI {row['wilson_lo']:.2f}–"
-            f"{row['wilson_hi']:.2f}), the highest lower bound of {compared} settings; not "
-            "tested against the others here (harness tune tests it on fresh seeds)"
-        )
-        setting = point_label(row, params) if params else str(row.get("point", ""))
-        out.append(Finding(subject, f"candidate setting: {setting}", evidence))
-    return out
+    compared = [row for row in series_rows(best) if int(row.get("points_compared", 1) or 1) > 1]
+    if not compared:
+        return []
+    short = [
+        f"{row['robot']} {row['arm']} {row['object']} "
+        f"{point_label(row, params) if params else row.get('point', '')} "
+        f"{int(row['successes'])}/{int(row['n'])}"
+        for row in compared
+        if int(row["successes"]) < int(row["n"])
+    ]
+    evidence = (
+        f"{len(compared)} robot/arm/object groups compared over their swept settings; best "
+        "below a perfect rate: " + ("; ".join(short) if short else "none")
+    )
+    change = (
+        "candidate settings (highest Wilson lower bound) are in the table 'Best settings per "
+        "robot, arm and object'; they are not tested against the others here, harness tune "
+        "confirms on fresh seeds"
+    )
+    return [Finding("settings", change, evidence)]

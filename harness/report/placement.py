@@ -25,6 +25,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.patches import Circle
 
 from harness.report.frames import column, frame_of
 from harness.report.stats import wilson_interval
@@ -56,14 +58,15 @@ def outcome_kinds(frame: pd.DataFrame) -> pd.Series:
 
 def distance_rates(frame: pd.DataFrame, bin_m: float = BIN_M) -> pd.DataFrame:
     """Per distance bin: n, reference and valid successes, rates and Wilson intervals."""
-    distance = column(frame, "object_distance_m").astype(float)
+    distance = column(frame, "object_distance_m").to_numpy(dtype=float)
     bins = np.floor(distance / bin_m) * bin_m
-    kinds = outcome_kinds(frame)
+    kinds = outcome_kinds(frame).to_numpy(dtype=str)
     rows = []
-    for start, index in frame.groupby(bins, sort=True).groups.items():
-        n = len(index)
-        reference = int((kinds.loc[index] != "failed").sum())
-        valid = int((kinds.loc[index] == "valid").sum())
+    for start in np.unique(bins[np.isfinite(bins)]):
+        mine = kinds[bins == start]
+        n = len(mine)
+        reference = int(np.sum(mine != "failed"))
+        valid = int(np.sum(mine == "valid"))
         lo, hi = wilson_interval(reference, n)
         vlo, vhi = wilson_interval(valid, n)
         rows.append({"bin_m": float(start), "centre_m": float(start) + bin_m / 2, "n": n,
@@ -108,62 +111,73 @@ REACH_STAGES = (
 def placements(frame: pd.DataFrame) -> pd.DataFrame:
     """Per distinct object position (to the mm): n, reference and valid rate, and how many
     episodes failed for reach (IK at the pre-grasp or grasp)."""
-    kinds = outcome_kinds(frame)
+    kinds = outcome_kinds(frame).to_numpy(dtype=str)
     stage = (
-        column(frame, "failure_stage").fillna("").astype(str)
+        column(frame, "failure_stage").fillna("").astype(str).to_numpy(dtype=str)
         if "failure_stage" in frame
-        else pd.Series("", index=frame.index)
+        else np.full(len(frame), "")
     )
-    table = pd.DataFrame({
-        "x": column(frame, "object_x_m").astype(float).round(3),
-        "y": column(frame, "object_y_m").astype(float).round(3),
-        "reference": (kinds != "failed").astype(int),
-        "valid": (kinds == "valid").astype(int),
-        "reach": stage.isin(REACH_STAGES).astype(int),
-    })  # fmt: skip
-    grouped = table.groupby(["x", "y"], sort=False)
-    out = grouped[["reference", "valid", "reach"]].sum()
-    out["n"] = grouped.size()
-    out["rate"] = out["reference"] / out["n"]
-    out["valid_rate"] = out["valid"] / out["n"]
-    return out.reset_index()
+    x = np.round(column(frame, "object_x_m").to_numpy(dtype=float), 3)
+    y = np.round(column(frame, "object_y_m").to_numpy(dtype=float), 3)
+    rows = []
+    for px, py in dict.fromkeys(zip(x.tolist(), y.tolist(), strict=True)):
+        mine = (x == px) & (y == py)
+        n = int(mine.sum())
+        rows.append({
+            "x": px, "y": py, "n": n,
+            "rate": float(np.sum(kinds[mine] != "failed")) / n,
+            "valid_rate": float(np.sum(kinds[mine] == "valid")) / n,
+            "reach": int(np.isin(stage[mine], REACH_STAGES).sum()),
+        })  # fmt: skip
+    return pd.DataFrame(rows, columns=["x", "y", "n", "rate", "valid_rate", "reach"])
 
 
-def _scatter(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+def _scatter(ax: Axes, frame: pd.DataFrame, limit: float) -> None:
     """Each distinct placement: outer disc coloured by the reference rate, inner dot by the
     valid rate (red 0 -> green 1), a black x where some episode failed for reach."""
     table = placements(frame)
     cmap = plt.get_cmap("RdYlGn")
     ax.scatter(table["x"], table["y"], s=70, c=cmap(table["rate"]), edgecolors="#57606a",
-               linewidths=0.4, label="reference rate (outer)")  # fmt: skip
-    ax.scatter(table["x"], table["y"], s=16, c=cmap(table["valid_rate"]), edgecolors="none",
-               label="valid rate (inner)")  # fmt: skip
-    reach = table[table["reach"] > 0]
-    ax.scatter(reach["x"], reach["y"], s=40, marker="x", c="black", linewidths=1.0,
-               label=f"IK out of reach ({int(reach['reach'].sum())} episodes)")  # fmt: skip
+               linewidths=0.4)  # fmt: skip
+    ax.scatter(table["x"], table["y"], s=16, c=cmap(table["valid_rate"]), edgecolors="none")
+    reach_counts = column(table, "reach").to_numpy(dtype=int)
+    reach = frame_of(table[reach_counts > 0])
+    ax.scatter(reach["x"], reach["y"], s=40, marker="x", c="black", linewidths=1.0)
     for radius in np.arange(0.1, limit + 0.1, 0.1):
-        ax.add_patch(plt.Circle((0, 0), radius, fill=False, lw=0.5, ls=":", color="#8c959f"))
+        ax.add_patch(Circle((0, 0), float(radius), fill=False, lw=0.5, ls=":", color="#8c959f"))
     ax.plot([0], [0], marker="^", color="black", ms=7)
     ax.set_xlim(0, limit)
     ax.set_ylim(-limit / 2, limit / 2)
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("object x (m, forward)")
     ax.set_ylabel("object y (m, left)")
-    ax.legend(fontsize=7, loc="upper left")
+    from matplotlib.lines import Line2D
+
+    def swatch(size: float, label: str, **style: object) -> Line2D:
+        return Line2D([], [], ls="", ms=size, label=label, **style)  # type: ignore[arg-type]
+
+    handles = [
+        swatch(8, "outer disc: reference rate", marker="o", mfc="#a0a0a0", mec="#57606a"),
+        swatch(4, "inner dot: valid rate (red 0, green 1)", marker="o", mfc="#a0a0a0", mec="none"),
+        swatch(
+            6, f"IK out of reach ({int(np.sum(reach_counts))} episodes)", marker="x", mec="black"
+        ),
+    ]
+    ax.legend(handles=handles, fontsize=7, loc="upper left")
 
 
-def _rates(ax: plt.Axes, frame: pd.DataFrame, limit: float) -> None:
+def _rates(ax: Axes, frame: pd.DataFrame, limit: float) -> None:
     table = distance_rates(frame)
+    centre = column(table, "centre_m").to_numpy(dtype=float)
     for prefix, colour, label in (("", "#0969da", "reference"), ("valid_", "#2da44e", "valid")):
-        rate = table[f"{prefix}rate" if prefix else "rate"]
-        lo = table[f"{prefix}lo" if prefix else "lo"]
-        hi = table[f"{prefix}hi" if prefix else "hi"]
-        ax.errorbar(table["centre_m"], rate, yerr=[rate - lo, hi - rate], fmt="o-", ms=4,
+        rate = column(table, f"{prefix}rate").to_numpy(dtype=float)
+        lo = column(table, f"{prefix}lo").to_numpy(dtype=float)
+        hi = column(table, f"{prefix}hi").to_numpy(dtype=float)
+        ax.errorbar(centre, rate, yerr=[rate - lo, hi - rate], fmt="o-", ms=4,
                     capsize=3, color=colour, label=f"{label} rate")  # fmt: skip
-    for _, row in table.iterrows():
-        ax.annotate(f"n={int(row['n'])}", (row["centre_m"], 0.02), fontsize=6, ha="center",
-                    color="#57606a")  # fmt: skip
-    low = float(table["bin_m"].min()) if len(table) else 0.0
+    for where, n in zip(centre.tolist(), column(table, "n").tolist(), strict=True):
+        ax.annotate(f"n={int(n)}", (where, 0.02), fontsize=6, ha="center", color="#57606a")
+    low = float(centre.min()) - BIN_M / 2 if len(centre) else 0.0
     ax.set_xlim(max(0.0, low - BIN_M), limit if math.isfinite(limit) else 1.0)
     ax.set_ylim(0, 1.05)
     ax.set_xlabel(f"object distance from the arm base (m, {BIN_M * 100:.0f} cm bins)")

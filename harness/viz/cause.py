@@ -7,7 +7,7 @@ One frame should tell a person why the episode ended as it did:
   pair's contact point marked, or the unreached IK target;
 - a finger through the table (``table_penetration``): the executed frame where the robot is
   deepest below the table top, the deepest point marked;
-- a drop or a slip (``dropped``, ``lift_below_threshold``, ``slipped_in_hold``,
+- a drop or a slip (``dropped``, ``lift_below_threshold``, ``not_lifted``, ``slipped_in_hold``,
   ``lost_in_tug``): the frame where the object starts to move in the hand (more than
   ``SLIP_M`` from where the fingers closed on it), the object marked;
 - a strict collision during execution: the last executed frame (the run stops there), the
@@ -26,7 +26,7 @@ import numpy as np
 from harness.viz.headline import outcome_kind
 
 SLIP_M = 0.01  # object moved this far in the TCP frame since the grasp closed: it slips
-SLIPS = ("dropped", "lift_below_threshold", "slipped_in_hold", "lost_in_tug")
+SLIPS = ("dropped", "lift_below_threshold", "not_lifted", "slipped_in_hold", "lost_in_tug")
 
 
 @dataclass(frozen=True)
@@ -206,7 +206,7 @@ def _slip_cause(trace: Any, reason: str) -> Cause:
         moved = float(np.linalg.norm(in_hand(k) - reference))
         if moved > SLIP_M:
             at = f"t={trace.time[k]:.2f} s"
-            label = f"object slips {moved * 1e3:.0f} mm in the hand at {at} ({reason})"
+            label = f"object slips {moved * 1e3:.0f} mm in the hand at {at}, {phases[k]} ({reason})"
             return Cause(trace.qpos[k], k, trace.object_pose[k, :3], label)
     height = trace.object_pose[last, 2] - trace.object_pose[0, 2]
     label = f"{reason}: object rose {height * 1e3:.0f} mm" if math.isfinite(height) else reason
