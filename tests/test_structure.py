@@ -152,14 +152,14 @@ def test_module_and_function_sizes(name: str) -> None:
 
 
 def test_layout_docs_name_every_package() -> None:
-    """README "Layout" and docs/architecture.md describe the tree as it is."""
+    """docs/layout.md (the README's former "Layout") and docs/architecture.md describe the tree
+    as it is."""
     root = PACKAGE_DIR.parent
-    readme = (root / "README.md").read_text()
-    layout = readme[readme.index("## Layout") :]
+    layout = (root / "docs" / "layout.md").read_text()
     architecture = (root / "docs" / "architecture.md").read_text()
     packages = sorted(p.name for p in PACKAGE_DIR.iterdir() if (p / "__init__.py").is_file())
     for name in packages:
-        assert f"{name}/" in layout, f"README Layout does not mention harness/{name}/"
+        assert f"{name}/" in layout, f"docs/layout.md does not mention harness/{name}/"
         assert f"`{name}/`" in architecture, f"docs/architecture.md does not list {name}/"
     for path in PACKAGE_DIR.glob("*.py"):
         if path.stem not in ("__init__",):
