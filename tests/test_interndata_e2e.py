@@ -20,7 +20,7 @@ import pytest
 
 from harness.cli import main as cli_main
 from harness.config import ConfigError, load_sweep
-from harness.config.interndata import load_interndata_tasks
+from harness.interndata import load_interndata_tasks
 from harness.failures import FailureReason
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]

@@ -15,7 +15,7 @@ from typing import Any
 import yaml
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
-from harness.config.interndata import NOTES_FILE, write_notes
+from harness.interndata import NOTES_FILE, write_notes
 from harness.errors import DiskFullError
 from harness.files import is_disk_full
 from harness.runs.safety import (

@@ -10,7 +10,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from harness.config.interndata.errors import Located
+from harness.interndata.errors import Located
 from harness.config.messages import suggest
 from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 
