@@ -20,8 +20,8 @@ import pytest
 
 from harness.cli import main as cli_main
 from harness.config import ConfigError, load_sweep
-from harness.interndata import load_interndata_tasks
 from harness.failures import FailureReason
+from harness.interndata import load_interndata_tasks
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 HARNESS = Path(sys.executable).with_name("harness")

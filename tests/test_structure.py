@@ -126,6 +126,56 @@ def test_cycle_finder_sees_a_lazy_import_cycle(tmp_path: Path) -> None:
     assert imported_modules("harness.m", source, {"harness.x", "harness.y"}) == {"harness.y"}
 
 
+def top_level_unit(module: str) -> str:
+    """``harness.runs.rundir`` -> ``harness.runs``: the package (or top-level module) it is in."""
+    return ".".join(module.split(".")[:2])
+
+
+def package_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The module graph collapsed onto top-level packages (and top-level modules) of harness:
+    an edge A -> B when any module of A imports any module of B (A != B)."""
+    packages: dict[str, set[str]] = {}
+    for module, imports in graph.items():
+        source = top_level_unit(module)
+        targets = packages.setdefault(source, set())
+        targets.update(top_level_unit(d) for d in imports if top_level_unit(d) != source)
+    return packages
+
+
+def test_package_cycle_finder_sees_a_cycle_through_submodules() -> None:
+    """The checker itself: modules without a cycle whose packages form one are caught."""
+    graph = {
+        "harness.a.x": {"harness.b.y"},
+        "harness.b.y": set(),
+        "harness.b.z": {"harness.c"},
+        "harness.c": {"harness.a.w"},
+        "harness.a.w": set(),
+        "harness.d": {"harness.a.x"},
+    }
+    assert import_cycles(graph) == []
+    assert package_graph(graph)["harness.a"] == {"harness.b"}
+    assert import_cycles(package_graph(graph)) == [["harness.a", "harness.b", "harness.c"]]
+
+
+def test_no_package_cycles() -> None:
+    """Packages depend in one direction: config <- robots <- ..., runs <- report."""
+    graph = import_graph()
+    cycles = import_cycles(package_graph(graph))
+    detail = []
+    for cycle in cycles:
+        members = set(cycle)
+        edges = sorted(
+            f"{m} -> {d}"
+            for m, imports in graph.items()
+            for d in imports
+            if top_level_unit(m) in members
+            and top_level_unit(d) in members
+            and top_level_unit(m) != top_level_unit(d)
+        )
+        detail.append(" <-> ".join(cycle) + " (" + ", ".join(edges) + ")")
+    assert not cycles, "import cycles between harness packages: " + "; ".join(detail)
+
+
 def test_no_import_cycles() -> None:
     cycles = import_cycles(import_graph())
     assert not cycles, "import cycles between harness modules: " + "; ".join(

@@ -171,6 +171,9 @@ def main(args: argparse.Namespace) -> int:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
     run.finalize()
+    from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
+
+    finish_run(run.path)
     wall_s = time.perf_counter() - start
     return _print_outcome(console, rows, len(episodes), run.path, wall_s, bool(picks))
 

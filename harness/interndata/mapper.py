@@ -13,6 +13,10 @@ from typing import Any
 from pydantic import ValidationError
 
 from harness.config.errors import ConfigError
+from harness.config.task import TaskConfig
+from harness.config.validation import describe_validation_error
+from harness.config.yamlio import KeyPath
+from harness.errors import InputFileError
 from harness.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     TABLE_NAME,
@@ -21,10 +25,6 @@ from harness.interndata.keys import (
 )
 from harness.interndata.resolver import ObjectEntry, PickSkill, TaskResolver
 from harness.interndata.result import InternDataPick
-from harness.config.task import TaskConfig
-from harness.config.validation import describe_validation_error
-from harness.config.yamlio import KeyPath
-from harness.errors import InputFileError
 
 
 class TaskMapper(TaskResolver):

@@ -12,10 +12,10 @@ import json
 import sys
 from types import ModuleType
 
+from harness.config.robot_registry import ROBOTS_DIR, available_robots
 from harness.robots.generator.collisions import collision_pairs
 from harness.robots.generator.shapes import Robot
 from harness.robots.generator.urdf_text import urdf_text
-from harness.robots.registry import ROBOTS_DIR, available_robots
 
 
 def generated_robots() -> list[str]:

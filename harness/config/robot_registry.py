@@ -1,7 +1,10 @@
-"""Finding robots: the bundled robots folder, their names, and resolving a name or path.
+"""The robot registry: the bundled robots folder, their names, and resolving a name or path.
 
-``robots/`` at the repository root is data (robot.yaml + URDF per robot); this module maps a
-robot name (``fr3``), a robot.yaml path or its folder to the robot.yaml file.
+``robots/`` at the repository root is data (a folder per robot: robot.yaml, build.py, URDF);
+this module maps a robot name (``fr3``), a robot.yaml path or its folder to the robot.yaml file.
+:func:`available_robots` is THE robot list: tests, benchmarks and tools iterate it instead of
+naming robots. It lives in ``config`` (not ``robots``) because task validation resolves robot
+names and gripper variants, and ``robots`` builds on ``config``: one direction between the two.
 """
 
 from __future__ import annotations
