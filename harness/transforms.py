@@ -1,6 +1,6 @@
 """SE(3) and quaternion helpers, vectorised over leading dimensions.
 
-Conventions (../shared/ARCHITECTURE.md): ``T_a_b`` is the 4x4 pose of frame b in frame a (it maps
+Conventions (docs/architecture.md, Conventions): ``T_a_b`` is the 4x4 pose of frame b in frame a (it maps
 b-coordinates into a); quaternions are **wxyz** everywhere in the harness, as in MuJoCo and the
 reference. Rerun wants xyzw: convert only at that boundary with :func:`wxyz_to_xyzw`.
 

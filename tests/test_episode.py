@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_scene import make_task, write_box
+from helpers import make_task, write_box
 
 from harness.config import PickConfig, apply_overrides, load_task
 from harness.episode import (

@@ -59,3 +59,14 @@ def gripper_variant_names(name_or_path: str) -> list[str] | None:
         return None
     variants = data.get("gripper_variants") or {}
     return [str(data.get("gripper_variant", "default")), *map(str, variants)]
+
+
+TASKS_DIR = ROBOTS_DIR.parent / "tasks" / "pick"
+"""Folder of the canonical pick tasks: ``<robot>.yaml`` or ``<robot>_<arm>.yaml``."""
+
+
+def canonical_task_files(name: str) -> list[Path]:
+    """The canonical pick task files of a bundled robot, sorted: ``tasks/pick/<name>.yaml``
+    and ``tasks/pick/<name>_left.yaml`` / ``<name>_right.yaml`` (one per arm it is tested with)."""
+    stems = {name, f"{name}_left", f"{name}_right"}
+    return sorted(p for p in TASKS_DIR.glob("*.yaml") if p.stem in stems)

@@ -25,8 +25,8 @@ class Shape:
 
     kind: str
     size: tuple[float, ...]
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    xyz: tuple[float, ...] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
     name: str | None = None  # kept as the URDF collision name (MuJoCo keeps it as the geom name)
 
     def volume(self) -> float:
@@ -103,7 +103,7 @@ def rpy_of(R: np.ndarray) -> tuple[float, float, float]:
     return (float(r), float(p), float(y))
 
 
-def R_of(rpy: tuple[float, float, float]) -> np.ndarray:
+def R_of(rpy: tuple[float, ...]) -> np.ndarray:
     return Rotation.from_euler("xyz", rpy).as_matrix()
 
 
@@ -111,7 +111,7 @@ def rpy_z_to(direction: np.ndarray) -> tuple[float, float, float]:
     """rpy of a frame whose z axis is ``direction`` (for cylinders along a segment)."""
     d = np.asarray(direction, float)
     d = d / np.linalg.norm(d)
-    rot, _ = Rotation.align_vectors([d], [[0.0, 0.0, 1.0]])
+    rot = Rotation.align_vectors([d], [[0.0, 0.0, 1.0]])[0]
     return rpy_of(rot.as_matrix())
 
 
@@ -123,7 +123,10 @@ def segment(p0: tuple[float, ...], p1: tuple[float, ...], r: float) -> Shape:
 
 
 def cylinder_along(
-    centre: tuple[float, ...], axis: tuple[float, ...], r: float, length: float
+    centre: tuple[float, ...] | np.ndarray,
+    axis: tuple[float, ...] | np.ndarray,
+    r: float,
+    length: float,
 ) -> Shape:
     return Shape("cylinder", (r, length), tuple(map(float, centre)), rpy_z_to(np.asarray(axis)))
 
