@@ -23,7 +23,7 @@ import yaml
 
 from harness.config import TaskConfig
 from harness.config.robot_registry import available_robots, canonical_task_files
-from harness.robots.facts import robot_arms
+from harness.robots.facts import interndata_robots, robot_arms
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = PROJECT_ROOT / "tasks" / "examples"
@@ -40,6 +40,12 @@ ROBOT_ARMS = [(name, arm) for name in ROBOTS for arm in robot_arms(name)]
 
 PICK_TASKS = [path.stem for name in ROBOTS for path in canonical_task_files(name)]
 """Stems of every canonical pick task file (``tasks/pick/<robot>[_<arm>].yaml``)."""
+
+AVAILABLE_ROBOTS_TEXT = ", ".join(ROBOTS)
+"""How error messages list the bundled robots (``unknown robot ...; available robots: ...``)."""
+
+INTERNDATA_ROBOTS_TEXT = ", ".join(interndata_robots().values())
+"""How error messages list the robots an InternDataEngine task may name (``supported: ...``)."""
 
 FILTER_KEYS = ("filter_x_dir", "filter_y_dir", "filter_z_dir")
 
@@ -61,6 +67,11 @@ def canonical_robot_pick(robot: str) -> dict[str, Any]:
     reference's canonical filters for its convention, docs/reference-pick-skill.md section 9)."""
     pick = yaml.safe_load(canonical_task_files(robot)[0].read_text(encoding="utf-8"))["pick"]
     return {key: pick[key] for key in (*FILTER_KEYS, "test_mode") if key in pick}
+
+
+def canonical_filters(robot: str) -> dict[str, Any]:
+    """The direction filters alone of the robot's canonical task (``filter_<axis>_dir``)."""
+    return {k: v for k, v in canonical_robot_pick(robot).items() if k in FILTER_KEYS}
 
 
 # --------------------------------------------------------------------------------------------

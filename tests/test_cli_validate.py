@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from helpers import EXAMPLES, harness
+from helpers import EXAMPLES, INTERNDATA_ROBOTS_TEXT, harness
 
 
 def test_valid_task() -> None:
@@ -132,6 +132,6 @@ def test_interndata_unsupported_robot(examples_dir: Path, tmp_path: Path) -> Non
     )
     assert result.stderr == (
         f"error: {path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot "
-        "'genie1.yaml' (workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, "
-        "split_aloha\n"
+        "'genie1.yaml' (workflows/simbox/core/configs/robots/genie1.yaml); supported: "
+        f"{INTERNDATA_ROBOTS_TEXT}\n"
     )

@@ -7,13 +7,14 @@ import time
 import mujoco
 import numpy as np
 import pytest
+from helpers import ROBOT_ARMS
 
 from harness.planning.arm_ik import arm_ik
 from harness.planning.ik import IKSettings, pose_errors
 from harness.robots import RobotModel
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses
 
-ARMS = [("fr3", "left"), ("split_aloha", "left"), ("split_aloha", "right"), ("lift2", "right")]
+ARMS = ROBOT_ARMS
 
 
 @pytest.mark.parametrize(("name", "arm"), ARMS)

@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 import yaml
+from helpers import INTERNDATA_ROBOTS_TEXT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -336,7 +337,7 @@ def test_unsupported_robot(examples_dir: Path, tmp_path: Path, bottle: Path) -> 
     line = line_of(path, "robot_config_file:")
     assert err.one_line() == (
         f"{path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
-        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, split_aloha"
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT
     )
 
 

@@ -18,10 +18,12 @@ ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
 
 
 def available_robots() -> list[str]:
-    """Names of the bundled robots (folders of ``robots/`` holding a robot.yaml)."""
+    """Names of the bundled robots (folders of ``robots/`` holding a robot.yaml), sorted; a
+    folder whose name starts with ``_`` (``robots/_template/``) is not a robot."""
     if not ROBOTS_DIR.is_dir():
         return []
-    return sorted(p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml"))
+    folders = (p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml"))
+    return sorted(name for name in folders if not name.startswith("_"))
 
 
 def resolve_robot_yaml(name_or_path: str | Path) -> Path:
@@ -36,7 +38,7 @@ def resolve_robot_yaml(name_or_path: str | Path) -> Path:
     if looks_like_path:
         raise HarnessError(f"{text}: robot file not found (expected a robot.yaml or its folder)")
     bundled = ROBOTS_DIR / text / "robot.yaml"
-    if bundled.is_file():
+    if bundled.is_file() and not text.startswith("_"):
         return bundled
     raise HarnessError(
         f"unknown robot {text!r}; available robots: {', '.join(available_robots()) or 'none'}"
