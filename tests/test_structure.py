@@ -218,6 +218,30 @@ def test_layout_docs_name_every_package() -> None:
             assert path.stem in architecture, f"docs/architecture.md does not mention {path.name}"
 
 
+DOC_PATH = re.compile(r"(?<![\w/.-])((?:harness|robots|tasks|tests|docs)/[\w./<>-]*)")
+
+
+def named_paths(text: str) -> list[str]:
+    """Repository paths a page names (``harness/...``, ``robots/...``, ...), placeholders
+    (``<name>``) left out, trailing punctuation dropped."""
+    paths = {match.rstrip(".,;:)") for match in DOC_PATH.findall(text)}
+    return sorted(p for p in paths if "<" not in p and ">" not in p)
+
+
+def test_named_paths_finder() -> None:
+    text = (
+        "see `harness/pick/verdict.py`, robots/_template/ and tasks/pick/<name>.yaml; x/harness/y"
+    )
+    assert named_paths(text) == ["harness/pick/verdict.py", "robots/_template/"]
+
+
+def test_every_path_docs_extending_names_exists() -> None:
+    paths = named_paths((ROOT / "docs" / "extending.md").read_text())
+    assert len(paths) >= 20, paths
+    missing = [p for p in paths if not (ROOT / p).exists()]
+    assert not missing, f"docs/extending.md names paths that do not exist: {missing}"
+
+
 # --------------------------------------------------------------------------------------------
 # A fourth robot touches its own folder, its task file(s) and docs/robots.md, nothing else.
 #
