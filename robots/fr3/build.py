@@ -49,7 +49,33 @@ Root 'base' = the mounting plate (bottom of link0).
     robot.link("base")
     robot.link(p + "arm_base")
     robot.joint("left_arm_mount", "fixed", "base", p + "arm_base")
-    shapes: dict[int, list[Shape]] = {
+    shapes = _link_shapes()
+    for i in range(8):
+        link = robot.link(f"{p}link{i}", FR3_MASSES[i], "white" if i % 2 else "light")
+        link.shapes = shapes[i]
+    robot.joint(p + "link0_mount", "fixed", p + "arm_base", p + "link0")
+    for i, (xyz, rpy) in enumerate(FR3_ORIGINS):
+        robot.joint(
+            f"{p}joint{i + 1}",
+            "revolute",
+            f"{p}link{i}",
+            f"{p}link{i + 1}",
+            xyz,
+            rpy,
+            Z,
+            FR3_LOWER[i],
+            FR3_UPPER[i],
+            FR3_EFFORT[i],
+            FR3_VELOCITY[i],
+        )
+    _add_hand(robot, p)
+    return robot
+
+
+def _link_shapes() -> dict[int, list[Shape]]:
+    """Collision primitives of link0..link7: franka_arm.xacro capsules (radii before the safety
+    inflation) as cylinder + spheres."""
+    return {
         0: [
             *capsule((-0.075, 0, 0.06), X, 0.06, 0.03),
             Shape("cylinder", (0.08, 0.03), (0.0, 0.0, 0.015)),
@@ -74,24 +100,10 @@ Root 'base' = the mounting plate (bottom of link0).
             ),
         ],
     }
-    for i in range(8):
-        link = robot.link(f"{p}link{i}", FR3_MASSES[i], "white" if i % 2 else "light")
-        link.shapes = shapes[i]
-    robot.joint(p + "link0_mount", "fixed", p + "arm_base", p + "link0")
-    for i, (xyz, rpy) in enumerate(FR3_ORIGINS):
-        robot.joint(
-            f"{p}joint{i + 1}",
-            "revolute",
-            f"{p}link{i}",
-            f"{p}link{i + 1}",
-            xyz,
-            rpy,
-            Z,
-            FR3_LOWER[i],
-            FR3_UPPER[i],
-            FR3_EFFORT[i],
-            FR3_VELOCITY[i],
-        )
+
+
+def _add_hand(robot: Robot, p: str) -> None:
+    """Flange (link8), the Franka Hand, its two fingers with the rubber-tip pads, and the TCP."""
     robot.link(p + "link8")
     robot.joint(p + "joint8", "fixed", p + "link7", p + "link8", (0, 0, 0.107))
     hand = robot.link(p + "hand", 0.73, "dark")
@@ -121,4 +133,3 @@ Root 'base' = the mounting plate (bottom of link0).
         )
     robot.link(p + "tcp")
     robot.joint(p + "tcp_joint", "fixed", p + "hand", p + "tcp", (0, 0, 0.1034))
-    return robot

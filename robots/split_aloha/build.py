@@ -104,6 +104,11 @@ def add_piper(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]
         parent_link = name
     robot.link(p + "link6_sdk")
     robot.joint(p + "link6_sdk_joint", "fixed", p + "link6", p + "link6_sdk", rpy=(0, 0, -PI / 2))
+    _add_piper_gripper(robot, p)
+
+
+def _add_piper_gripper(robot: Robot, p: str) -> None:
+    """The Piper's two prismatic fingers on link6 (Menagerie pads) and the TCP."""
     for n, sign in ((7, 1.0), (8, -1.0)):
         finger = robot.link(f"{p}link{n}", PIPER_FINGER_MASS, "grey")
         # MuJoCo Menagerie agilex_piper/piper.xml (current) finger collision boxes, in this
