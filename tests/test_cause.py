@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_recording import FAR, body_entities, flatten, read_back
-from test_scene import make_task, write_box
+from helpers import FAR, body_entities, flatten, make_task, read_back, write_box
 
 from harness.episode import EpisodeSpec, run_episode
 from harness.episode_spec import EpisodeSpec as Spec

@@ -42,3 +42,35 @@ def test_dir_of_the_package_shows_the_api() -> None:
     names = dir(harness)
     for name in ("load_task", "run_episode", "sweep", "load_run", "__version__"):
         assert name in names
+
+
+def test_interndata_entry_without_its_data_gives_a_hint(tmp_path, capsys) -> None:
+    """A fresh clone has no InternDataEngine files next to it: one line says where to get them."""
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(
+        "name: x\ntasks:\n  - interndata: ../absent/franka_single_pick_banana.yaml\n"
+        "episodes_per_point: 1\n",
+        encoding="utf-8",
+    )
+    assert main(["validate", str(sweep)]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "tasks[0].interndata" in err[0] and "InternDataEngine task file not found" in err[0]
+    assert "outside this repository" in err[0] and "docs/interndata.md" in err[0]
+
+
+def test_report_heatmap_axes_keep_their_own_order() -> None:
+    """A tune adds the task's current setting as its last point; the heatmap axis still puts
+    it in its place (single angles ascending, then bands)."""
+    import pandas as pd
+
+    from harness.report.heatmaps import _axis_values, axis_key
+
+    values = ['["downward", 150]', '["downward", 120]', '["downward", 110, 150]',
+              '["downward", 135]', '["downward", 140]']  # fmt: skip
+    group = pd.DataFrame({"param.pick.approach_filter": values, "point_id": range(len(values))})
+    assert _axis_values(group, "param.pick.approach_filter") == [
+        '["downward", 120]', '["downward", 135]', '["downward", 140]', '["downward", 150]',
+        '["downward", 110, 150]',
+    ]  # fmt: skip
+    assert sorted([3, 1.5, 2], key=axis_key) == [1.5, 2, 3]

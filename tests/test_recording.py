@@ -9,12 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import make_task, write_box
+from helpers import FAR, blueprint_views, body_entities, flatten, make_task, read_back, write_box
 
 from harness.episode import EpisodeSpec, run_episode
 from harness.viz.recording import record_episode
-
-FAR = {"placement": {"pos_range": [[0.75, 0.3, 0.0], [0.75, 0.3, 0.0]]}}  # 1.07 m from the FR3
 
 
 @pytest.fixture(scope="module")
@@ -25,57 +23,6 @@ def cube(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def cache() -> dict:
     return {}
-
-
-def read_back(path: Path) -> tuple[dict[str, dict[str, int]], dict[str, list]]:
-    """Per entity, the rows of each component; and the values of the text-like components."""
-    from rerun.chunk import RrdReader
-
-    rows: dict[str, dict[str, int]] = {}
-    values: dict[str, list] = {}
-    for chunk in RrdReader(str(path)).stream().to_chunks():
-        batch = chunk.to_record_batch()
-        counts = rows.setdefault(chunk.entity_path, {})
-        for name in batch.schema.names:
-            if ":" not in name:
-                continue  # an index or row id column
-            counts[name] = counts.get(name, 0) + chunk.num_rows
-            if name.endswith((":text", ":labels")):
-                values.setdefault(f"{chunk.entity_path}#{name}", []).extend(
-                    batch.column(name).to_pylist()
-                )
-    return rows, values
-
-
-def blueprint_views(path: Path) -> dict[str, str]:
-    """The recording's blueprint: view origin -> view class."""
-    from rerun.chunk import RrdReader
-
-    reader = RrdReader(str(path))
-    views: dict[str, str] = {}
-    for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks():
-        batch = chunk.to_record_batch()
-        if "ViewBlueprint:space_origin" in batch.schema.names:
-            origin = batch.column("ViewBlueprint:space_origin").to_pylist()[0][0]
-            kind = batch.column("ViewBlueprint:class_identifier").to_pylist()[0][0]
-            views[origin] = kind
-    return views
-
-
-def body_entities(rows: dict[str, dict[str, int]]) -> set[str]:
-    """The ``/world/bodies/<body>`` entities that carry geometry."""
-    return {
-        path.rsplit("/", 1)[0]
-        for path in rows
-        if path.startswith("/world/bodies/") and path.rsplit("/", 1)[1].startswith("geom")
-    }
-
-
-def flatten(values: list) -> list[str]:
-    out: list[str] = []
-    for value in values:
-        out.extend(flatten(value) if isinstance(value, list) else [str(value)])
-    return out
 
 
 STOPPED_CASES = {
