@@ -74,3 +74,36 @@ def test_report_heatmap_axes_keep_their_own_order() -> None:
         '["downward", 110, 150]',
     ]  # fmt: skip
     assert sorted([3, 1.5, 2], key=axis_key) == [1.5, 2, 3]
+
+
+def test_sweep_recording_opens_on_its_point_timeline_one_series_per_arm_and_object(
+    tmp_path,
+) -> None:
+    """Points of two objects interleave (cube 0, 2; banana 1, 3): each gets its own series, and
+    the blueprint's time panel opens on the ``point`` timeline that holds the data."""
+    import pandas as pd
+    from helpers import read_back
+    from rerun.chunk import RrdReader
+
+    from harness.viz.sweep_recording import record_sweep
+
+    rows = [
+        {"task": "t", "robot": "fr3", "arm": "left", "object": obj, "point_id": point,
+         "n": 4, "successes": 3, "rate": 0.75, "wilson_lo": 0.3, "wilson_hi": 0.95}
+        for point, obj in enumerate(["cube", "banana", "cube", "banana"])
+    ]  # fmt: skip
+    pd.DataFrame(rows).to_csv(tmp_path / "summary.csv", index=False)
+    path = record_sweep(tmp_path)
+    assert path is not None
+    entities, _ = read_back(path)
+    series = sorted(e for e in entities if e.startswith("/sweep/"))
+    assert series == ["/sweep/fr3/left/banana", "/sweep/fr3/left/cube"]
+    for entity in series:
+        assert entities[entity]["Scalars:scalars"] == 2  # its own two points, nothing else
+    reader = RrdReader(str(path))
+    timelines = [
+        chunk.to_record_batch().column("TimePanelBlueprint:timeline").to_pylist()
+        for chunk in reader.stream(store=reader.blueprints()[0]).to_chunks()
+        if "TimePanelBlueprint:timeline" in chunk.to_record_batch().schema.names
+    ]
+    assert timelines == [[["point"]]]
