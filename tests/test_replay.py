@@ -13,6 +13,7 @@ import pytest
 
 from harness.episode import run_episode
 from harness.runs.replay import find_episode, row_differences
+from harness.viz.headline import headline
 from harness.viz.video import HOLD_S, frame_indices
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,8 +72,9 @@ def test_replay_reproduces_a_stored_row_and_writes_a_playable_mp4(tmp_path: Path
     assert frames.std() > 10  # a picture, not a blank frame
     poster = imageio.imread(video.with_suffix(".png"))
     assert poster.shape == (480, 640, 3) and poster.std() > 10
-    # The replay prints both verdicts.
-    assert "valid" in replay.stdout
+    # The replay prints both verdicts: the stored row's headline.
+    assert headline(executed.iloc[0].to_dict()) in replay.stdout
+    assert "VALID" in headline(executed.iloc[0].to_dict())
 
 
 def test_replay_of_an_unknown_episode_is_one_line(tmp_path: Path) -> None:
