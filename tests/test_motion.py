@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from test_scene import make_task, write_box
 
+from harness.episode.scene_cache import get_scene
 from harness.planning.collision import CollisionChecker
 from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
 from harness.planning.planner import PickPlanner
 from harness.planning.world import PlanningWorld
-from harness.scene_cache import get_scene
 from harness.sim import Scene
 from harness.transforms import invert_T
 

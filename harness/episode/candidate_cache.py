@@ -1,7 +1,7 @@
 """Evaluate once per candidate: the per-worker cache shared by points that differ in selection.
 
 A direction filter only *selects* among the same annotated grasps. With the episode's
-per-purpose streams (``harness.episode_streams``), what happens to one candidate depends only on
+per-purpose streams (``harness.episode.streams``), what happens to one candidate depends only on
 (task physics, seed, candidate): its feasibility verdict and, when it is chosen, its executed
 outcome. So two sweep points that differ only in their selection keys (``SELECTION_KEYS``) and
 share a seed can share every candidate they both test -- the second point re-runs only the

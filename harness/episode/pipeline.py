@@ -1,8 +1,8 @@
 """One pick episode: scene reset, candidate selection, feasibility, plan, execution, verdict.
 
 ``run_episode(spec, scene_cache)`` never raises for episode-level problems: every outcome is one
-flat row (``EpisodeResult.row``, the columns of ``harness.runs.store``) with ``success`` and a
-``failure_reason`` from the taxonomy (ARCHITECTURE.md):
+flat row (``EpisodeResult.row``, the columns of ``harness.row.EpisodeRow``) with ``success`` and
+a ``failure_reason`` from the taxonomy (``harness.failures``, docs/architecture.md):
 
 ``filter_empty`` (no candidate at all), ``no_feasible_candidate`` (strict: none passed the
 feasibility test), ``plan_failed`` (the executed motion could not be planned or timed),
@@ -17,11 +17,11 @@ with the robot holding still; execute. ``max_episode_length`` counts the executi
 steps only, as the reference's loop does.
 
 Randomness: one independent stream per purpose, derived from ``spec.seed``
-(``harness.episode_streams``): the scene reset, the candidate draw, the lift offset, and per
+(``harness.episode.streams``): the scene reset, the candidate draw, the lift offset, and per
 annotated grasp its feasibility test and its executed plan -- same spec, same row. A candidate's
 verdict and executed outcome therefore depend only on (task physics, seed, candidate), which lets
-points that differ only in their selection keys share them (``harness.candidate_cache``; pass a
-``CandidateCache`` to ``run_episode``). An episode that used any shared evaluation carries no
+points that differ only in their selection keys share them (``harness.episode.candidate_cache``;
+pass a ``CandidateCache`` to ``run_episode``). An episode that used any shared evaluation carries no
 trace (``EpisodeResult.trace`` is None); run it without the cache to get one (same row).
 
 The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint and object
@@ -41,18 +41,18 @@ from typing import Any
 
 import mujoco
 
-from harness.candidate_cache import CandidateCache, SeedEvaluation, evaluation_key
-from harness.episode_spec import EpisodeResult, EpisodeSpec
-from harness.episode_stages import (
+from harness.episode.candidate_cache import CandidateCache, SeedEvaluation, evaluation_key
+from harness.episode.execution import execute_chosen
+from harness.episode.planning import candidates, feasibility
+from harness.episode.result import EpisodeResult
+from harness.episode.setup import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,
     WARMUP_TIME_S,
     EpisodeStopError,
-    candidates,
-    execute_chosen,
-    feasibility,
     reset,
 )
+from harness.episode.spec import EpisodeSpec
 from harness.errors import EpisodeTimeoutError, HarnessError
 from harness.pick.validity import validity_enabled
 from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
