@@ -3,7 +3,10 @@
 2. ``candidates``: the annotated grasps in the arm base frame, filtered and ordered (the
    reference's weighted draw or the strict order), and the lift offset.
 3. ``feasibility``: candidate by candidate, in the planning world of the semantics, until one
-   passes (verdicts already known for this seed are reused, ``harness.pick.selection``).
+   passes (verdicts already known for this seed are reused,
+   ``harness.episode.evaluation.SeedEvaluation.walk``).
+
+Each returns its row columns as records (``harness.episode.records``) on ``Setup.records``.
 """
 
 from __future__ import annotations
@@ -14,17 +17,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from harness.episode.records import (
+    CandidateColumns,
+    ChoiceColumns,
+    PlanTimeColumns,
+    TestedColumns,
+)
 from harness.episode.scene_cache import grasp_file_for
 from harness.episode.setup import EpisodeStopError, Setup
 from harness.episode.trace import make_trace
 from harness.failures import FailureReason
 from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.outcome import PickOutcome
-from harness.pick.selection import (
-    candidate_failures_json,
-    none_feasible_message,
-    walk_candidates,
-)
+from harness.pick.selection import candidate_failures_json, none_feasible_message
 from harness.pick.targets import CandidatePoses, PickTargets
 from harness.planning.plans import CandidateVerdict
 from harness.transforms import invert_T, quat_to_matrix
@@ -42,6 +47,7 @@ class Planning:
     ik_time_before: float = 0.0
     verdicts: list[CandidateVerdict] = field(default_factory=list)
     chosen: CandidateVerdict | None = None
+    plan_time: PlanTimeColumns | None = None  # once the planning clock stopped
 
     def finish_trace(
         self,
@@ -55,10 +61,14 @@ class Planning:
             self.chosen, outcome, targets, planned, self.T_world_object_start,
         )  # fmt: skip
 
-    def record_plan_time(self) -> None:
-        row = self.setup.row
-        row["plan_time_s"] = time.perf_counter() - self.t0
-        row["ik_time_s"] = self.setup.planner.ik.total_time - self.ik_time_before
+    def record_plan_time(self) -> PlanTimeColumns:
+        """Stop the planning clock: the wall time from the selection to now, and the IK's."""
+        self.plan_time = PlanTimeColumns(
+            plan_time_s=time.perf_counter() - self.t0,
+            ik_time_s=self.setup.planner.ik.total_time - self.ik_time_before,
+        )
+        self.setup.records.append(self.plan_time)
+        return self.plan_time
 
     def stop(self, reason: FailureReason, message: str) -> EpisodeStopError:
         """Record the planning time and the trace so far, and end the episode."""
@@ -77,7 +87,7 @@ class Choice:
 
 def candidates(setup: Setup) -> Planning:
     """2. Candidates in the arm base frame, and the lift offset (its own stream)."""
-    task, pick, scene, row, facts = setup.task, setup.pick, setup.scene, setup.row, setup.facts
+    task, pick, scene, facts = setup.task, setup.pick, setup.scene, setup.facts
     ee_poses = setup.bundle.poses(task, grasp_file_for(task, scene))
     T_base_obj = invert_T(facts.T_world_base) @ facts.T_world_object
     t0 = time.perf_counter()
@@ -86,12 +96,11 @@ def candidates(setup: Setup) -> Planning:
         setup.semantics.candidates,
     )  # fmt: skip
     counts = selection.counts()
-    row["n_total"] = counts["total"]
-    row["n_passed_filter"] = counts["passed"]
-    row["filter_outcome"] = selection.order.outcome
     lift_rng = setup.streams.lift()
     lift_offset = float(lift_rng.uniform(pick.post_grasp_offset_min, pick.post_grasp_offset_max))
-    row["post_grasp_offset"] = lift_offset
+    setup.records.append(
+        CandidateColumns(counts["total"], counts["passed"], selection.order.outcome, lift_offset)
+    )
     setup.result.trace = None
     fixed = None
     if pick.fixed_orientation is not None:
@@ -110,7 +119,7 @@ def candidates(setup: Setup) -> Planning:
 def feasibility(planning: Planning) -> Choice:
     """3. Feasibility, candidate by candidate, in the planning world of the semantics."""
     setup = planning.setup
-    pick, semantics, planner, row = setup.pick, setup.semantics, setup.planner, setup.row
+    pick, semantics, planner = setup.pick, setup.semantics, setup.planner
     q_now = setup.facts.q_now
     order = planning.selection.order
     T_base_candidates = planning.selection.T_base_ee_at(order.indices)
@@ -139,19 +148,15 @@ def feasibility(planning: Planning) -> Choice:
         return verdict
 
     planning.ik_time_before = planner.ik.total_time
-    known = setup.evaluation.verdicts
-    known_before = set(known)
-    verdicts, chosen = walk_candidates(order.indices.tolist(), order.scores.tolist(), test, known)
-    reused = {v.pose_index for v in verdicts} & known_before
-    stats = setup.evaluation.stats
-    stats.verdict_hits += len(reused)
-    stats.verdicts += len(known) - len(known_before)
-    if reused:
-        setup.used_shared = True
+    verdicts, chosen = setup.evaluation.walk(order.indices.tolist(), order.scores.tolist(), test)
     planning.verdicts, planning.chosen = verdicts, chosen
-    row["n_tested"] = len(verdicts)
-    row["n_feasible"] = len({v.pose_index for v in verdicts if v.feasible})
-    row["candidate_failures"] = candidate_failures_json(verdicts)
+    setup.records.append(
+        TestedColumns(
+            n_tested=len(verdicts),
+            n_feasible=len({v.pose_index for v in verdicts if v.feasible}),
+            candidate_failures=candidate_failures_json(verdicts),
+        )
+    )
     if chosen is None:
         if not semantics.fall_back_to_last_tested or not verdicts:
             raise planning.stop(
@@ -159,9 +164,8 @@ def feasibility(planning: Planning) -> Choice:
             )
         chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
         planning.chosen = chosen
-    row["chosen_index"] = chosen.pose_index
-    row["chosen_score"] = chosen.score
     T_base_chosen = T_base_candidates[chosen.position]
     axis = T_base_chosen[:3, planning.poses.approach_index]
-    row["approach_angle_deg"] = math.degrees(math.acos(float(np.clip(-axis[2], -1.0, 1.0))))
+    angle_deg = math.degrees(math.acos(float(np.clip(-axis[2], -1.0, 1.0))))
+    setup.records.append(ChoiceColumns(chosen.pose_index, chosen.score, angle_deg))
     return Choice(chosen, T_base_chosen)

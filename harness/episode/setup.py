@@ -10,20 +10,23 @@ unshared episode always did.
 
 The scene must hold the seed's untouched reset whenever something is computed (a feasibility
 test reads the object poses; an execution steps from them). ``Setup.ensure_fresh`` re-runs the
-reset (deterministic in the seed's scene stream) unless the scene's ``reset_mark`` says it
-already holds exactly that state.
+reset (deterministic in the seed's scene stream) unless the scene's reset mark says it already
+holds exactly that state.
+
+Stages report their row columns as typed records (``harness.episode.records``) appended to
+``Setup.records``; the pipeline merges them into the row in one place.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from harness.config import PickConfig, TaskConfig
-from harness.episode.candidate_cache import ResetFacts, SeedEvaluation
+from harness.episode.candidate_cache import ResetFacts
+from harness.episode.evaluation import SeedEvaluation
+from harness.episode.records import RowRecord, SceneColumns
 from harness.episode.result import EpisodeResult
 from harness.episode.scene_cache import SceneBundle, get_scene
 from harness.episode.spec import EpisodeSpec
@@ -52,14 +55,10 @@ class EpisodeStopError(Exception):
         self.message = message
 
 
-def _scene_state(scene: Scene) -> tuple[np.ndarray, ...]:
-    d = scene.data
-    return (d.qpos.copy(), d.qvel.copy(), d.ctrl.copy(), np.array([d.time]))
-
-
 @dataclass
 class Setup:
-    """The episode's scene, planner, random streams and the seed's evaluation."""
+    """The episode's scene, planner, random streams, the seed's evaluation and the row records
+    the stages produced so far."""
 
     spec: EpisodeSpec
     result: EpisodeResult
@@ -67,9 +66,8 @@ class Setup:
     bundle: SceneBundle
     streams: EpisodeStreams
     evaluation: SeedEvaluation
-    key: Any  # the evaluation's key: which reset the scene must hold
     planner: PickPlanner
-    used_shared: bool = False  # answered partly from evaluations of earlier episodes
+    records: list[RowRecord] = field(default_factory=list)
     synced: bool = False  # the planner holds this episode's planning world
 
     @property
@@ -89,42 +87,34 @@ class Setup:
         return self.spec.task.arm
 
     @property
-    def row(self) -> dict[str, Any]:
-        return self.result.row
-
-    @property
     def facts(self) -> ResetFacts:
-        assert self.evaluation.reset is not None, "the reset runs before anything reads it"
-        return self.evaluation.reset
+        facts = self.evaluation.known_reset
+        assert facts is not None, "the reset runs before anything reads it"
+        return facts
 
-    def ensure_fresh(self, force: bool = False) -> None:
-        """Make the scene hold this seed's reset, running it unless it is already there."""
-        if not force and self._holds_reset():
-            return
+    def reset_scene(self) -> ResetFacts:
+        """Run this seed's reset and read what it left (the scene now holds it)."""
         scene, task = self.scene, self.task
-        self.evaluation.stats.resets += 1
+        self.evaluation.count_reset()
         reset = scene.reset(
             task, self.streams.scene(), settle_time=SETTLE_TIME_S,
             init_record_time=INIT_RECORD_TIME_S,
         )  # fmt: skip
-        if self.evaluation.reset is None:
-            self.evaluation.reset = ResetFacts(
-                T_world_base=scene.T_world_base(self.arm),
-                T_world_object=scene.T_world_object(task.target_object.name),
-                object_init_position=reset.object_init_position,
-                q_now=scene.active_q(self.arm),
-                settle_steps=reset.settle_steps,
-                unstable=scene.unstable(),
-            )
-        self.bundle.reset_mark = (self.key, _scene_state(scene))
+        self.evaluation.mark_reset(self.bundle)
         self.synced = False
+        return ResetFacts(
+            T_world_base=scene.T_world_base(self.arm),
+            T_world_object=scene.T_world_object(task.target_object.name),
+            object_init_position=reset.object_init_position,
+            q_now=scene.active_q(self.arm),
+            settle_steps=reset.settle_steps,
+            unstable=scene.unstable(),
+        )
 
-    def _holds_reset(self) -> bool:
-        mark = self.bundle.reset_mark
-        if mark is None or mark[0] != self.key:
-            return False
-        now = _scene_state(self.scene)
-        return all(np.array_equal(a, b) for a, b in zip(mark[1], now, strict=True))
+    def ensure_fresh(self) -> None:
+        """Make the scene hold this seed's reset, running it unless it is already there."""
+        if not self.evaluation.holds_reset(self.bundle):
+            self.reset_scene()
 
     def ensure_synced(self) -> None:
         """A fresh scene and the planner synced to this episode's planning world."""
@@ -135,7 +125,7 @@ class Setup:
 
     def mark_stepped(self) -> None:
         """The scene is about to leave the reset state."""
-        self.bundle.reset_mark = None
+        self.evaluation.mark_stepped(self.bundle)
 
 
 def reset(
@@ -143,28 +133,23 @@ def reset(
     scene_cache: dict[Any, Any] | None,
     result: EpisodeResult,
     evaluation: SeedEvaluation,
-    key: Any,
+    records: list[RowRecord],
 ) -> Setup:
-    """1. Reset: placement, home + noise, obj_init_trans after one reference step, settle."""
+    """1. Reset: placement, home + noise, obj_init_trans after one reference step, settle.
+    The reset's facts come from the seed's evaluation when an earlier episode ran it."""
     task = spec.task
     clock = time.perf_counter()
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
-    result.row["object_friction"] = scene.objects[task.target_object.name].asset.friction
+    friction = scene.objects[task.target_object.name].asset.friction
     gripper = scene.robot.arm(task.arm).gripper  # a clear error for an unknown arm
-    result.row["grip_force_limit_n"] = gripper.force_limit
-    result.row["gripper_variant"] = scene.robot.gripper_variant
+    records.append(SceneColumns(friction, gripper.force_limit, scene.robot.gripper_variant))
     semantics = Semantics.from_pick(task.pick)
     planner = bundle.planner(task.arm)
     streams = EpisodeStreams(spec.seed)
-    setup = Setup(spec, result, semantics, bundle, streams, evaluation, key, planner)
-    if evaluation.reset is None:
-        setup.ensure_fresh(force=True)
-    else:
-        setup.used_shared = True
-        evaluation.stats.reset_hits += 1
-    facts = setup.facts
+    setup = Setup(spec, result, semantics, bundle, streams, evaluation, planner, records)
+    facts = evaluation.facts(setup.reset_scene)
     result.timings["settle_steps"] = float(facts.settle_steps)
     result.timings["setup_s"] = time.perf_counter() - clock
     if facts.unstable is not None:
