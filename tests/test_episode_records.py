@@ -39,7 +39,7 @@ def test_every_record_field_is_a_row_column_of_its_type(record: type) -> None:
         )
 
 
-def test_no_two_records_own_a_column_except_the_validity_not_run_rule() -> None:
+def test_each_column_has_one_record_type() -> None:
     """One record type per column: a column has one writer (the pipeline's ``not_run``
     rule re-uses ``ValidityColumns``, the same record)."""
     owner: dict[str, str] = {}

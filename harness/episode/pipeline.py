@@ -24,6 +24,11 @@ points that differ only in their selection keys share them (``harness.episode.ca
 pass a ``CandidateCache`` to ``run_episode``). An episode that used any shared evaluation carries no
 trace (``EpisodeResult.trace`` is None); run it without the cache to get one (same row).
 
+Row columns: each stage appends typed records (``harness.episode.records``: dataclasses whose
+fields are ``EpisodeRow`` columns) and ``run_episode`` merges them into the row in one place,
+in the order they were produced; the seed's shared evaluations are read and filled through
+``harness.episode.evaluation.SeedEvaluation``.
+
 The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint and object
 trajectories, TCP poses, gripper width, finger forces, phases and events, every candidate with
 its verdict, and the planned and executed TCP paths.
@@ -146,7 +151,7 @@ def run_episode(
     merge_records(row, records)  # the one place the stages' columns enter the row
     if validity_enabled(spec.task.pick) and not row["valid"] and not row["invalid_reason"]:
         # ended before the execution's verdict
-        merge_records(row, [ValidityColumns(row["table_penetration_m"], invalid_reason="not_run")])
+        merge_records(row, [ValidityColumns(invalid_reason="not_run")])
     if result.shared:
         result.trace = None  # pieces of it belong to other episodes
     merge_records(row, [WallTimeColumns(time.perf_counter() - wall_start)])

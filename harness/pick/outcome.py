@@ -45,7 +45,7 @@ class ValidityColumns:
     """The row's validity columns (``harness.row.EpisodeRow``); ``None``: not written (the row
     keeps its default), as ``harness.episode.records.merge_records`` reads it."""
 
-    table_penetration_m: float
+    table_penetration_m: float | None = None
     valid: bool | None = None
     invalid_reason: str | None = None
     robustness_g: float | None = None
