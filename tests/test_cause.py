@@ -14,7 +14,7 @@ import pytest
 from helpers import FAR, body_entities, flatten, make_task, read_back, write_box
 
 from harness.episode import EpisodeSpec, run_episode
-from harness.episode_spec import EpisodeSpec as Spec
+from harness.episode.spec import EpisodeSpec as Spec
 from harness.runs.worker import _wants_recording
 from harness.transforms import invert_T
 from harness.viz.headline import headline, outcome_class

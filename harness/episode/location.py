@@ -1,4 +1,4 @@
-"""Row columns that locate an episode: where its object stood and where it failed.
+"""Row records that locate an episode: where its object stood and where it failed.
 
 ``placement_columns``: the target object's pose at reset (after settling, when the grasp is
 chosen) in the arm base frame (x forward, y left, z up; ARCHITECTURE.md) and its horizontal
@@ -22,57 +22,40 @@ stopped at, so failures group without parsing ``error_message``. Stages:
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
+from harness.episode.records import FailureLocationColumns, PlacementColumns
 from harness.planning.plans import CandidateVerdict, FailurePoint
 from harness.transforms import invert_T
 
-LOCATION_COLUMNS: tuple[str, ...] = (
-    "object_x_m",
-    "object_y_m",
-    "object_z_m",
-    "object_yaw_deg",
-    "object_distance_m",
-    "failure_stage",
-    "collision_a",
-    "collision_b",
-)
 
-
-def placement_columns(T_world_base: np.ndarray, T_world_object: np.ndarray) -> dict[str, float]:
+def placement_columns(T_world_base: np.ndarray, T_world_object: np.ndarray) -> PlacementColumns:
     """The object's position and yaw in the arm base frame, and its distance from the base axis
     in the base's horizontal plane (m, degrees)."""
     T_base_object = invert_T(np.asarray(T_world_base)) @ np.asarray(T_world_object)
     x, y, z = (float(v) for v in T_base_object[:3, 3])
     rotation = T_base_object[:3, :3]
     yaw = math.degrees(math.atan2(float(rotation[1, 0]), float(rotation[0, 0])))
-    return {
-        "object_x_m": x,
-        "object_y_m": y,
-        "object_z_m": z,
-        "object_yaw_deg": yaw,
-        "object_distance_m": math.hypot(x, y),
-    }
+    return PlacementColumns(x, y, z, yaw, math.hypot(x, y))
 
 
-def _columns(stage: str, pair: tuple[str, str] | None) -> dict[str, Any]:
+def _columns(stage: str, pair: tuple[str, str] | None) -> FailureLocationColumns:
     a, b = pair if pair is not None else ("", "")
-    return {"failure_stage": stage, "collision_a": a, "collision_b": b}
+    return FailureLocationColumns(stage, a, b)
 
 
-def stage_failure(stage: str) -> dict[str, Any]:
+def stage_failure(stage: str) -> FailureLocationColumns:
     """A failure at a stage without a configuration (settle, warmup, filter, timing)."""
     return _columns(stage, None)
 
 
-def plan_failure(stage: str, point: FailurePoint | None) -> dict[str, Any]:
+def plan_failure(stage: str, point: FailurePoint | None) -> FailureLocationColumns:
     """The chosen candidate's motion failed to plan at ``stage`` (with its failing point)."""
     return _columns(f"plan:{stage}", point.pair if point is not None else None)
 
 
-def feasibility_failure(verdicts: list[CandidateVerdict]) -> dict[str, Any]:
+def feasibility_failure(verdicts: list[CandidateVerdict]) -> FailureLocationColumns:
     """No candidate was feasible: the stage and pair of the last one tested."""
     if not verdicts:
         return _columns("feasibility", None)
@@ -81,6 +64,6 @@ def feasibility_failure(verdicts: list[CandidateVerdict]) -> dict[str, Any]:
     return _columns(f"feasibility:{last.stage}", point.pair if point is not None else None)
 
 
-def execution_failure(phase: str, pair: tuple[str, str] | None) -> dict[str, Any]:
+def execution_failure(phase: str, pair: tuple[str, str] | None) -> FailureLocationColumns:
     """The execution failed while ``phase`` (``function:target``) was running."""
     return _columns(f"execute:{phase}" if phase else "execute", pair)
