@@ -11,7 +11,9 @@ disk (ENOSPC, EDQUOT) from other I/O errors, so a run can stop on it with one li
 from __future__ import annotations
 
 import errno
+import hashlib
 import os
+import re
 import tempfile
 import threading
 from collections.abc import Callable
@@ -34,6 +36,29 @@ def _process_umask() -> int:
 
 # Written files get the usual permissions (mkstemp's temp files are 0600).
 FILE_MODE = 0o666 & ~_process_umask()
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+MAX_NAME = 120
+
+
+def safe_file_name(name: str, suffix: str = "") -> str:
+    """THE way a name from input (a task, object, robot or episode name) becomes a file name.
+
+    The result cannot leave its folder (no ``/``, ``..``, leading dot or control characters);
+    a short hash of the original keeps distinct names distinct. Every output path built from a
+    name goes through here (``tests/test_adversarial.py`` greps the package for others).
+    """
+    slug = _UNSAFE.sub("_", name).strip("._") or "unnamed"
+    if slug != name or len(slug) > MAX_NAME:
+        digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:10]
+        slug = f"{slug[:MAX_NAME]}-{digest}"
+    return slug + suffix
+
+
+def safe_child(folder: Path, *parts: str, suffix: str = "") -> Path:
+    """``folder / <safe name of the parts joined by '_'><suffix>``: a file inside ``folder``."""
+    return folder / safe_file_name("_".join(parts), suffix)
 
 
 def is_disk_full(exc: BaseException) -> bool:

@@ -14,7 +14,28 @@ from harness.runs.limits import MAX_EPISODES, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
 
+def check_flags(args: argparse.Namespace) -> None:
+    """Flags that would be silently ignored are usage errors (one line, exit 2)."""
+    from harness.errors import HarnessError
+
+    if args.sweep and args.resume:
+        raise HarnessError(
+            f"give a sweep YAML or --resume RUN_DIR, not both: --resume runs "
+            f"{Path(args.resume) / 'sweep.yaml'} and would ignore {args.sweep}"
+        )
+    if not args.sweep and not args.resume:
+        raise HarnessError("give a sweep YAML or --resume RUN_DIR")
+    for flag, given in (("--force", args.force), ("--retry-errors", args.retry_errors)):
+        if given and not args.resume:
+            raise HarnessError(f"{flag} only applies with --resume RUN_DIR")
+    if args.resume and args.out:
+        raise HarnessError("--out does not apply with --resume (the run stays in RUN_DIR)")
+    if args.address and args.backend != "ray":
+        raise HarnessError(f"--address needs --backend ray (the backend is {args.backend})")
+
+
 def main(args: argparse.Namespace) -> int:
+    check_flags(args)
     console = make_console()
     if args.sweep:
         from harness.commands.validate import print_warnings, sweep_warning_lines

@@ -12,27 +12,17 @@ from __future__ import annotations
 import fcntl
 import hashlib
 import os
-import re
 from collections.abc import Iterable
 from pathlib import Path
 from typing import IO
 
 from harness.config import ConfigError
+from harness.files import safe_file_name
+
+__all__ = ["RunLock", "inside", "refuse_symlinks", "safe_file_name"]
 
 LOCK_NAME = ".lock"
 HASH_NAME = ".sweep.sha256"
-_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
-MAX_NAME = 120
-
-
-def safe_file_name(name: str, suffix: str = "") -> str:
-    """A file name made from ``name`` that cannot leave its folder (no ``/``, ``..`` or control
-    characters); a short hash of the original keeps distinct names distinct."""
-    slug = _UNSAFE.sub("_", name).strip("._") or "unnamed"
-    if slug != name or len(slug) > MAX_NAME:
-        digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:10]
-        slug = f"{slug[:MAX_NAME]}-{digest}"
-    return slug + suffix
 
 
 def inside(run_dir: Path, path: Path) -> Path:

@@ -32,6 +32,7 @@ import pandas as pd
 
 from harness.config import TaskConfig, apply_overrides
 from harness.errors import HarnessError
+from harness.files import safe_child
 from harness.grasps.ee_poses import ee_poses_for_pick
 from harness.grasps.grasp_set import load_grasp_file
 from harness.objects.assets import find_grasp_file, resolve_mesh
@@ -157,7 +158,7 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
         keep = np.ones(len(data), dtype=bool)
         keep[column(group, "grasp_row").to_numpy(np.int64)] = False
         out_dir.mkdir(parents=True, exist_ok=True)
-        target = out_dir / f"{obj}_cleaned.npy"
+        target = safe_child(out_dir, str(obj), "cleaned", suffix=".npy")
         np.save(target, data[keep])
         cleaned[str(path)] = target
     return cleaned
