@@ -17,9 +17,11 @@ import re
 import stat
 import tempfile
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TypeVar
+
+from harness.errors import HarnessError
 
 T = TypeVar("T")
 
@@ -141,6 +143,45 @@ def read_capped(path: str | Path, max_bytes: int) -> bytes:
     if total > max_bytes:
         raise RefusedFileError(f"is larger than the limit of {max_bytes:,} bytes", True)
     return b"".join(chunks)
+
+
+class PlantedLinkError(HarnessError):
+    """A symlink where a run writes: refused, never followed (it could point anywhere)."""
+
+
+def planted_link(root: Path, names: Iterable[str]) -> Path | None:
+    """The first symlink among ``root`` itself, ``root/<name>`` for each name, and the entries
+    of each such name that is a folder (``plots/*.png``, ``episodes/*.rrd``, ...); None if none.
+
+    THE symlink check of the harness: ``lstat`` only (nothing is followed, nothing opened).
+    """
+    if root.is_symlink():
+        return root
+    for name in names:
+        path = root / name
+        if path.is_symlink():
+            return path
+        if path.is_dir():
+            with os.scandir(path) as entries:
+                for entry in entries:
+                    if entry.is_symlink():
+                        return Path(entry.path)
+    return None
+
+
+def refuse_planted_links(root: Path, names: Iterable[str]) -> None:
+    """``PlantedLinkError`` naming the first symlink ``planted_link`` finds."""
+    link = planted_link(root, names)
+    if link is not None:
+        where = (
+            "the run directory is a symlink; give its real path"
+            if link == root
+            else (
+                f"{link.relative_to(root)} in the run directory is a symlink; remove it (a run "
+                "never follows one)"
+            )
+        )
+        raise PlantedLinkError(f"{root}: {where}")
 
 
 def is_disk_full(exc: BaseException) -> bool:
