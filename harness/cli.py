@@ -160,6 +160,11 @@ def _add_sweep(sub: Subparsers) -> None:
         type=_bounded_int(1, 10**9),
         help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
     )
+    p.add_argument(
+        "--max-points",
+        type=_bounded_int(1, 10**7),
+        help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_objective(p)
     _add_videos(p, default=False)

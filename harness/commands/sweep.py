@@ -10,7 +10,7 @@ from typing import Any
 from rich.console import Console
 
 from harness.commands.console import make_console
-from harness.runs.limits import MAX_EPISODES, error_rows_line, too_many_errors
+from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
 
@@ -47,6 +47,7 @@ def main(args: argparse.Namespace) -> int:
         resume_dir=Path(args.resume) if args.resume else None,
         force=bool(getattr(args, "force", False)),
         max_episodes=args.max_episodes or MAX_EPISODES,
+        max_points=args.max_points or MAX_POINTS,
         retry_errors=args.retry_errors,
         out=Path(args.out) if args.out else None,
         backend=args.backend,

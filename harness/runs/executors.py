@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
+from harness.files import WRITE_TIMEOUT_S
 from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.worker import error_row, execute
 
@@ -91,6 +93,14 @@ class _Worker:
     conn: Connection
     episode: EpisodeSpec | None = None
     group: list[EpisodeSpec] = field(default_factory=list)  # the rest of its share group
+    deadline: float = math.inf  # monotonic time past which the worker is killed
+
+
+# A worker still busy this long after its episode's ``limits.wall_time_s`` is killed and the
+# episode stored as ``timeout`` (the episode's own checks and alarm end it at the limit; this
+# is the backstop for code that neither checks nor lets the alarm in, e.g. a long C call). The
+# grace covers the recording write after the episode (bounded by files.WRITE_TIMEOUT_S).
+KILL_GRACE_S = WRITE_TIMEOUT_S + 30.0
 
 
 @contextlib.contextmanager
@@ -175,9 +185,41 @@ class _ProcessPool:
             episode = worker.group.pop() if worker.group else None
         worker.episode = episode
         if episode is None:
+            worker.deadline = math.inf
             return False
+        worker.deadline = time.monotonic() + episode.task.limits.wall_time_s + KILL_GRACE_S
         worker.conn.send(episode)
         return True
+
+    def next_deadline(self) -> float | None:
+        """Seconds until the first busy worker's kill deadline (None: no busy worker)."""
+        deadlines = [w.deadline for w in self.workers if w.episode is not None]
+        return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+
+    def kill_overdue(self) -> None:
+        """Kill each worker past its episode's deadline; the episode is a ``timeout`` row and
+        the rest of its share group goes to the next free worker (nothing else is lost)."""
+        now = time.monotonic()
+        overdue = [w for w in self.workers if w.episode is not None and now > w.deadline]
+        for worker in overdue:
+            if worker.conn.poll():  # its row arrived meanwhile: collected on the next turn
+                continue
+            episode = worker.episode
+            assert episode is not None
+            worker.process.kill()
+            worker.process.join(timeout=5)
+            self.workers.remove(worker)
+            self.requeued.extend(reversed(worker.group))
+            limit = episode.task.limits.wall_time_s
+            row = error_row(
+                episode,
+                f"wall-clock limit of {limit:g} s reached: the worker was still busy "
+                f"{KILL_GRACE_S:g} s after it and was killed",
+            )
+            row["failure_reason"] = "timeout"
+            self.on_result(row)
+            self.stats.finished += 1
+            self.start()
 
     def collect(self, worker: _Worker, ready: list[Any]) -> None:
         """Take a busy worker's row if it sent one, or replace it if it died."""
@@ -253,9 +295,12 @@ def run_process_pool(
             pool.start()
         while any(w.episode is not None for w in pool.workers):
             busy = [w for w in pool.workers if w.episode is not None]
-            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
+            handles = [w.conn for w in busy] + [w.process.sentinel for w in busy]
+            ready = wait(handles, timeout=pool.next_deadline())
             for worker in busy:
-                pool.collect(worker, ready)
+                if worker in pool.workers:
+                    pool.collect(worker, ready)
+            pool.kill_overdue()
     except KeyboardInterrupt:
         stats.interrupted = True
     finally:

@@ -77,6 +77,7 @@ def tune(
             workers=workers,
             backend=backend,
             progress=progress,
+            max_points=None,  # the tune grid is generated and bounded by --step / --bands
         )
     if outcome.stats.interrupted:
         return TuneResult(outcome.run_dir, True, Path(), Path(), [], pd.DataFrame(), "")
