@@ -15,6 +15,13 @@ from harness.config.messages import suggest
 from harness.config.yamlio import KeyPath, YamlDocument, format_key_path
 
 _MISSING = object()
+# Bounds on what interpolation may build (chosen, no public source: the example files resolve
+# to a few hundred nodes and strings under 200 characters). Without them ``'${x.l0}${x.l0}'``
+# over 34 levels asked for a 2^34-character string, 40 levels of lists for 2^40 nodes, and a
+# chain of 3,000 references overflowed the stack: each hung or crashed `harness validate`.
+MAX_CHAIN = 100  # interpolations resolved inside one another
+MAX_STRING_CHARS = 65_536  # one resolved string
+MAX_NODES = 200_000  # the resolved document, counted as a tree (as harness.config.yamlio)
 
 
 class InterpolationResolver:
@@ -32,20 +39,48 @@ class InterpolationResolver:
         self.root = root
         self.where = where
         self.active: list[KeyPath] = []  # strings being resolved, to catch cycles
+        self.done: dict[KeyPath, Any] = {}  # resolved nodes: each is resolved once
+        self.sizes: dict[int, int] = {}  # id(resolved container) -> its node count as a tree
 
     def resolve(self, node: Any, path: KeyPath = ()) -> Any:
+        if path in self.done:
+            return self.done[path]
         if isinstance(node, dict):
-            return {key: self.resolve(value, (*path, key)) for key, value in node.items()}
-        if isinstance(node, list):
-            return [self.resolve(value, (*path, index)) for index, value in enumerate(node)]
-        if isinstance(node, str) and "${" in node:
-            return self._string(node, path)
-        return node
+            out: Any = {key: self.resolve(value, (*path, key)) for key, value in node.items()}
+            self._count(out, out.values(), path)
+        elif isinstance(node, list):
+            out = [self.resolve(value, (*path, index)) for index, value in enumerate(node)]
+            self._count(out, out, path)
+        elif isinstance(node, str) and "${" in node:
+            out = self._string(node, path)
+        else:
+            out = node
+        self.done[path] = out
+        return out
+
+    def _size(self, value: Any) -> int:
+        return self.sizes.get(id(value), 1) if isinstance(value, (dict, list)) else 1
+
+    def _count(self, container: Any, children: Any, path: KeyPath) -> None:
+        """Record the container's node count as a tree (shared targets counted each time
+        they appear), refusing documents that would expand past ``MAX_NODES``."""
+        size = 1 + sum(self._size(child) for child in children)
+        if size > MAX_NODES:
+            raise self.where.error(
+                path,
+                f"interpolation expands this node to more than {MAX_NODES:,} nodes "
+                "(an interpolation bomb?)",
+            )
+        self.sizes[id(container)] = size
 
     def _string(self, text: str, path: KeyPath) -> Any:
         if path in self.active:
             cycle = " -> ".join(format_key_path(p) for p in [*self.active, path])
             raise self.where.error(path, f"interpolation cycle: {cycle}")
+        if len(self.active) >= MAX_CHAIN:
+            raise self.where.error(
+                path, f"interpolations nest more than {MAX_CHAIN} deep (each refers to the next)"
+            )
         self.active.append(path)
         try:
             pieces = self._split(text, path)
@@ -64,6 +99,12 @@ class InterpolationResolver:
                         "only a whole string can take a mapping or list",
                     )
                 out.append(str(value))
+                if sum(map(len, out)) > MAX_STRING_CHARS:
+                    raise self.where.error(
+                        path,
+                        f"interpolation builds a string longer than {MAX_STRING_CHARS:,} "
+                        "characters (an interpolation bomb?)",
+                    )
             return "".join(out)
         finally:
             self.active.pop()
@@ -144,10 +185,7 @@ class InterpolationResolver:
                 )
             walked.append(int(step) if isinstance(node, list) else step)
             node = value
-        target = tuple(walked)
-        if isinstance(node, str) and "${" in node:
-            return self._string(node, target)
-        return self.resolve(node, target)
+        return self.resolve(node, tuple(walked))
 
     @staticmethod
     def _child(node: Any, step: str | int) -> Any:
@@ -177,4 +215,14 @@ class InterpolationResolver:
 def resolve_interpolations(doc: YamlDocument, file: str | Path | None = None) -> Any:
     """The document's data with every ``${...}`` resolved (see ``InterpolationResolver``)."""
     where = Located(doc, str(file if file is not None else doc.path))
-    return InterpolationResolver(doc.data, where).resolve(doc.data)
+    return _tree_copy(InterpolationResolver(doc.data, where).resolve(doc.data))
+
+
+def _tree_copy(value: Any) -> Any:
+    """A copy in which no container is shared (the resolver hands one resolved target to
+    every reference; its size is bounded by ``MAX_NODES``, so the copy is too)."""
+    if isinstance(value, dict):
+        return {key: _tree_copy(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_tree_copy(item) for item in value]
+    return value
