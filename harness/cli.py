@@ -374,6 +374,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    _terminate_like_ctrl_c()
     try:
         code = args.func(args)
         sys.stdout.flush()  # a full disk under stdout fails here, not at interpreter exit
@@ -388,6 +389,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except OSError as exc:  # the environment said no: read-only dir, full disk, missing folder
         return _fail(_os_error_line(exc))
+
+
+def _terminate_like_ctrl_c() -> None:
+    """SIGTERM (``kill``, a scheduler's stop) ends a command as Ctrl-C does: the run stops its
+    workers, keeps what finished and exits 130 (it used to die at once and leave orphaned
+    workers writing BrokenPipe tracebacks)."""
+    import signal
+
+    def on_term(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading_main():
+        signal.signal(signal.SIGTERM, on_term)
+
+
+def threading_main() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 def _os_error_line(exc: OSError) -> str:

@@ -75,16 +75,20 @@ def run_serial(
 
 def _worker_main(conn: Connection, run_dir: str, record: str, share: bool) -> None:
     """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     while True:
         try:
             episode = conn.recv()
-        except EOFError:
+        except (EOFError, OSError):  # the parent is gone: nothing to report to
             return
         if episode is None:
             return
-        conn.send(execute(episode, run_dir, record, share))
+        row = execute(episode, run_dir, record, share)
+        try:
+            conn.send(row)
+        except (BrokenPipeError, OSError):  # the parent was killed mid-episode
+            return
 
 
 @dataclass
