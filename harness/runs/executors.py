@@ -35,12 +35,6 @@ OnResult = Callable[[dict[str, Any]], None]
 # A worker that dies mid-episode (segfault, OOM kill) gets its episode run again this many
 # times before the episode is stored as an ``error`` row.
 CRASH_RETRIES = 1
-# Ray (2.60) cannot be held to loopback: ray.init turns 127.0.0.1 into the node's address
-# (services.resolve_ip_for_localhost) and its gRPC servers listen on every interface.
-RAY_NETWORK_NOTE = (
-    "note: a local Ray listens on all interfaces (gcs_server, raylet, its workers; Ray's token "
-    "authentication guards them); on an untrusted network use --backend process (no ports)"
-)
 
 
 @dataclass
@@ -326,8 +320,8 @@ def run_ray(
     restarted and its episode run again ``CRASH_RETRIES`` times (Ray's ``max_task_retries``)
     before it becomes an error row. Share groups are submitted back to back; a free actor takes
     the next episode, so a group may spread over actors (each shares what it holds). A locally
-    started Ray cannot be bound to loopback (docs/reliability.md, "Network"): it is started
-    without the dashboard, and the process backend is the one that opens no port."""
+    started Ray listens on 127.0.0.1 only, without the dashboard, and a watchdog ends it if
+    this process dies (``harness.runs.ray_local``; docs/reliability.md, "Network")."""
     try:
         import ray
     except ImportError as exc:  # pragma: no cover - depends on the extra
@@ -337,13 +331,28 @@ def run_ray(
             "the ray backend needs the 'ray' extra: pip install 'pick-harness[ray]'"
         ) from exc
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        if address:
-            ray.init(address=address, log_to_driver=False)
-        else:
-            print(RAY_NETWORK_NOTE, file=sys.stderr)
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    with contextlib.ExitStack() as stack:
+        if not ray.is_initialized():
+            if address:
+                ray.init(address=address, log_to_driver=False)
+                stack.callback(ray.shutdown)
+            else:  # on 127.0.0.1 only, and gone with this process (harness.runs.ray_local)
+                from harness.runs.ray_local import local_ray
+
+                stack.enter_context(local_ray(workers))
+        return _run_on_ray(ray, episodes, run_dir, record, on_result, workers, share)
+
+
+def _run_on_ray(
+    ray: Any,
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    workers: int,
+    share: bool,
+) -> RunStats:
+    """The episodes on actors of an initialised Ray (see ``run_ray``)."""
 
     @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:
@@ -381,9 +390,6 @@ def run_ray(
         stats.interrupted = True
         for ref in in_flight:
             ray.cancel(ref, force=True)
-    finally:
-        if started_here:
-            ray.shutdown()
     stats.wall_time_s = time.perf_counter() - start
     return stats
 
