@@ -104,6 +104,11 @@ class RunDir:
     def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
         """Write ``sweep.yaml`` and lock the directory for this process; a directory that
         already holds a run raises ``taken``, one with symlinked outputs is refused."""
+        if self.path.exists() and not self.path.is_dir():
+            raise ConfigError(
+                "is not a directory (a run directory is a folder; give a new or empty one)",
+                file=self.path,
+            )
         if self.path.exists():
             refuse_symlinks(self.path, RUN_OUTPUTS)
         self.lock.acquire()

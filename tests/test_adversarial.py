@@ -1,0 +1,321 @@
+"""Hostile and broken inputs, table-driven (issue 26): every input is refused with one line
+naming the file and the key and a non-zero exit, or it runs and stores rows without ``error``;
+nothing is written outside the run directory, no planted link is followed, nothing runs past
+its limits.
+
+Each case builds its input in ``tmp_path/work`` next to a ``victim`` file, runs the real CLI
+(in-process: ``harness.cli.main``, or a child process where the case needs one) and checks the
+three rules. The counts the issue asks for (tracebacks, hangs, exit 0 on broken input, outside
+writes, followed links, dropped rows) are each one of these assertions.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+
+from harness import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+FR3 = ROOT / "tasks" / "pick" / "fr3.yaml"
+CUBE_OBJ = ROOT / "tasks" / "objects" / "cube" / "cube.obj"
+CUBE_GRASPS = ROOT / "tasks" / "objects" / "cube" / "grasps.npy"
+VICTIM_TEXT = "precious"
+CASE_LIMIT_S = 60.0  # any case past this has hung (validate cases take well under a second)
+
+
+def task_data(**object_changes: object) -> dict:
+    data = yaml.safe_load(FR3.read_text(encoding="utf-8"))
+    data["objects"][0].update({"mesh": str(CUBE_OBJ), "grasps": str(CUBE_GRASPS)})
+    data["objects"][0].update(object_changes)
+    return data
+
+
+def write_yaml(path: Path, data: object) -> Path:
+    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def sweep_data(**changes: object) -> dict:
+    return {
+        "name": "adv",
+        "tasks": [str(FR3)],
+        "episodes_per_point": 1,
+        "record": "none",
+        **changes,
+    }
+
+
+# -- input builders: each returns the argv (after ``harness``) for its work folder ------------
+
+
+def fifo_task(work: Path) -> list[str]:
+    os.mkfifo(work / "t.yaml")
+    return ["validate", str(work / "t.yaml")]
+
+
+def dev_zero_task(work: Path) -> list[str]:
+    (work / "t.yaml").symlink_to("/dev/zero")
+    return ["validate", str(work / "t.yaml")]
+
+
+def fifo_sweep(work: Path) -> list[str]:
+    os.mkfifo(work / "s.yaml")
+    return ["sweep", str(work / "s.yaml"), "--out", str(work / "run")]
+
+
+def usd_file(work: Path, counts: str, indices: str, points: str, sub: str | None) -> Path:
+    layer = "" if sub is None else f"(\n    subLayers = [@./{sub}@]\n)\n"
+    text = (
+        f'#usda 1.0\n{layer}def Xform "World" {{\n  def Xform "Aligned" {{\n'
+        f'    def Mesh "m" {{\n      point3f[] points = [{points}]\n'
+        f"      int[] faceVertexCounts = [{counts}]\n      int[] faceVertexIndices = [{indices}]\n"
+        "    }\n  }\n}\n"
+    )
+    path = work / "m.usda"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+TETRA = "(0,0,0),(0.05,0,0),(0,0.05,0),(0,0,0.05)"
+TETRA_FACES = "0,2,1, 0,1,3, 0,3,2, 1,2,3"
+
+
+def usd_task(work: Path, **usd: str | None) -> list[str]:
+    args = {"counts": "3,3,3,3", "indices": TETRA_FACES, "points": TETRA, "sub": None, **usd}
+    mesh = usd_file(work, **args)  # type: ignore[arg-type]
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+
+
+def usd_fifo_sublayer(work: Path) -> list[str]:
+    os.mkfifo(work / "sub.usda")
+    return usd_task(work, sub="sub.usda")
+
+
+def huge_mesh(work: Path) -> list[str]:
+    mesh = work / "far.obj"
+    mesh.write_text(
+        "v 0 0 0\nv 1e31 0 0\nv 0 1e31 0\nv 0 0 1e31\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+
+
+def lying_npy(work: Path) -> list[str]:
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000, 17), }"
+    header = header.ljust(118) + "\n"
+    path = work / "g.npy"
+    path.write_bytes(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode())
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(grasps=str(path))))]
+
+
+def task_with(**changes: object) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        return ["validate", str(write_yaml(work / "t.yaml", task_data(**changes)))]
+
+    return build
+
+
+def sweep_with(**changes: object) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        return ["validate", str(write_yaml(work / "s.yaml", sweep_data(**changes)))]
+
+    return build
+
+
+INTERNDATA_HEAD = "tasks:\n  - robots: []\n    skills: []\n"
+
+
+def interndata(body: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        (work / "i.yaml").write_text(INTERNDATA_HEAD + body, encoding="utf-8")
+        return ["validate", str(work / "i.yaml")]
+
+    return build
+
+
+STRING_BOMB = "x:\n  l0: ab\n" + "".join(
+    f"  l{i}: '${{x.l{i - 1}}}${{x.l{i - 1}}}'\n" for i in range(1, 35)
+)
+LIST_BOMB = "x:\n  l0: [a, b]\n" + "".join(
+    f"  l{i}: ['${{x.l{i - 1}}}', '${{x.l{i - 1}}}']\n" for i in range(1, 41)
+)
+DEEP_CHAIN = "x:\n" + "".join(f"  a{i}: '${{x.a{i + 1}}}'\n" for i in range(3000)) + "  a3000: e\n"
+
+
+def flags(*argv: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        sweep = write_yaml(work / "s.yaml", sweep_data())
+        return [a.replace("SWEEP", str(sweep)).replace("WORK", str(work)) for a in argv]
+
+    return build
+
+
+def out_is(target: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        (work / "file").write_text("x", encoding="utf-8")
+        out = target.replace("WORK", str(work))
+        return ["run", str(FR3), "--episodes", "1", "--record", "none", "--out", out]
+
+    return build
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    build: Callable[[Path], list[str]]
+    message: str  # the refusal line contains this (the file is checked separately)
+    names_file: bool = True  # the line names a file of the work folder
+
+
+CASES = [
+    Case("fifo task", fifo_task, "is a FIFO"),
+    Case("dev/zero link", dev_zero_task, "is a device"),
+    Case("fifo sweep", fifo_sweep, "is a FIFO"),
+    Case("usd fifo sublayer", usd_fifo_sublayer, "is a FIFO"),
+    Case("usd negative counts", lambda w: usd_task(w, counts="3,-3,3,3"), "negative"),
+    Case("usd counts mismatch", lambda w: usd_task(w, counts="3,3,3"), "faceVertexCounts sum"),
+    Case("mesh 1e31 m", huge_mesh, "above 10 m"),
+    Case("npy header 1e12 rows", lying_npy, "header claims"),
+    Case("mass true", task_with(mass=True), "objects[0].mass"),
+    Case(
+        "placement x 1e300",
+        task_with(placement={"pos_range": [[0, 0, 0], [1e300, 0, 0]]}),
+        "objects[0].placement.pos_range",
+    ),
+    Case(
+        "placement z 1e6",
+        task_with(placement={"pos_range": [[0, 0, 1e6], [0, 0, 1e6]]}),
+        "objects[0].placement.pos_range",
+    ),
+    Case(
+        "duplicate grid value",
+        sweep_with(axes={"pick.lift_th": [0.02, 2.0e-2]}),
+        "axes.pick.lift_th[1]",
+    ),
+    Case(
+        "100x100 grid",
+        sweep_with(
+            axes={
+                "pick.lift_th": [0.01 + 0.001 * i for i in range(100)],
+                "pick.t_eps": [0.001 + 0.0001 * i for i in range(100)],
+            }
+        ),
+        "--max-points",
+    ),
+    Case("interpolation string bomb", interndata(STRING_BOMB), "longer than"),
+    Case("interpolation list bomb", interndata(LIST_BOMB), "more than 200,000 nodes"),
+    Case("interpolation chain 3000", interndata(DEEP_CHAIN), "nest more than"),
+    Case("run --episodes 100001", flags("run", str(FR3), "--episodes", "100001"), "100001", False),
+    Case(
+        "--episodes-per-point 100001",
+        flags("sweep", "SWEEP", "--episodes-per-point", "100001"),
+        "100001",
+        False,
+    ),
+    Case(
+        "tune --episodes 100001", flags("tune", str(FR3), "--episodes", "100001"), "100001", False
+    ),
+    Case(
+        "inspect --seed -1",
+        flags("grasps", "inspect", str(CUBE_GRASPS), "--robot", "fr3", "--seed", "-1"),
+        "-1",
+        False,
+    ),
+    Case(
+        "generate --seed -1",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "--seed", "-1"),
+        "-1",
+        False,
+    ),
+    Case(
+        "generate -n 1e9",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "-n", "1000000000"),
+        "1000000000",
+        False,
+    ),
+    Case("sweep S --resume R", flags("sweep", "SWEEP", "--resume", "WORK"), "not both", False),
+    Case("--force alone", flags("sweep", "SWEEP", "--force"), "--force only applies", False),
+    Case(
+        "--retry-errors alone",
+        flags("sweep", "SWEEP", "--retry-errors"),
+        "--retry-errors only applies",
+        False,
+    ),
+    Case(
+        "--address without ray",
+        flags("sweep", "SWEEP", "--address", "127.0.0.1:6379"),
+        "--address needs --backend ray",
+        False,
+    ),
+    Case("--out an existing file", out_is("WORK/file"), "not a directory"),
+    Case("--out /dev/null", out_is("/dev/null"), "not a directory", False),
+    Case(
+        "replay --record into a missing folder",
+        flags("replay", "WORK/norun", "x", "--record", "/missing/dir/x.rrd"),
+        "norun",
+    ),
+]
+
+
+def snapshot(root: Path) -> dict[str, float]:
+    """Every path under ``root`` (links not followed) and its mtime."""
+    out = {}
+    for dirpath, dirnames, filenames in os.walk(root):
+        for name in dirnames + filenames:
+            path = Path(dirpath) / name
+            with contextlib.suppress(OSError):
+                out[str(path)] = path.lstat().st_mtime
+    return out
+
+
+def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """``harness ARGV`` in this process: (exit code, stderr). Argparse's usage errors exit 2."""
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        code = cli.main(argv)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    return code, capsys.readouterr().err
+
+
+def assert_one_line_refusal(code: int, err: str, case: Case, work: Path) -> None:
+    assert code != 0, f"{case.name}: exit 0 on broken input"
+    assert "Traceback" not in err, f"{case.name}: traceback\n{err}"
+    errors = [line for line in err.splitlines() if re.search(r"(^|: )error: ", line)]
+    assert len(errors) == 1, f"{case.name}: expected one error line, got\n{err}"
+    assert case.message in errors[0], f"{case.name}: {errors[0]!r}"
+    if case.names_file:
+        assert str(work) in errors[0] or Path(errors[0].split()[1]).name in os.listdir(work), (
+            f"{case.name}: the line does not name the file: {errors[0]!r}"
+        )
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.name for case in CASES])
+def test_adversarial_input_is_one_line_refusal(
+    case: Case, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    work = tmp_path / "work"
+    work.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    argv = case.build(work)
+    before = snapshot(tmp_path)
+    start = time.monotonic()
+    code, err = run_cli(argv, capsys)
+    assert time.monotonic() - start < CASE_LIMIT_S, f"{case.name}: ran past its limit"
+    assert_one_line_refusal(code, err, case, work)
+    after = snapshot(tmp_path)
+    outside = [p for p in after if p not in before and not p.startswith(str(work))]
+    assert not outside, f"{case.name}: wrote outside its folder: {outside}"
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
