@@ -15,6 +15,8 @@ import contextlib
 import os
 import re
 import signal
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -319,3 +321,252 @@ def test_adversarial_input_is_one_line_refusal(
     outside = [p for p in after if p not in before and not p.startswith(str(work))]
     assert not outside, f"{case.name}: wrote outside its folder: {outside}"
     assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+
+
+# -- run-level cases: one finished run with a hostile task and object name ---------------------
+
+HOSTILE_TASK = "<script>alert(1)</script>"
+HOSTILE_OBJECT = "../../../../escape"
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``harness run`` of two episodes of a task named ``<script>...`` whose object is named
+    ``../../../../escape`` (both must stay inert)."""
+    folder = tmp_path_factory.mktemp("finished")
+    data = task_data(name=HOSTILE_OBJECT)
+    data["name"] = HOSTILE_TASK
+    task = write_yaml(folder / "t.yaml", data)
+    run_dir = folder / "run"
+    code = cli.main(
+        ["run", str(task), "--episodes", "2", "--record", "none", "--out", str(run_dir)]
+    )
+    assert code == 0
+    return run_dir
+
+
+def copy_run(run_dir: Path, where: Path) -> Path:
+    import shutil
+
+    return Path(shutil.copytree(run_dir, where / "run", symlinks=True))
+
+
+def test_report_md_escapes_html_from_a_task_name(finished_run: Path) -> None:
+    text = (finished_run / "report.md").read_text(encoding="utf-8")
+    assert "<script" not in text
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in text
+    assert not (finished_run.parent.parent / "escape").exists()
+
+
+@pytest.mark.parametrize("planted", ["plots/success.png", "plots", "MUJOCO_LOG.TXT"])
+def test_report_refuses_planted_links(
+    planted: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 2: ``report`` overwrote a linked plots/success.png and wrote into the
+    target of a ``plots`` link."""
+    run_dir = copy_run(finished_run, tmp_path)
+    victim = tmp_path / "victim.png"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    target_dir = tmp_path / "elsewhere"
+    target_dir.mkdir()
+    path = run_dir / planted
+    if path.is_dir():
+        import shutil
+
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+    path.symlink_to(target_dir if planted == "plots" else victim)
+    code, err = run_cli(["report", str(run_dir)], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert "symlink" in err and planted in err, err
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+    assert not list(target_dir.iterdir())
+
+
+def test_a_planted_mujoco_log_link_is_refused_before_a_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "MUJOCO_LOG.TXT").symlink_to(victim)
+    code, err = run_cli(
+        ["run", str(FR3), "--episodes", "1", "--record", "none", "--out", str(run_dir)], capsys
+    )
+    assert code == 2 and "MUJOCO_LOG.TXT in the run directory is a symlink" in err
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+    assert not (run_dir / "episodes.jsonl").exists()
+
+
+@pytest.mark.parametrize("witness", ["header", "rows"])
+def test_resume_of_a_copied_run_refuses_an_edited_sweep(
+    witness: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 3: ``cp -r run/*`` drops ``.sweep.sha256``; an edited sweep.yaml then
+    resumed under new physics. The header line and the rows' ``config_sha256`` still tell."""
+    run_dir = copy_run(finished_run, tmp_path)
+    (run_dir / ".sweep.sha256").unlink()
+    sweep_yaml = run_dir / "sweep.yaml"
+    text = sweep_yaml.read_text(encoding="utf-8")
+    assert text.startswith("# config_sha256: ")
+    edited = text.replace("friction: 1.0", "friction: 0.5", 1)
+    assert edited != text
+    if witness == "rows":  # the header line removed too: only the rows remember
+        edited = edited.split("\n", 1)[1]
+    sweep_yaml.write_text(edited, encoding="utf-8")
+    rows_before = (run_dir / "episodes.jsonl").read_text(encoding="utf-8")
+    code, err = run_cli(["sweep", "--resume", str(run_dir), "--no-progress"], capsys)
+    assert code == 2 and "changed since the run was created" in err, err
+    assert (run_dir / "episodes.jsonl").read_text(encoding="utf-8") == rows_before
+
+
+def test_random_choices_run_each_distinct_point_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 4: 30 draws over choices ran 30 episodes and kept 15 rows, exit 0."""
+    from harness.config import load_sweep
+    from harness.runs.expansion import expand
+
+    path = write_yaml(
+        tmp_path / "s.yaml",
+        sweep_data(
+            mode="random", points=30, random_axes={"pick.lift_th": {"choices": [0.02, 0.03]}}
+        ),
+    )
+    episodes = expand(load_sweep(path), path)
+    assert len(episodes) == 2 == len({e.resolved_id for e in episodes})
+    assert "30 random draws gave 2 distinct points" in capsys.readouterr().err
+
+
+def test_stdout_on_a_full_disk_is_one_line(tmp_path: Path) -> None:
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "harness.cli", "validate", str(FR3)],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            timeout=120,
+            check=False,
+        )
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr
+    assert result.stderr.strip().splitlines() == ["error: stdout/stderr: no space left on device"]
+
+
+def _read_only_mount(path: Path) -> bool:
+    path.mkdir()
+    ok = (
+        subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=16m", "tmpfs", str(path)],
+            capture_output=True,
+            check=False,
+        ).returncode
+        == 0
+    )
+    return ok
+
+
+@pytest.mark.parametrize("command", ["report", "resume", "fresh"])
+def test_a_read_only_run_directory_is_one_line(
+    command: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 7: ``--resume``, ``report`` and a fresh sweep into a read-only folder
+    were tracebacks. Root ignores permission bits, so the folder is a read-only tmpfs."""
+    mount = tmp_path / "ro"
+    if os.geteuid() == 0:
+        if not _read_only_mount(mount):
+            pytest.skip("cannot mount a tmpfs here")
+        copy_run(finished_run, mount)
+        subprocess.run(["mount", "-o", "remount,ro", str(mount)], check=True)
+    else:
+        mount.mkdir()
+        copy_run(finished_run, mount)
+        for folder in (mount, mount / "run"):
+            folder.chmod(0o555)
+    try:
+        run_dir = mount / "run"
+        sweep = write_yaml(tmp_path / "s.yaml", sweep_data())
+        argv = {
+            "report": ["report", str(run_dir)],
+            "resume": ["sweep", "--resume", str(run_dir), "--no-progress"],
+            "fresh": ["sweep", str(sweep), "--out", str(mount / "new"), "--no-progress"],
+        }[command]
+        code, err = run_cli(argv, capsys)
+        assert code == 2 and "Traceback" not in err
+        lines = [line for line in err.splitlines() if line.startswith("error: ")]
+        assert (
+            (len(lines) == 1
+            and "read-only file system" in lines[0].lower())
+            or ("permission denied" in lines[0].lower())
+        ), err
+    finally:
+        if os.geteuid() == 0:
+            subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_audit_files_of_a_hostile_object_name_stay_in_the_audit_folder(tmp_path: Path) -> None:
+    """Issue 26 class 1: ``objects[0].name: ../../../../x`` wrote ``x_cleaned.npy`` seven
+    levels above the audit folder."""
+    import pandas as pd
+
+    from harness.tuning.audit import write_cleaned
+
+    out_dir = tmp_path / "a" / "b" / "c" / "audit"
+    table = pd.DataFrame(
+        [
+            {
+                "object": HOSTILE_OBJECT,
+                "grasp_file": str(CUBE_GRASPS),
+                "grasp_row": 0,
+                "flagged": True,
+            }
+        ]
+    )
+    written = write_cleaned(table, out_dir)
+    (path,) = written.values()
+    assert path.parent == out_dir and path.is_file()
+    assert not (tmp_path / "escape_cleaned.npy").exists()
+
+
+# Output paths built from a name with an f-string, ``with_name`` or ``joinpath``: each must go
+# through harness.files.safe_file_name / safe_child. The allowed ones read (never write) a
+# fixed or derived name.
+NAME_PATH = re.compile(r"""(/\s*f["'][^"']*\{)|with_name\(f|joinpath\(f|Path\(f["']""")
+ALLOWED = {
+    "harness/objects/assets.py": "reads <mesh stem>_grasps.npy beside a mesh",
+    "harness/benchmarks/sharing.py": "reads tasks/pick/<robot>.yaml of a fixed robot list",
+    "harness/benchmarks/episodes.py": "reads tasks/pick/<name>.yaml of a fixed list",
+    "harness/runs/store.py": "the temp file .<fixed export name>.tmp",
+}
+
+
+def test_every_output_path_from_a_name_goes_through_the_safe_name_function() -> None:
+    offenders = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        relative = str(path.relative_to(ROOT))
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if NAME_PATH.search(line) and relative not in ALLOWED:
+                offenders.append(f"{relative}:{number}: {line.strip()}")
+    assert not offenders, "paths built from names outside safe_file_name:\n" + "\n".join(offenders)
+
+
+# -- limits ------------------------------------------------------------------------------------
+
+
+def test_a_long_settle_is_interrupted_at_the_deadline() -> None:
+    """Issue 26 class 6: one mj_step call of 200k steps could not be interrupted (a 4 s limit
+    gave a 32 s episode). Scene.step now checks the deadline between chunks."""
+    from harness.config import PhysicsConfig
+    from harness.errors import EpisodeTimeoutError
+    from harness.sim.budget import episode_budget
+    from harness.sim.scene import Scene
+
+    scene = Scene.build("fr3", [], PhysicsConfig())
+    start = time.perf_counter()
+    with pytest.raises(EpisodeTimeoutError, match="wall-clock limit"), episode_budget(0.3, 10**9):
+        signal.setitimer(signal.ITIMER_REAL, 0)  # the alarm is off: only the step checks count
+        scene.step(10**8)
+    assert time.perf_counter() - start < 3.0

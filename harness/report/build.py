@@ -51,8 +51,11 @@ SUMMARY_NAME = "summary.csv"
 
 
 BEST_NAME = "best.csv"
-# Everything ``build_report`` writes (with ``export``, the episode tables too).
+# Everything ``build_report`` writes (with ``export``, the episode tables too; with ``videos``,
+# replays that log to MuJoCo's log), and the run's recording.
 REPORT_OUTPUTS = (
+    "MUJOCO_LOG.TXT",
+    "recording.rrd",
     SUMMARY_NAME,
     BEST_NAME,
     "plots",
