@@ -568,3 +568,78 @@ def test_a_long_settle_is_interrupted_at_the_deadline() -> None:
         signal.setitimer(signal.ITIMER_REAL, 0)  # the alarm is off: only the step checks count
         scene.step(10**8)
     assert time.perf_counter() - start < 3.0
+
+
+@pytest.mark.slow
+def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 26 class 6: the pool had no per-episode kill. One episode hangs in a way neither
+    the deadline check nor SIGALRM reaches (SIGALRM blocked, sleeping); its worker is killed
+    past limit + grace, its row is ``timeout`` and the other episodes' rows are all there."""
+    from harness.config import load_sweep
+    from harness.runs import executors
+    from harness.runs.expansion import expand
+    from harness.runs.sweep import run_sweep
+    from harness.runs.worker import HANG_ENV
+
+    monkeypatch.setattr(executors, "KILL_GRACE_S", 2.0)
+    sweep = write_yaml(
+        tmp_path / "s.yaml",
+        sweep_data(episodes_per_point=3, axes={"limits.wall_time_s": [20.0]}),
+    )
+    episodes = expand(load_sweep(sweep), sweep)
+    victim = episodes[1].resolved_id
+    monkeypatch.setenv(HANG_ENV, victim)
+    start = time.monotonic()
+    outcome = run_sweep(sweep, out=tmp_path / "run", backend="process", workers=1, progress=False)
+    assert time.monotonic() - start < 240
+    rows = {row["episode_id"]: row for row in _jsonl(outcome.run_dir)}
+    assert sorted(rows) == sorted(e.resolved_id for e in episodes)
+    assert rows[victim]["failure_reason"] == "timeout"
+    assert "was killed" in rows[victim]["error_message"]
+    others = [row for key, row in rows.items() if key != victim]
+    assert all(row["failure_reason"] not in ("error", "timeout") for row in others), others
+
+
+def _jsonl(run_dir: Path) -> list[dict]:
+    import json
+
+    lines = (run_dir / "episodes.jsonl").read_text(encoding="utf-8").splitlines()
+    return [json.loads(line) for line in lines if line.strip()]
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_sweep_like_ctrl_c(tmp_path: Path) -> None:
+    """Issue 26 class 9: SIGTERM killed the driver at once; orphaned workers printed BrokenPipe
+    tracebacks. Now it stops like Ctrl-C: exit 130, finished rows kept, no traceback."""
+    sweep = write_yaml(tmp_path / "s.yaml", sweep_data(episodes_per_point=200))
+    run_dir = tmp_path / "run"
+    driver = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "harness.cli",
+            "sweep",
+            str(sweep),
+            "--out",
+            str(run_dir),
+            "--workers",
+            "1",
+            "--no-progress",
+        ],
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    jsonl = run_dir / "episodes.jsonl"
+    end = time.monotonic() + 180
+    while time.monotonic() < end and not (jsonl.is_file() and jsonl.stat().st_size):
+        time.sleep(0.2)
+    driver.send_signal(signal.SIGTERM)
+    _, err = driver.communicate(timeout=120)
+    assert driver.returncode == 130, err
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+    time.sleep(1.0)  # an orphaned worker would write its traceback now
+    assert 1 <= len(_jsonl(run_dir)) < 200
