@@ -1,7 +1,12 @@
-"""OmegaConf-style ``${...}`` interpolation over a whole InternDataEngine document.
+"""``${...}`` interpolation over a whole InternDataEngine document, resolved by OmegaConf.
 
-The reference resolves its files with ``OmegaConf.to_container(resolve=True)``; this does the
-same over plain YAML data, and a broken interpolation is an error naming its key.
+The reference resolves its files with ``OmegaConf.to_container(resolve=True)``, and so does
+``resolve_interpolations``, after a guard pass: ``InterpolationResolver`` walks the same
+interpolations first, with bounds (chain depth, string length, node count) that OmegaConf does
+not have (an interpolation bomb made it build a 2^34-character string, a 3,000-deep chain
+overflowed the stack) and errors that name the key (missing key with a suggestion, cycle,
+unsupported resolver such as ``${oc.env:X}``, which would read the environment). Only a document
+the guard passes reaches OmegaConf; a difference between the two is an error naming the key.
 """
 
 from __future__ import annotations
@@ -215,7 +220,52 @@ class InterpolationResolver:
 def resolve_interpolations(doc: YamlDocument, file: str | Path | None = None) -> Any:
     """The document's data with every ``${...}`` resolved (see ``InterpolationResolver``)."""
     where = Located(doc, str(file if file is not None else doc.path))
-    return _tree_copy(InterpolationResolver(doc.data, where).resolve(doc.data))
+    guarded = _tree_copy(InterpolationResolver(doc.data, where).resolve(doc.data))
+    return _omegaconf_resolve(doc.data, guarded, where)
+
+
+def _omegaconf_resolve(data: Any, guarded: Any, where: Located) -> Any:
+    """``OmegaConf.to_container(OmegaConf.create(data), resolve=True)`` as the reference does;
+    where OmegaConf cannot hold the plain YAML data (non-string keys, dates) or the two disagree,
+    the error names the first key that differs."""
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
+    if not isinstance(data, dict):
+        return guarded
+    try:
+        resolved = OmegaConf.to_container(OmegaConf.create(data), resolve=True)
+    except (OmegaConfBaseException, RecursionError, ValueError, TypeError) as exc:
+        key = getattr(exc, "full_key", None)
+        path = _key_path(str(key)) if key else ()
+        detail = str(exc).strip().splitlines()[0][:200]
+        raise where.error(path, f"OmegaConf cannot resolve the file: {detail}") from None
+    if resolved != guarded:
+        path = _first_difference(resolved, guarded, ())
+        raise where.error(
+            path, "OmegaConf and the harness's interpolation guard resolve this key differently"
+        )
+    return resolved
+
+
+def _key_path(key: str) -> KeyPath:
+    """OmegaConf's ``full_key`` (``tasks[0].robots[1].name``) as a key path."""
+    parts: list[str | int] = []
+    for piece in re.findall(r"[^.\[\]]+", key):
+        parts.append(int(piece) if piece.isdigit() else piece)
+    return tuple(parts)
+
+
+def _first_difference(a: Any, b: Any, path: KeyPath) -> KeyPath:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in a:
+            if key not in b or a[key] != b[key]:
+                return _first_difference(a[key], b.get(key), (*path, key))
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for index, (x, y) in enumerate(zip(a, b, strict=True)):
+            if x != y:
+                return _first_difference(x, y, (*path, index))
+    return path
 
 
 def _tree_copy(value: Any) -> Any:
