@@ -262,8 +262,8 @@ CASES = [
     Case("--out /dev/null", out_is("/dev/null"), "not a directory", False),
     Case(
         "replay --record into a missing folder",
-        flags("replay", "WORK/norun", "x", "--record", "/missing/dir/x.rrd"),
-        "norun",
+        flags("replay", "WORK/norun", "x", "--record", "WORK/missing/dir/x.rrd"),
+        "does not exist",
     ),
 ]
 
@@ -586,14 +586,14 @@ def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
     monkeypatch.setattr(executors, "KILL_GRACE_S", 2.0)
     sweep = write_yaml(
         tmp_path / "s.yaml",
-        sweep_data(episodes_per_point=3, axes={"limits.wall_time_s": [20.0]}),
+        sweep_data(episodes_per_point=3, axes={"limits.wall_time_s": [60.0]}),
     )
     episodes = expand(load_sweep(sweep), sweep)
     victim = episodes[1].resolved_id
     monkeypatch.setenv(HANG_ENV, victim)
     start = time.monotonic()
     outcome = run_sweep(sweep, out=tmp_path / "run", backend="process", workers=1, progress=False)
-    assert time.monotonic() - start < 240
+    assert time.monotonic() - start < 400  # the victim is killed at 62 s, not never
     rows = {row["episode_id"]: row for row in _jsonl(outcome.run_dir)}
     assert sorted(rows) == sorted(e.resolved_id for e in episodes)
     assert rows[victim]["failure_reason"] == "timeout"
