@@ -185,7 +185,11 @@ class _ProcessPool:
         if episode is None:
             worker.deadline = math.inf
             return False
-        worker.deadline = time.monotonic() + episode.task.limits.wall_time_s + KILL_GRACE_S
+        # A shared episode that must be recorded runs twice (the second time for its trace),
+        # each run under the limit.
+        runs = 2 if self.share and (episode.record or self.record == "failures") else 1
+        limit = runs * episode.task.limits.wall_time_s
+        worker.deadline = time.monotonic() + limit + KILL_GRACE_S
         worker.conn.send(episode)
         return True
 
