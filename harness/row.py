@@ -210,6 +210,13 @@ class EpisodeRow:
     recording_error: str | None = field(
         default=None, metadata=_doc("why the episode recording could not be written")
     )
+    config_sha256: str | None = field(
+        default=None,
+        metadata=_doc(
+            "sha256 of the run's sweep.yaml body when the row was stored (--resume "
+            "refuses rows of another configuration)"
+        ),
+    )
 
     def as_dict(self) -> dict[str, Any]:
         """The row's columns in order; optional columns (default ``None``) only once set."""

@@ -34,7 +34,7 @@ from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
 TASK_FILES = PICK_TASKS
-ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error"}
+ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error", "config_sha256"}
 
 
 @pytest.fixture(scope="module")

@@ -78,7 +78,7 @@ def test_episode_row_and_error_row_share_one_identity() -> None:
     assert {k: produced[k] for k in identity} == {k: lost[k] for k in identity}
     assert produced["param.pick.approach_filter"] == '["downward", 140]'
     assert produced["episode_id"] == spec.resolved_id and produced["seed"] == 7
-    assert list(produced)[: len(SCHEMA) - 3] == list(SCHEMA)[:-3]  # executor columns unset
+    assert list(produced)[: len(SCHEMA) - 4] == list(SCHEMA)[:-4]  # executor/store columns unset
 
 
 def test_append_and_load_round_trip_with_types_and_nulls(tmp_path: Path) -> None:
