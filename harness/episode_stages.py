@@ -215,6 +215,8 @@ def reset(
     result.row["grip_force_limit_n"] = gripper.force_limit
     result.row["gripper_variant"] = scene.robot.gripper_variant
     semantics = Semantics.from_pick(task.pick)
+    result.row["speed_scale"] = task.pick.speed_scale
+    result.row["planning_world"] = semantics.name  # Semantics.planning_world's rule
     planner = bundle.planner(task.arm)
     streams = EpisodeStreams(spec.seed)
     setup = Setup(spec, result, semantics, bundle, streams, evaluation, key, planner)

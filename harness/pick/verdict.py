@@ -28,6 +28,7 @@ closing), so they can be checked without a simulation.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -131,15 +132,17 @@ def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, .
             "one_finger",
             "no_contact",
             not (closes and not v.min_finger_force_n >= pick.min_finger_force),
-            f"finger forces {closing[0]:.2f} / {closing[1]:.2f} N after closing, "
-            f"{held[0]:.2f} / {held[1]:.2f} N after the hold: one below {pick.min_finger_force} N",
+            f"finger forces {held[0]:.2f} / {held[1]:.2f} N after the hold (after closing "
+            f"{closing[0]:.2f} / {closing[1]:.2f} N): one below {pick.min_finger_force} N",
         ),
         VerdictTerm(
             "slipped_in_hold",
             "dropped",
-            v.hold_slip_m <= pick.max_slip,
-            f"the object slipped {v.hold_slip_m * 1e3:.1f} mm in the hold "
-            f"(bound {pick.max_slip * 1e3:.1f} mm)",
+            v.hold_slip_m <= pick.max_slip and v.hold_rotation_rad <= pick.max_slip_rotation,
+            f"the object moved {v.hold_slip_m * 1e3:.1f} mm and turned "
+            f"{math.degrees(v.hold_rotation_rad):.1f} deg in the hand from the closing to the end "
+            f"of the hold (bounds {pick.max_slip * 1e3:.1f} mm, "
+            f"{math.degrees(pick.max_slip_rotation):.1f} deg)",
         ),
         VerdictTerm(
             "lost_in_tug",
