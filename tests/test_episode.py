@@ -22,7 +22,6 @@ from harness.episode_ids import episode_seed
 from harness.episode_streams import EpisodeStreams
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
-from harness.pick import semantics as semantics_module
 from harness.pick.executor import SERVO_CHUNK_S
 from harness.pick.semantics import Semantics
 from harness.pick.targets import command_targets
@@ -417,17 +416,12 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     assert row["post_grasp_offset"] == lift_offset
 
 
-@pytest.mark.parametrize(
-    ("semantics", "test_carry"), [("reference", True), ("reference", False), ("strict", True)]
-)
-def test_forward_test_and_the_lift(
-    cube: Path, cache: dict, monkeypatch: pytest.MonkeyPatch, semantics: str, test_carry: bool
-) -> None:
-    """A lift of 1 m is out of the FR3's reach. The forward test plans the lift (default): every
-    candidate fails there; reference proceeds with the last (plan_failed), strict stops
-    (no_feasible_candidate). Without the carry in the test (the reference's rule,
-    FORWARD_TEST_PLANS_CARRY False) the first candidate passes and its lift fails the episode."""
-    monkeypatch.setattr(semantics_module, "FORWARD_TEST_PLANS_CARRY", test_carry)
+@pytest.mark.parametrize("semantics", ["reference", "strict"])
+def test_forward_test_and_the_lift(cube: Path, cache: dict, semantics: str) -> None:
+    """A lift of 1 m is out of the FR3's reach. Reference: the forward test plans only the
+    pre-grasp and the grasp (pick.py), so the first candidate passes and its lift, planned
+    afterwards, fails the episode (plan_failed). Strict tests the lift too: every candidate
+    fails there and it stops (no_feasible_candidate)."""
     lift = {"post_grasp_offset_min": 1.0, "post_grasp_offset_max": 1.0}
     pick = {"test_mode": "forward", "semantics": semantics, **lift}
     task = make_task("fr3", "left", cube, object=CENTRE, pick=pick)
@@ -436,10 +430,6 @@ def test_forward_test_and_the_lift(
         assert row["failure_reason"] == "no_feasible_candidate"
         assert row["n_tested"] == 20 and row["n_feasible"] == 0
         assert "last: lift: " in row["error_message"]
-    elif test_carry:
-        assert row["failure_reason"] == "plan_failed"
-        assert row["n_tested"] == 20 and row["n_feasible"] == 0
-        assert row["error_message"].startswith("lift: ")
     else:
         assert row["failure_reason"] == "plan_failed"
         assert row["error_message"].startswith("lift: ")

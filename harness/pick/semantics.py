@@ -21,6 +21,7 @@ from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_terms
 from harness.planning.world import PlanningWorld
+from harness.sim.composition import TABLE_NAME
 
 # Under reference a forward test plans only the pre-grasp and the grasp (pick.py
 # simple_generate_manip_cmds: test_single_forward / test_single_ik on those two poses); the carry
@@ -73,11 +74,14 @@ class Semantics:
     def from_pick(cls, pick: PickConfig) -> Semantics:
         """The policy of ``pick.semantics`` (with the pick's own ignore list under reference)."""
         strict = pick.semantics == "strict"
+        ignored = reference_ignore_list(pick)
         return cls(
             name=pick.semantics,
-            table_in_planning=strict,
+            # reference: the table is out when the ignore list names it (the default does; a
+            # robot list that does not, e.g. ["material"], keeps it in)
+            table_in_planning=strict or not any(part in TABLE_NAME for part in ignored),
             table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-            ignore_substring=() if strict else reference_ignore_list(pick),
+            ignore_substring=() if strict else ignored,
             test_carry=strict,
             fixed_orientation_in_test=strict,
             pregrasp_along_fixed_axis=strict,
