@@ -9,8 +9,6 @@ and the feasibility rule (no lift in the reference's forward test) in
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import mujoco
 import numpy as np
 import pytest
@@ -32,7 +30,7 @@ def test_reference_pace_is_the_default_and_keeps_joint_speeds_sane(cache: dict) 
     """Default speed_scale is the reference's pace, 0.01 s waypoints at 1/30 s steps = 0.3
     (template_controller.py): the row says so, the plan plays more than twice as long as at
     full speed on the same seed, and no joint comes near its velocity limit."""
-    assert REFERENCE_SPEED_SCALE == pytest.approx(0.01 * 30)
+    assert pytest.approx(0.01 * 30) == REFERENCE_SPEED_SCALE
     task = load_task(TASKS_DIR / "lift2_left.yaml")
     paced = episode(task, 1, cache).row
     fast = episode(apply_overrides(task, {"pick.speed_scale": 1.0}), 1, cache).row

@@ -17,7 +17,6 @@ from harness.config.errors import KeyedValueError
 from harness.config.filters import AxisFilter, FilterSpec, reversed_band_message
 from harness.config.values import FiniteFloat, Probability, StrictModel
 
-
 # The reference's pace: its controller plays one planner waypoint per physics step
 # (template_controller.py ee_forward, ``cmd_idx += ds_ratio`` with ds_ratio 1), the planner
 # interpolates at 0.01 s (template_controller.py _init_motion_gen, ``interpolation_dt=0.01``)

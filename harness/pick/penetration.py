@@ -28,7 +28,6 @@ import numpy as np
 
 from harness.sim import TABLE_NAME, Scene
 
-
 # Distances beyond this are not asked for (m): only the inside of the slab matters.
 DISTANCE_MAX = 0.01
 

@@ -138,8 +138,9 @@ def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, .
         VerdictTerm(
             "slipped_in_hold",
             "dropped",
-            v.hold_slip_m <= pick.max_slip and v.hold_rotation_rad <= pick.max_slip_rotation,
-            f"the object moved {v.hold_slip_m * 1e3:.1f} mm and turned "
+            # a rotation not measured (NaN: the phase never closed on it) does not fail
+            v.hold_slip_m <= pick.max_slip and not v.hold_rotation_rad > pick.max_slip_rotation,
+            f"the object slipped {v.hold_slip_m * 1e3:.1f} mm and turned "
             f"{math.degrees(v.hold_rotation_rad):.1f} deg in the hand from the closing to the end "
             f"of the hold (bounds {pick.max_slip * 1e3:.1f} mm, "
             f"{math.degrees(pick.max_slip_rotation):.1f} deg)",

@@ -128,7 +128,9 @@ class CollisionChecker:
         T_world_ee = _body_T(d, self.handles.ee_body)
         base_z = d.xmat[self.handles.base_body].reshape(3, 3)[:, 2]
         T_world_ee[:3, 3] -= ATTACH_OFFSET * base_z  # offset^-1 * T_world_ee
-        T_world_target = _body_T(d, self.scene.objects[self.scene.object_names[self.target_index]].body_id)
+        T_world_target = _body_T(
+            d, self.scene.objects[self.scene.object_names[self.target_index]].body_id
+        )
         self.T_ee_target = np.linalg.inv(T_world_ee) @ T_world_target
 
     def detach(self) -> None:
