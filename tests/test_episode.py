@@ -129,9 +129,11 @@ def test_reference_plans_through_a_physical_table_strict_does_not() -> None:
 def test_object_friction_decides_a_heavy_pick() -> None:
     """Issue 16 item 4: ``object.friction`` used to be a no-op (MuJoCo keeps the larger of two
     coefficients, and the pads' always won). With the reference engine's average, a 0.8 kg cube
-    squeezed with ~5.6 N per pad slips at friction 0.1 (0.55 at the pads) and holds at 1.5
-    (1.25), on the same seeds: measured 0/5 vs 5/5 (episodes 1-5 of seed 0)."""
-    base = load_task(TASKS_DIR / "fr3.yaml")
+    squeezed with 5 N per pad slips at friction 0.1 (0.55 at the pads) and holds at 1.5
+    (1.25), on the same seeds. Re-pinned (issue 22) from the FR3, whose force-controlled grasp
+    now presses 70 N and holds it at either friction, to the Lift-2 (5 N per pad): episodes
+    1-3 of seed 0 measured 0/3 vs 3/3."""
+    base = load_task(TASKS_DIR / "lift2_left.yaml")
     cache: dict = {}
     outcomes = {}
     for friction in (0.1, 1.5):
