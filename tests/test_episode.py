@@ -90,17 +90,31 @@ def test_one_fr3_episode_from_the_task_file(cache: dict) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", TASK_FILES)
 def test_every_robot_and_arm_picks_the_cube(name: str) -> None:
-    """Canonical parameters, 10 seeds: at least 8 real picks per robot arm."""
+    """Canonical parameters, 10 seeds: every seed is a real pick, or fails where the reference
+    fails by its own rule -- its feasibility test leaves the lift out (pick.py), so a chosen
+    candidate whose lift pose lies beyond the arm's reach is ``plan_failed`` at the lift (issue
+    22; on the small arms 3-6 of these 10 seeds, lift poses 5-13 mm past the IK tolerance at
+    the lift line) -- and at most 2 seeds fail for any other cause (the bound this test had
+    before issue 22 switched the feasibility rule to the reference's)."""
     task = load_task(TASKS_DIR / f"{name}.yaml")
     cache: dict = {}
     failures = []
+    lift_out_of_reach = 0
     for seed in range(10):
         result = episode(task, seed, cache)
+        row = result.row
+        if row["failure_reason"] == "plan_failed" and row["error_message"].startswith(
+            "lift: IK failed"
+        ):
+            lift_out_of_reach += 1
+            assert row["n_feasible"] >= 1, row["error_message"]  # the test passed its grasp
+            continue
         try:
             check_pick(result)
         except AssertionError as exc:
             failures.append(f"seed {seed}: {exc}")
     assert len(failures) <= 2, "\n".join(failures)
+    assert 10 - lift_out_of_reach - len(failures) >= 4  # real picks on every arm
 
 
 @pytest.mark.slow
