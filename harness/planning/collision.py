@@ -11,7 +11,9 @@ contacts. What counts as a collision depends on the phase of the motion:
 - ``approach`` (pre-grasp -> grasp): the same, except the picking arm's fingers may touch the
   target object (a palm pressing on it would stop the hand short of the grasp);
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
-  is checked against the target object.
+  is checked against the target object; where the world attaches it (``attach``, the
+  reference's ``attach_obj``), the target rides in the hand and is checked against the rest of
+  the world.
 
 What the planning world holds is set per episode (``sync``, a ``PlanningWorld`` that
 ``harness.pick.semantics.Semantics.planning_world`` decides): the table (out under reference
