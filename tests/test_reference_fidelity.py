@@ -16,8 +16,8 @@ from test_episode import TASKS_DIR, episode
 
 from harness.config import apply_overrides, load_task
 from harness.config.pick import REFERENCE_SPEED_SCALE
+from harness.episode.scene_cache import get_scene
 from harness.pick.penetration import TablePenetration
-from harness.scene_cache import get_scene
 from harness.sim import TABLE_NAME
 
 
