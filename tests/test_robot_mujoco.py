@@ -194,8 +194,7 @@ def squeeze_per_pad(name: str, arm_name: str, width: float) -> tuple[float, floa
     return left, right
 
 
-@pytest.mark.parametrize(("name", "arm_name"), [("fr3", "left"), ("lift2", "left"),
-                                                ("split_aloha", "left")])  # fmt: skip
+@pytest.mark.parametrize(("name", "arm_name"), list({n: (n, a) for n, a in ARMS}.values()))
 @pytest.mark.parametrize("width", [0.01, 0.04, 0.06])
 def test_force_grasp_squeezes_with_the_force_limit_at_every_width(
     name: str, arm_name: str, width: float
