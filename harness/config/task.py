@@ -124,12 +124,15 @@ class GripperChoice(StrictModel):
     pad_friction: FiniteFloat | None = Field(default=None, gt=0.0, le=10.0)
     kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
     kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
+    grasp: Literal["force", "position"] | None = Field(
+        default=None, description="force-controlled or position-controlled closing."
+    )
 
-    def overrides(self) -> dict[str, float]:
+    def overrides(self) -> dict[str, float | str]:
         """The grip physics values this task sets (robot.yaml keys)."""
         return {
             key: value
-            for key in ("force_limit", "pad_friction", "kp", "kv")
+            for key in ("force_limit", "pad_friction", "kp", "kv", "grasp")
             if (value := getattr(self, key)) is not None
         }
 
