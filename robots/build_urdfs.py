@@ -517,7 +517,17 @@ def add_piper(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]
     robot.joint(p + "tcp_joint", "fixed", p + "link6", p + "tcp", (0, 0, PIPER_TCP))
 
 
-SPLIT_ARM_MOUNT = (0.2305, 0.297, 0.782)  # Cobot Magic fl_base_link w.r.t. the footprint
+# Arm bases w.r.t. the root (the robot prim the reference places and plans from): x and y are
+# the reference's own, from its LeRobot converter policy/lmdb2lerobotv21/lmdb2lerobot_split_aloha_a1.py
+# (lines 382-385: fl/arm_base at robot + (0.3684792, 0.30600064, 0.65270409), fr/arm_base at
+# (0.36847978, -0.30599953, 0.65270409)). The robot frame there is the robot prim whose pose is
+# T_world_base (core/robots/template_robot.py line 195: the robot's local pose) and whose origin
+# xy the region sampler sets (core/utils/region_sampler.py lines 33-39), so x and y carry over
+# as they are. Height: the converter's z is above that prim's origin, whose height above the
+# robot's lowest point (which the sampler stands on the floor) is in the robot USD, not public;
+# for the Lift-2 the same converter's z is not the simulated arm height either (see LIFT_ARM_Z).
+# So the height stays the Cobot Magic cuRobo fixture's 0.782 above the footprint.
+SPLIT_ARM_MOUNT = (0.3684795, 0.306, 0.782)
 
 
 def build_split_aloha() -> Robot:
@@ -527,8 +537,9 @@ def build_split_aloha() -> Robot:
 Split ALOHA: two AgileX Piper arms side by side facing +x on a mobile base (primitive geometry).
 Arm chain: piper_no_gripper_description.urdf (newer chain, piper_ros@ac41fcb), SDK limits; the
 URDF's J1 upper limit 2.168 is a typo and is written as 2.618 here. Velocity/effort are the URDF
-placeholders. Arm bases at footprint + (0.2305, +-0.297, 0.782): the Cobot Magic cuRobo
-fixture (0.59 m apart, 0.78 m high; yaw 0.02 dropped). Gripper: two prismatic fingers, 0-0.05
+placeholders. Arm bases at footprint + (0.3685, +-0.306, 0.782): x, y from the reference's
+LeRobot converter (lmdb2lerobot_split_aloha_a1.py), height from the Cobot Magic cuRobo fixture
+(0.78 m high). Gripper: two prismatic fingers, 0-0.05
 each (the reference's piper100 jaw 0.10; the SDK's 0.07 is a robot.yaml variant), Menagerie
 agilex_piper collision boxes as pads. link6 is the SDK link6 turned +90 deg about z (fingers along x);
 link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
@@ -544,7 +555,8 @@ link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
         ],  # wheels
         box((0.17, 0.2, 0.5), (0.04, 0.04, 0.48)),  # posts
         box((0.17, -0.2, 0.5), (0.04, 0.04, 0.48)),
-        box((ax, 0, az - 0.021), (0.12, 0.70, 0.042)),  # arm crossbar, top at the arm bases
+        # arm crossbar from the posts to the arm bases, its top at the arm bases
+        box(((0.11 + ax + 0.06) / 2, 0, az - 0.021), (ax + 0.06 - 0.11, 0.72, 0.042)),
         box((-0.15, 0, 0.75), (0.04, 0.04, 0.98)),  # camera mast
         box((-0.12, 0, 1.26), (0.05, 0.12, 0.04)),  # head camera
     ]
@@ -660,7 +672,17 @@ def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) 
 
 LIFT_XYZ = (0.094118, 0.0010067, 0.27)  # lift joint on the base (lift2.urdf, description 1)
 LIFT_RANGE = (0.0, 0.46)
-LIFT_ARM_MOUNT = (0.059949, 0.25, 0.0245)  # arm bases on the carriage
+# Arm bases on the carriage. lift2.urdf puts them at carriage + (0.059949, +-0.25, 0.0245),
+# i.e. root + (0.154067, 0.25 + 0.0010067, ...). The reference's LeRobot converter
+# policy/lmdb2lerobotv21/lmdb2lerobot_lift2_a1.py (lines 382-385) has fl/base_link at robot +
+# (0.163030156, 0.248420062, 0.694000185) and fr/base_link at (0.163030139, -0.248420087, ...):
+# 9 mm further forward and symmetric about the root. x and y follow the reference. Its z,
+# 0.694, is what lift2.urdf gives at a lift of 0.40 (0.27 + 0.40 + 0.0245 = 0.6945), not at
+# the lift home 0.46 that the reference holds (robots_lift2.yaml lift_home), so the height
+# stays lift2.urdf's.
+LIFT_ARM_X = 0.163030 - LIFT_XYZ[0]
+LIFT_ARM_Y = 0.24842  # each side of the root's x axis (reference converter)
+LIFT_ARM_Z = 0.0245
 
 
 def build_lift2() -> Robot:
@@ -670,7 +692,8 @@ def build_lift2() -> Robot:
 ARX Lift-2: a base with a prismatic lift carrying two ARX R5a arms 0.50 m apart, facing +x.
 Base/lift/mounting: fiveages-sim robot-descriptions-arx lift2.urdf (base 21 kg, lift joint at
 base + (0.094118, 0.0010067, 0.27), range 0-0.46 m, 0.15 m/s, 400 N; carriage 14.2 kg; arm bases
-at carriage + (0.059949, +-0.25, 0.0245)). The reference holds the lift at 0.46, the top of this
+at root + (0.16303, +-0.24842) as the reference's LeRobot converter has them, 0.0245 above the
+carriage as in lift2.urdf). The reference holds the lift at 0.46, the top of this
 range. Arms: R5a.urdf chain and ranges (J1 upper 2.168 is a typo, written as 2.618), arx5-sdk
 velocity and torque limits. Gripper: fingers at link6 + (0.08657, +-0.0249, -0.00024) sliding
 along +-y, 0-0.044 each (0.088 total), Menagerie arx_l5 collision boxes as pads. TCP at link6 + 0.125 x (reference tcp_offset).
@@ -705,9 +728,8 @@ Root 'base' = the chassis origin on the floor.
         400.0,
         0.15,
     )
-    mx, my, mz = LIFT_ARM_MOUNT
-    add_r5a(robot, "left_", "lift_link", (mx, my, mz))
-    add_r5a(robot, "right_", "lift_link", (mx, -my, mz))
+    add_r5a(robot, "left_", "lift_link", (LIFT_ARM_X, LIFT_ARM_Y - ly, LIFT_ARM_Z))
+    add_r5a(robot, "right_", "lift_link", (LIFT_ARM_X, -LIFT_ARM_Y - ly, LIFT_ARM_Z))
     del lx, ly, lz
     return robot
 

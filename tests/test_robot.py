@@ -198,11 +198,30 @@ def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
     for arm in robot.arms.values():
         R = wrapper.get_T_a_b(robot.root_frame, arm.base_frame)[:3, :3]
         np.testing.assert_allclose(R, np.eye(3), atol=1e-12)
-    if len(robot.arms) == 2:
-        left = wrapper.get_T_a_b(robot.root_frame, "left_arm_base")[:3, 3]
-        right = wrapper.get_T_a_b(robot.root_frame, "right_arm_base")[:3, 3]
-        spacing = {"lift2": 0.50, "split_aloha": 0.594}[robot.name]
-        assert left[1] - right[1] == pytest.approx(spacing, abs=1e-9)
+
+
+# Arm bases in the robot's root frame as the reference has them: x, y from its LeRobot
+# converters (policy/lmdb2lerobotv21/lmdb2lerobot_{split_aloha,lift2}_a1.py lines 382-385,
+# armbase_to_robot_pose); heights: Cobot Magic fixture 0.782 (split_aloha) and lift2.urdf at the
+# lift home 0.46 (0.27 + 0.46 + 0.0245), see robots/build_urdfs.py for why not the converters' z.
+REFERENCE_ARM_BASES = {
+    "split_aloha": {"left": (0.3684792, 0.30600064, 0.782), "right": (0.36847978, -0.30599953, 0.782)},
+    "lift2": {"left": (0.163030156, 0.248420062, 0.7545), "right": (0.163030139, -0.248420087, 0.7545)},
+}
+
+
+def test_arm_bases_sit_where_the_reference_puts_them(robot: RobotModel) -> None:
+    if robot.name not in REFERENCE_ARM_BASES:
+        pytest.skip("fr3: one arm, its base is the root frame's panda_link0 mount")
+    model = build_robot_spec(robot).compile()
+    data = mujoco.MjData(model)
+    set_configuration(model, data, robot_addresses(model, robot), robot.home_configuration())
+    mujoco.mj_kinematics(model, data)
+    root = data.body(robot.root_frame)
+    for arm_name, expected in REFERENCE_ARM_BASES[robot.name].items():
+        base = data.body(robot.arms[arm_name].base_frame)
+        in_root = root.xmat.reshape(3, 3).T @ (base.xpos - root.xpos)
+        np.testing.assert_allclose(in_root, expected, atol=5e-6)
 
 
 def test_fingers_travel_along_the_grasp_closing_axis(robot: RobotModel) -> None:
@@ -359,7 +378,7 @@ def test_robots_list_and_show(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["robots", "show", "lift2"]) == 0
     out = capsys.readouterr().out
     assert "lift lift_joint: range 0.0-0.46 m, home 0.46" in out
-    assert "right arm base at [0.249, -0.646, 0.032]" in out
+    assert "right arm base at [0.248, -0.637, 0.032]" in out  # root y -0.80 + 0.163 (reference converter)
     assert main(["robots", "show", "ur5"]) == 2
     assert "available robots: fr3, lift2, split_aloha" in capsys.readouterr().err
 
