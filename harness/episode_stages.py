@@ -210,7 +210,9 @@ def reset(
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
-    result.row["object_friction"] = scene.objects[task.target_object.name].asset.friction
+    target_asset = scene.objects[task.target_object.name].asset
+    result.row["object_friction"] = target_asset.friction
+    result.row["object_mass_kg"] = target_asset.mass
     gripper = scene.robot.arm(task.arm).gripper  # a clear error for an unknown arm
     result.row["grip_force_limit_n"] = gripper.force_limit
     result.row["gripper_variant"] = scene.robot.gripper_variant

@@ -227,8 +227,12 @@ class Scene(SceneQueries):
             lowest = float(np.min(obj.asset.vertices @ R[2, :]))
             pos = pos.copy()
             pos[2] += -lowest + DROP_CLEARANCE
-            d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
-            d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
+            if obj.fixed:
+                d.mocap_pos[obj.mocap_id] = pos
+                d.mocap_quat[obj.mocap_id] = matrix_to_quat(R)
+            else:
+                d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
+                d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
             T_world_objects[obj.name] = make_T(R, pos)
 
         home = self.home_configuration(task, rng)
@@ -313,6 +317,8 @@ class Scene(SceneQueries):
         top or beyond ``MAX_REACH_M`` of its centre (a tunnelled or launched object, not a
         pick that merely missed)."""
         for name, obj in self.objects.items():
+            if obj.fixed:  # a fixture stays where it was placed (beside the table, maybe low)
+                continue
             x, y, z = (float(v) for v in self.data.qpos[obj.qpos_adr : obj.qpos_adr + 3])
             if z < -MAX_FALL_M:
                 return f"object {name!r} fell {-z:.3g} m below the table top: it left the scene"

@@ -205,10 +205,12 @@ class TaskMapper(TaskResolver):
         for key in obj.config:
             if key in OBJECT_KEYS_IGNORED:
                 self.note(f"ignored {self.key((*obj.path, key))}: {OBJECT_KEYS_IGNORED[key]}")
-        if obj.config.get("target_class", "RigidObject") != "RigidObject":
+        target_class = obj.config.get("target_class", "RigidObject")
+        fixed = target_class == "GeometryObject"  # static in the reference (geometry_object.py)
+        if target_class not in ("RigidObject", "GeometryObject"):
             self.note(
                 f"{self.key((*obj.path, 'target_class'))}: "
-                f"{obj.config.get('target_class')} simulated as a free rigid body"
+                f"{target_class} simulated as a free rigid body"
             )
         orientations, category, free_yaw = self.orientations(obj, mesh)
         index = len(done)
@@ -224,6 +226,12 @@ class TaskMapper(TaskResolver):
         }
         if category:
             config["category"] = category
+        if fixed:
+            config["fixed"] = True
+            origin[(*base, "fixed")] = (*obj.path, "target_class")
+        if "mass" in obj.config:  # the reference passes it to its RigidPrim (rigid_object.py:43)
+            config["mass"] = obj.config["mass"]
+            origin[(*base, "mass")] = (*obj.path, "mass")
         if substitute_scale is not None:
             config["scale"] = substitute_scale
         elif obj.name in self.substitutes:
