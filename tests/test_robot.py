@@ -205,8 +205,14 @@ def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
 # armbase_to_robot_pose); heights: Cobot Magic fixture 0.782 (split_aloha) and lift2.urdf at the
 # lift home 0.46 (0.27 + 0.46 + 0.0245), see robots/build_urdfs.py for why not the converters' z.
 REFERENCE_ARM_BASES = {
-    "split_aloha": {"left": (0.3684792, 0.30600064, 0.782), "right": (0.36847978, -0.30599953, 0.782)},
-    "lift2": {"left": (0.163030156, 0.248420062, 0.7545), "right": (0.163030139, -0.248420087, 0.7545)},
+    "split_aloha": {
+        "left": (0.3684792, 0.30600064, 0.782),
+        "right": (0.36847978, -0.30599953, 0.782),
+    },
+    "lift2": {
+        "left": (0.163030156, 0.248420062, 0.7545),
+        "right": (0.163030139, -0.248420087, 0.7545),
+    },
 }
 
 
@@ -378,7 +384,8 @@ def test_robots_list_and_show(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["robots", "show", "lift2"]) == 0
     out = capsys.readouterr().out
     assert "lift lift_joint: range 0.0-0.46 m, home 0.46" in out
-    assert "right arm base at [0.248, -0.637, 0.032]" in out  # root y -0.80 + 0.163 (reference converter)
+    # root y -0.80 + 0.163 (the reference converter)
+    assert "right arm base at [0.248, -0.637, 0.032]" in out
     assert main(["robots", "show", "ur5"]) == 2
     assert "available robots: fr3, lift2, split_aloha" in capsys.readouterr().err
 

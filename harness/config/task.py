@@ -67,6 +67,14 @@ class ObjectConfig(StrictModel):
     placement: Placement | None = Field(
         default=None, description="Default: the robot arm's object region from robot.yaml."
     )
+    min_distance: FiniteFloat | None = Field(
+        default=None,
+        ge=0.0,
+        le=1.0,
+        description="Placed at least this far (m, between bounding circles in xy) from every "
+        "object placed before it, redrawing up to 100 times (the reference's distractors "
+        "min_object_distance). Default: placed independently.",
+    )
     orientations: list[Vec3] | None = Field(
         default=None,
         description="Base orientations (xyz Euler, degrees) drawn uniformly per episode.",

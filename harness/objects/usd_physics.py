@@ -48,7 +48,8 @@ def read_usd_physics(path: str | Path) -> UsdPhysics:
 @functools.lru_cache(maxsize=256)
 def _read(path: Path, mtime_ns: int) -> UsdPhysics:
     del mtime_ns  # part of the cache key only
-    from pxr import Usd, UsdPhysics as Physics, UsdShade
+    from pxr import Usd, UsdShade
+    from pxr import UsdPhysics as Physics
 
     stage = Usd.Stage.Open(str(path))
     mass = static = dynamic = None
@@ -66,7 +67,7 @@ def _read(path: Path, mtime_ns: int) -> UsdPhysics:
     return UsdPhysics(mass, static, dynamic)
 
 
-def _physics_material(prim, UsdShade):  # noqa: ANN001, ANN202, N803 (pxr is untyped)
+def _physics_material(prim, UsdShade):
     """The material bound to ``prim`` for purpose "physics" (None when there is none)."""
     if not prim.HasAPI(UsdShade.MaterialBindingAPI):
         return None
@@ -75,7 +76,7 @@ def _physics_material(prim, UsdShade):  # noqa: ANN001, ANN202, N803 (pxr is unt
     return material if material else None
 
 
-def _authored(attribute) -> float | None:  # noqa: ANN001 (pxr is untyped)
+def _authored(attribute) -> float | None:
     if not attribute or not attribute.HasAuthoredValue():
         return None
     return float(attribute.Get())

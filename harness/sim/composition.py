@@ -201,8 +201,6 @@ def scene_key(task: TaskConfig) -> str:
         grasps = obj.grasps
         if grasps and not Path(grasps).is_absolute():
             grasps = str((base / grasps).resolve()) if (base / grasps).exists() else grasps
-        objects.append(
-            [obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction, obj.fixed]
-        )
+        objects.append([obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction, obj.fixed])
     robot = [task.robot, task.gripper.model_dump(mode="json")]
     return json.dumps([robot, objects, task.physics.model_dump(mode="json")], sort_keys=True)

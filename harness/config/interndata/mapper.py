@@ -13,6 +13,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from harness.config.errors import ConfigError
+from harness.config.interndata.distractors import distractor_objects
 from harness.config.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     TABLE_NAME,
@@ -101,6 +102,8 @@ class TaskMapper(TaskResolver):
                 self.check_grasp_file(obj, Path(config["mesh"]), block, pick.path)
             if config is not None:
                 object_configs.append(config)
+        if task.get("distractors"):
+            object_configs.extend(self.distractors(task["distractors"], objects))
 
         yaw = self.robot_yaw(robot)
         robot_placement = None
@@ -140,6 +143,25 @@ class TaskMapper(TaskResolver):
             return TaskConfig.model_validate(data)
         except ValidationError as exc:
             raise self.translate(exc, origin) from None
+
+    def distractors(self, block: Any, objects: dict[str, ObjectEntry]) -> list[dict[str, Any]]:
+        """The ``distractors`` block's rigid objects (``harness.config.interndata.distractors``)."""
+        path = (*self.path, "distractors")
+        self.mapping(block, path, "distractors")
+        pos_range = block.get("pos_range")
+        if not (isinstance(pos_range, list) and len(pos_range) == 2):
+            raise self.error((*path, "pos_range"), "expected [[x_min, y_min], [x_max, y_max]]")
+        for row in pos_range:
+            width = 3 if isinstance(row, list) and len(row) == 3 else 2
+            self.numbers(row, (*path, "pos_range"), width)
+        own = {
+            Path(str(obj.config.get("path", ""))).parts[-3]
+            for obj in objects.values()
+            if len(Path(str(obj.config.get("path", ""))).parts) >= 3
+        }
+        return distractor_objects(
+            block, self.asset_base(), own, self.where.file, self.note, self.key(path)
+        )
 
     def pick_block(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
         """The pick's block, with the robot's ``ignore_substring`` entries put first."""
