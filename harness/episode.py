@@ -158,6 +158,8 @@ def _run(
 ) -> None:
     """Reset, candidates, feasibility, then the chosen candidate's execution: each stage takes
     what ``evaluation`` already knows and adds what it computes."""
+    if spec.task.not_runnable:
+        raise EpisodeStopError("not_runnable", spec.task.not_runnable)
     setup = reset(spec, scene_cache, result, evaluation, key)
     try:
         planning = candidates(setup)

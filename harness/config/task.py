@@ -197,6 +197,12 @@ class TaskConfig(StrictModel):
         default=1.0 / 30.0, gt=0.0, le=0.5, description="Control step (s); the reference's 1/30."
     )
     source: str | None = Field(default=None, description="File this task was loaded from.")
+    not_runnable: str | None = Field(
+        default=None,
+        description="Why this pick cannot run on its own: set by the InternData mapper for a "
+        "pick whose object an earlier skill of the file handles (a handover's second pick "
+        "takes it from the other gripper). Its episodes are 'not_runnable' rows, in no rate.",
+    )
 
     @model_validator(mode="before")
     @classmethod

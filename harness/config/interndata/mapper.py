@@ -135,6 +135,9 @@ class TaskMapper(TaskResolver):
             "pick": block,
             "source": self.where.file,
         }
+        if pick.not_runnable:
+            data["not_runnable"] = pick.not_runnable
+            self.note(f"not runnable in isolation: {pick.not_runnable}")
         if max_steps is not None:
             data["max_episode_length"] = max_steps
         else:
