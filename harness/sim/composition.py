@@ -179,7 +179,8 @@ def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
     info = load_object_info(name)
     update: dict[str, object] = {}
     for key in ("mass", "friction", "orientations", "category"):
-        if key not in obj.model_fields_set and info.get(key) is not None:
+        # None is "not given" (a task that went through model_dump lists every key as set)
+        if getattr(obj, key) is None and info.get(key) is not None:
             update[key] = info[key]
     if not update:
         return obj
