@@ -13,14 +13,13 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from test_motion import _planner, top_down_grasp
-from test_scene import make_task, write_box
+from helpers import make_task, scene_planner, top_down_grasp, write_box
 
 from harness.config import PickConfig
-from harness.config.interndata import load_interndata_tasks
 from harness.episode import run_episode
 from harness.episode_spec import EpisodeSpec
 from harness.errors import InputFileError
+from harness.interndata import load_interndata_tasks
 from harness.objects.assets import ObjectAsset
 from harness.objects.usd_physics import read_usd_physics
 from harness.pick.semantics import Semantics
@@ -96,7 +95,7 @@ def fixture_scene(tmp_path_factory: pytest.TempPathFactory):
         object={"placement": {"pos_range": [[-0.1, 0, 0], [-0.1, 0, 0]], "yaw_range": [0, 0]}},
         extra_objects=[{"name": "bin", "mesh": str(box), "fixed": True, **at}],
     )
-    scene, planner = _planner(task)
+    scene, planner = scene_planner(task)
     return task, scene, planner
 
 

@@ -14,19 +14,19 @@ from pathlib import Path
 from typing import Any
 
 from harness.config.errors import ConfigError
-from harness.config.interndata.categories import CATEGORY_ORIENTATIONS
-from harness.config.interndata.dependencies import SkillRef, not_runnable_reason, skill_target
-from harness.config.interndata.errors import Located
-from harness.config.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
-from harness.config.interndata.orientations import (
+from harness.config.messages import suggest
+from harness.config.yamlio import KeyPath, format_key_path
+from harness.interndata.categories import CATEGORY_ORIENTATIONS
+from harness.interndata.dependencies import SkillRef, not_runnable_reason, skill_target
+from harness.interndata.errors import Located
+from harness.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
+from harness.interndata.orientations import (
     RANDOM_GRID_STEP,
     random_orientations,
     suggested_orientations,
 )
-from harness.config.interndata.result import SkippedSkill
-from harness.config.interndata.substitutes import split_substitute
-from harness.config.messages import suggest
-from harness.config.yamlio import KeyPath, format_key_path
+from harness.interndata.result import SkippedSkill
+from harness.interndata.substitutes import split_substitute
 from harness.robots.facts import interndata_home, interndata_robots, robot_arms
 
 log = logging.getLogger(__name__)
@@ -62,7 +62,7 @@ class PickSkill:
     stage: int
     phase: int
     skill_index: int
-    not_runnable: str | None = None  # harness.config.interndata.dependencies
+    not_runnable: str | None = None  # harness.interndata.dependencies
 
 
 class TaskResolver:

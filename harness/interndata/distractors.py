@@ -25,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from harness.config.interndata.orientations import suggested_orientations
+from harness.interndata.orientations import suggested_orientations
 
 NAME_PREFIX = "distractors_"
 

@@ -13,19 +13,19 @@ from typing import Any
 from pydantic import ValidationError
 
 from harness.config.errors import ConfigError
-from harness.config.interndata.distractors import distractor_objects
-from harness.config.interndata.keys import (
+from harness.config.task import TaskConfig
+from harness.config.validation import describe_validation_error
+from harness.config.yamlio import KeyPath
+from harness.errors import InputFileError
+from harness.interndata.distractors import distractor_objects
+from harness.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     TABLE_NAME,
     TASK_KEYS_IGNORED,
     TASK_KEYS_MAPPED,
 )
-from harness.config.interndata.resolver import ObjectEntry, PickSkill, TaskResolver
-from harness.config.interndata.result import InternDataPick
-from harness.config.task import TaskConfig
-from harness.config.validation import describe_validation_error
-from harness.config.yamlio import KeyPath
-from harness.errors import InputFileError
+from harness.interndata.resolver import ObjectEntry, PickSkill, TaskResolver
+from harness.interndata.result import InternDataPick
 
 
 class TaskMapper(TaskResolver):
@@ -148,7 +148,7 @@ class TaskMapper(TaskResolver):
             raise self.translate(exc, origin) from None
 
     def distractors(self, block: Any, objects: dict[str, ObjectEntry]) -> list[dict[str, Any]]:
-        """The ``distractors`` block's rigid objects (``harness.config.interndata.distractors``)."""
+        """The ``distractors`` block's rigid objects (``harness.interndata.distractors``)."""
         path = (*self.path, "distractors")
         self.mapping(block, path, "distractors")
         pos_range = block.get("pos_range")
