@@ -155,11 +155,11 @@ def test_object_keys_mean_the_picked_object_not_the_first() -> None:
     task = TaskConfig.model_validate(scene)
     changed = apply_overrides(task, {"object.mass": 0.5, "object.friction": 0.7})
     assert [(o.name, o.mass, o.friction) for o in changed.objects] == [
-        ("cube", 0.1, 1.0),
+        ("cube", None, None),  # not given: the asset's (object.yaml) values apply
         ("banana", 0.5, 0.7),
     ]
     first = apply_overrides(task, {"objects.0.mass": 0.3})
-    assert [o.mass for o in first.objects] == [0.3, 0.1]
+    assert [o.mass for o in first.objects] == [0.3, None]
 
     sweep = make_sweep(tasks=[scene], axes={"object.mesh": ["banana", "mug"]}, episodes_per_point=1)
     tasks = [e.task for e in expand(sweep, None)]
