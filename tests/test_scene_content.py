@@ -16,8 +16,8 @@ import yaml
 from helpers import make_task, scene_planner, top_down_grasp, write_box
 
 from harness.config import PickConfig
-from harness.episode import run_episode
-from harness.episode_spec import EpisodeSpec
+from harness.episode.pipeline import run_episode
+from harness.episode.spec import EpisodeSpec
 from harness.errors import InputFileError
 from harness.interndata import load_interndata_tasks
 from harness.objects.assets import ObjectAsset
