@@ -78,6 +78,7 @@ def tune(
             workers=workers,
             backend=backend,
             progress=progress,
+            max_points=None,  # the tune grid is generated and bounded by --step / --bands
         )
     finish_run(outcome.run_dir)
     if outcome.stats.interrupted:
