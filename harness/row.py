@@ -195,36 +195,6 @@ class EpisodeRow:
         default="", metadata=_doc("first failure cause (FAILURE_REASONS), '' on success")
     )
     error_message: str = field(default="", metadata=_doc("message of an error or of the failure"))
-    # Location (harness.episode.location): where the object stood, where the episode failed
-    object_x_m: float = field(
-        default=math.nan, metadata=_doc("object x at reset in the arm base frame (m, forward)")
-    )
-    object_y_m: float = field(
-        default=math.nan, metadata=_doc("object y at reset in the arm base frame (m, left)")
-    )
-    object_z_m: float = field(
-        default=math.nan, metadata=_doc("object z at reset in the arm base frame (m, up)")
-    )
-    object_yaw_deg: float = field(
-        default=math.nan, metadata=_doc("object yaw at reset about the arm base z (degrees)")
-    )
-    object_distance_m: float = field(
-        default=math.nan,
-        metadata=_doc("horizontal distance of the object at reset from the arm base (m)"),
-    )
-    failure_stage: str = field(
-        default="",
-        metadata=_doc(
-            "where the episode failed: settle, warmup, filter, feasibility:<stage>, "
-            "plan:<stage>, execute:<command>; '' on success (harness.episode.location)"
-        ),
-    )
-    collision_a: str = field(
-        default="", metadata=_doc("first body of the colliding pair that failed it, '' if none")
-    )
-    collision_b: str = field(
-        default="", metadata=_doc("second body of the colliding pair that failed it, '' if none")
-    )
     # Validity (harness.pick.validity): after the reference verdict; see docs/semantics.md
     valid: bool = field(
         default=False,
@@ -262,6 +232,36 @@ class EpisodeRow:
             "deepest any moving robot collision geom went into the table slab during the motion "
             "(m, MuJoCo signed distance)"
         ),
+    )
+    # Location (harness.episode.location): where the object stood, where the episode failed
+    object_x_m: float = field(
+        default=math.nan, metadata=_doc("object x at reset in the arm base frame (m, forward)")
+    )
+    object_y_m: float = field(
+        default=math.nan, metadata=_doc("object y at reset in the arm base frame (m, left)")
+    )
+    object_z_m: float = field(
+        default=math.nan, metadata=_doc("object z at reset in the arm base frame (m, up)")
+    )
+    object_yaw_deg: float = field(
+        default=math.nan, metadata=_doc("object yaw at reset about the arm base z (degrees)")
+    )
+    object_distance_m: float = field(
+        default=math.nan,
+        metadata=_doc("horizontal distance of the object at reset from the arm base (m)"),
+    )
+    failure_stage: str = field(
+        default="",
+        metadata=_doc(
+            "where the episode failed: settle, warmup, filter, feasibility:<stage>, "
+            "plan:<stage>, execute:<command>; '' on success (harness.episode.location)"
+        ),
+    )
+    collision_a: str = field(
+        default="", metadata=_doc("first body of the colliding pair that failed it, '' if none")
+    )
+    collision_b: str = field(
+        default="", metadata=_doc("second body of the colliding pair that failed it, '' if none")
     )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))
