@@ -72,8 +72,8 @@ def test_a_late_two_finger_close_is_valid(cache: dict) -> None:
     and holds with both fingers at 70 N through the hold and the tug: valid, since the
     two-finger check is after the hold (it was ``one_finger`` when judged at the closing)."""
     # The 0.1 kg cube this was measured on: since the cube runs at its object.yaml 0.05 kg
-    # (issue 22), the slowed fingers push the lighter cube aside and close on nothing
-    # (no_contact, seeds 2-3), which is not the case this test is about.
+    # (issue 22), these slowed fingers end the closing window with no contact on seeds 2-3
+    # (no_contact; measured, cause not yet analysed), which is not the case this test is about.
     slow = {"robot.gripper.kv": 17000.0, "object.mass": 0.1}
     task = apply_overrides(load_task(TASKS_DIR / "fr3.yaml"), slow)
     row = episode(task, 2, cache).row
