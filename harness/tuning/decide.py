@@ -209,3 +209,12 @@ def gain_interval(racer: Racer, current: Racer, confidence: float = 0.95) -> tup
     ci = binomtest(won, won + lost).proportion_ci(confidence, method="exact")
     scale = (won + lost) / n
     return scale * (2 * ci.low - 1), scale * (2 * ci.high - 1)
+
+
+def advance(race: UnitRace, block_of: dict[int, list[bool]]) -> None:
+    """Give every alive racer its next block of outcomes (keyed by screening rank) and look:
+    what the race runner does with episodes, for constructed or simulated outcomes."""
+    for racer in race.alive():
+        racer.outcomes.extend(block_of[racer.rank])
+        racer.reference.extend(block_of[racer.rank])
+    update(race)

@@ -16,6 +16,7 @@ from typing import Any
 
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.util import load_yaml_guess_indent
 
 from harness.errors import HarnessError
 
@@ -31,6 +32,8 @@ def merged_text(text: str, keys: dict[str, list[Any] | None], source: Path) -> s
     yaml = YAML()
     yaml.preserve_quotes = True
     yaml.width = 4096
+    _, indent, sequence_offset = load_yaml_guess_indent(text)
+    yaml.indent(mapping=sequence_offset or indent, sequence=indent, offset=sequence_offset)
     data = yaml.load(text)
     if not isinstance(data, CommentedMap):
         raise HarnessError(f"{source}: not a task file (a mapping)")
