@@ -198,6 +198,10 @@ def _add_compare(sub: Subparsers) -> None:
     p.add_argument("run_a", metavar="RUN_A", help="the baseline run directory (A)")
     p.add_argument("run_b", metavar="RUN_B", help="the run directory compared with it (B)")
     p.add_argument("--csv", metavar="FILE", help="also write the comparison table as CSV")
+    p.add_argument("--match", choices=["auto", "settings", "arm"], default="auto",
+                   help="pair by identical settings, or by robot, arm and object whatever "
+                   "filters ran (a tuned task file vs the current one); auto: by arm when "
+                   "each run holds one setting per robot, arm and object")  # fmt: skip
     p.set_defaults(func=_handler("report", "compare"))
 
 
