@@ -217,21 +217,43 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--episodes", type=EPISODES, help="screening seeds per setting (default 10)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
-    p.add_argument("--top", type=_bounded_int(1, 20), default=3,
-                   help="screening's best settings raced against the current one (default 3)")  # fmt: skip
-    p.add_argument("--block", type=_bounded_int(1, 1000), default=10,
-                   help="fresh seeds per race round (default 10)")  # fmt: skip
-    p.add_argument("--max-seeds", type=_bounded_int(1, 100_000), default=40,
-                   help="fresh seeds per robot, arm and object at most (default 40)")  # fmt: skip
-    p.add_argument("--budget", metavar="N|Ns",
-                   help="stop the race after N episodes or N CPU seconds (e.g. 300s)")  # fmt: skip
+    p.add_argument(
+        "--top",
+        type=_bounded_int(1, 20),
+        default=3,
+        help="screening's best settings raced against the current one (default 3)",
+    )
+    p.add_argument(
+        "--block",
+        type=_bounded_int(1, 1000),
+        default=10,
+        help="fresh seeds per race round (default 10)",
+    )
+    p.add_argument(
+        "--max-seeds",
+        type=_bounded_int(1, 100_000),
+        default=40,
+        help="fresh seeds per robot, arm and object at most (default 40)",
+    )
+    p.add_argument(
+        "--budget",
+        metavar="N|Ns",
+        help="stop the race after N episodes or N CPU seconds (e.g. 300s)",
+    )
     p.add_argument("--seed", type=SEED, help="screening sweep seed (default: the sweep's, else 0)")
     p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
-    p.add_argument("--write", metavar="DIR",
-                   help="write each tuned task file with its filter keys merged, and a diff")  # fmt: skip
-    p.add_argument("--objective", choices=["valid", "reference"], default="valid",
-                   help="decide by the validity verdict (default) or the reference success")  # fmt: skip
+    p.add_argument(
+        "--write",
+        metavar="DIR",
+        help="write each tuned task file with its filter keys merged, and a diff",
+    )
+    p.add_argument(
+        "--objective",
+        choices=["valid", "reference"],
+        default="valid",
+        help="decide by the validity verdict (default) or the reference success",
+    )
     p.set_defaults(func=_handler("tune", "main"))
 
 

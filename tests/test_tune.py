@@ -19,7 +19,6 @@ import yaml
 
 from harness.cli import main as cli_main
 from harness.config import load_task
-from harness.config.interndata import load_interndata_tasks
 from harness.report import compare_runs
 from harness.report.stats import mcnemar_exact, wilson_interval
 from harness.report.tables import load_episodes
@@ -40,15 +39,25 @@ OPTIONS = TuneOptions(screen_seeds=EPISODES, block=3, max_seeds=6)
 @pytest.fixture(scope="module")
 def tuned(tmp_path_factory: pytest.TempPathFactory):
     out = tmp_path_factory.mktemp("tune")
-    return tune([FR3], step=90, bands=0, out=out / "run", options=OPTIONS, backend="serial",
-                write=out / "written")  # fmt: skip
+    return tune(
+        [FR3],
+        step=90,
+        bands=0,
+        out=out / "run",
+        options=OPTIONS,
+        backend="serial",
+        write=out / "written",
+    )
 
 
 def test_grid_holds_both_angle_forms_and_valid_bands() -> None:
     approach = approach_values(5, 3)
     assert [a[1] for a in approach[:18]] == [float(a) for a in range(90, 180, 5)]  # 90..175
-    assert approach[18:] == [["downward", 90.0, 120.0], ["downward", 120.0, 150.0],
-                             ["downward", 150.0, 180.0]]  # fmt: skip
+    assert approach[18:] == [
+        ["downward", 90.0, 120.0],
+        ["downward", 120.0, 150.0],
+        ["downward", 150.0, 180.0],
+    ]
     facing = facing_values(5, 2)
     assert facing[-3] == ["forward", 180.0] and facing[-2:] == [
         ["forward", 90.0, 0.0],
@@ -88,11 +97,15 @@ def test_tune_screens_then_races_on_fresh_seeds(tuned) -> None:
     decision = tuned.decisions.iloc[0]
     assert decision["verdict"] in (KEEP, SWITCH, "undecided within budget")
     assert (decision["current_approach"], decision["current_facing"]) == (
-        '["downward", 140.0]', '["forward", 90.0]')  # fmt: skip
+        '["downward", 140.0]',
+        '["forward", 90.0]',
+    )
     race = pd.read_csv(tuned.run_dir / "tune" / "race.csv")
     assert race["current"].sum() == 1 and len(race) == 4  # the current + the 3 others
-    current = confirm[(confirm["param.pick.approach_filter"] == '["downward", 140.0]')
-                      & (confirm["param.pick.facing_filter"] == '["forward", 90.0]')]  # fmt: skip
+    current = confirm[
+        (confirm["param.pick.approach_filter"] == '["downward", 140.0]')
+        & (confirm["param.pick.facing_filter"] == '["forward", 90.0]')
+    ]
     assert decision["current_n"] == len(current) == race.loc[race["current"], "n"].iloc[0]
     assert decision["current_successes"] == int(current["valid"].sum())
     assert decision["current_reference_rate"] == pytest.approx(current["success"].mean())
@@ -109,8 +122,11 @@ def test_the_keys_to_merge_hold_the_decision_in_the_robots_keys(tuned, tmp_path:
     blocks = yaml.safe_load(tuned.tuned_yaml.read_text())
     keys = blocks["fr3_pick_cube"]["pick"]
     decision = tuned.decisions.iloc[0]
-    chosen = (decision["approach"], decision["facing"]) if decision["verdict"] == SWITCH else (
-        decision["current_approach"], decision["current_facing"])  # fmt: skip
+    chosen = (
+        (decision["approach"], decision["facing"])
+        if decision["verdict"] == SWITCH
+        else (decision["current_approach"], decision["current_facing"])
+    )
     # fr3 approaches along EE z and faces along EE x (robots/fr3/robot.yaml convention).
     assert keys == {"filter_z_dir": json.loads(chosen[0]), "filter_x_dir": json.loads(chosen[1])}
     assert "Merge these keys" in tuned.yaml_text and "decision:" in tuned.yaml_text
@@ -129,13 +145,16 @@ def test_write_changes_only_the_filter_keys(tuned) -> None:
     assert all("filter_" in a and "filter_" in b for a, b in changed)
     assert bool(changed) == (tuned.decisions.iloc[0]["verdict"] == SWITCH)
     assert load_task(copy).pick.model_dump(exclude={"filter_x_dir", "filter_z_dir"}) == load_task(
-        FR3).pick.model_dump(exclude={"filter_x_dir", "filter_z_dir"})  # fmt: skip
+        FR3
+    ).pick.model_dump(exclude={"filter_x_dir", "filter_z_dir"})
 
 
 def test_write_keeps_strict_ruckig_every_other_key_and_comment() -> None:
-    text = FR3.read_text().replace(
-        "pick:\n", "pick:\n  semantics: strict   # keep me\n  timing: ruckig\n"
-    ).replace("  filter_x_dir: [forward, 90]", "  filter_x_dir: [forward, 90]  # facing cone")
+    text = (
+        FR3.read_text()
+        .replace("pick:\n", "pick:\n  semantics: strict   # keep me\n  timing: ruckig\n")
+        .replace("  filter_x_dir: [forward, 90]", "  filter_x_dir: [forward, 90]  # facing cone")
+    )
     merged = merged_text(text, {"filter_z_dir": ["downward", 120], "filter_x_dir": None}, FR3)
     expected = [line for line in text.splitlines() if "filter_x_dir" not in line]
     expected = [line.replace("[downward, 140]", "[downward, 120]") for line in expected]
@@ -155,7 +174,9 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
         runs[name] = tmp_path / name
         args = ["run", str(path), "--episodes", str(EPISODES), "--record", "none", "--out"]
         assert cli_main([*args, str(runs[name])]) == 0
-        assert "filters fr3 left (fr3_pick_cube): filter_x_dir forward 90" in capsys.readouterr().out
+        assert (
+            "filters fr3 left (fr3_pick_cube): filter_x_dir forward 90" in capsys.readouterr().out
+        )
     by_arm = compare_runs(runs["now"], runs["wide"], match="auto")
     assert len(by_arm) == 1 and by_arm["match"].iloc[0] == "arm"
     row = by_arm.iloc[0]
@@ -224,8 +245,6 @@ def test_audit_flags_a_grasp_wider_than_the_jaw(tmp_path: Path) -> None:
     assert pd.read_csv(result.csv)["flagged"].sum() == len(flagged)
 
 
-
-
 def test_audit_counts_distinct_executions_not_rows(tuned) -> None:
     """Settings that differ only in filters share a seed's execution of the same grasp: the
     audit counts it once (``trials``), beside the rows that reused it (``rows``)."""
@@ -235,3 +254,26 @@ def test_audit_counts_distinct_executions_not_rows(tuned) -> None:
     distinct = executed[["task", "seed", "chosen_index"]].drop_duplicates()
     assert table["rows"].sum() == len(executed)
     assert table["trials"].sum() == len(distinct) < len(executed)
+
+
+@pytest.mark.slow
+def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -> None:
+    """fr3 with its canonical filters (valid on every seed measured) and a copy whose facing
+    cone is narrowed to ``forward 20`` (measured: valid 4/10, 4 reference fallbacks; docs/tune.md)
+    tuned together: the bad copy switches with a confirmed gain, the canonical one keeps."""
+    bad = tmp_path / "fr3_facing20.yaml"
+    text = FR3.read_text().replace("name: fr3_pick_cube", "name: fr3_pick_cube_facing20")
+    bad.write_text(merged_text(text, {"filter_x_dir": ["forward", 20]}, FR3))
+    options = TuneOptions(screen_seeds=3, top=1, block=5, max_seeds=15)
+    result = tune(
+        [FR3, bad], step=90, bands=0, out=tmp_path / "tune", options=options, backend="serial"
+    )
+    decisions = result.decisions.set_index("task")
+    good, switched = decisions.loc["fr3_pick_cube"], decisions.loc["fr3_pick_cube_facing20"]
+    assert good["verdict"] == KEEP, good.to_dict()
+    assert switched["verdict"] == SWITCH, switched.to_dict()
+    assert switched["facing"] != '["forward", 20.0]'
+    assert switched["gain_lo"] > 0 and switched["rate"] > switched["current_rate"]
+    assert switched["p_holm"] <= options.alpha / (options.max_seeds // options.block)
+    screen_seeds = set(load_episodes(result.run_dir / "screen")["seed"])
+    assert not screen_seeds & set(load_episodes(result.run_dir / "confirm")["seed"])

@@ -9,8 +9,17 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest
 
-from harness.tuning.decide import (KEEP, SWITCH, UNDECIDED, Racer, UnitRace, advance, holm,
-                                   one_sided_mcnemar, verdict)  # fmt: skip
+from harness.tuning.decide import (
+    KEEP,
+    SWITCH,
+    UNDECIDED,
+    Racer,
+    UnitRace,
+    advance,
+    holm,
+    one_sided_mcnemar,
+    verdict,
+)
 from harness.tuning.grid import approach_values, axis_values, facing_values, filter_key
 
 BLOCK = 10
@@ -59,6 +68,19 @@ def test_holm_corrects_for_the_number_of_racers() -> None:
     reject, adjusted = holm([0.02, 0.03, 0.04], 0.05)
     assert reject == [False, False, False]  # 0.02 > 0.05 / 3
     assert adjusted[0] == pytest.approx(0.06)
+
+
+def test_holm_agrees_with_statsmodels() -> None:
+    from statsmodels.stats.multitest import multipletests
+
+    rng = np.random.default_rng(3)
+    for size in (1, 2, 3, 5):
+        for _ in range(20):
+            p_values = list(rng.random(size) ** 3)
+            reject, adjusted, _, _ = multipletests(p_values, alpha=0.0125, method="holm")
+            ours = holm(p_values, 0.0125)
+            assert ours[0] == list(reject)
+            assert ours[1] == pytest.approx(list(adjusted))
 
 
 def test_holm_turns_an_uncorrected_win_into_undecided() -> None:

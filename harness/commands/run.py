@@ -173,8 +173,12 @@ def main(args: argparse.Namespace) -> int:
     run.finalize()
     wall_s = time.perf_counter() - start
     for task in tasks:
-        console.print(filters_line(apply_overrides(task, overrides)), soft_wrap=True,
-                      highlight=False, markup=False)  # fmt: skip
+        console.print(
+            filters_line(apply_overrides(task, overrides)),
+            soft_wrap=True,
+            highlight=False,
+            markup=False,
+        )
     return _print_outcome(console, rows, len(episodes), run.path, wall_s, bool(picks))
 
 

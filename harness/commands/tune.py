@@ -31,9 +31,17 @@ def main(args: argparse.Namespace) -> int:
             max_seeds=args.max_seeds,
             budget=args.budget,
         )
-        result = tune([Path(f) for f in args.files], step=args.step, bands=args.bands,
-                      out=Path(args.out) if args.out else None, seed=args.seed, options=options,
-                      workers=args.workers, progress=True, write=write)  # fmt: skip
+        result = tune(
+            [Path(f) for f in args.files],
+            step=args.step,
+            bands=args.bands,
+            out=Path(args.out) if args.out else None,
+            seed=args.seed,
+            options=options,
+            workers=args.workers,
+            progress=True,
+            write=write,
+        )
     if result.interrupted and result.decisions.empty:
         console.print(
             f"[yellow]interrupted[/]: finished episodes are kept; run the same harness tune "

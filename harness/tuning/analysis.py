@@ -117,7 +117,9 @@ def ranked(unit_map: pd.DataFrame, current: tuple[str, str]) -> pd.DataFrame:
     ).reset_index(drop=True)
 
 
-def challengers(unit_map: pd.DataFrame, current: tuple[str, str], top: int) -> list[tuple[str, str]]:
+def challengers(
+    unit_map: pd.DataFrame, current: tuple[str, str], top: int
+) -> list[tuple[str, str]]:
     """The ``top`` best non-fallback settings of the screening other than the current one."""
     table = ranked(unit_map, current)
     table = frame_of(table[~column(table, "is_current")])
@@ -139,8 +141,10 @@ def axis_order(values: list[str]) -> list[str]:
 def isolated(unit_map: pd.DataFrame, setting: tuple[str, str]) -> bool:
     """True when every grid neighbour of ``setting`` (one step along either axis of the map)
     screened at least ``ISOLATION_DROP`` below it: a peak that may be noise."""
-    rates = {(str(a), str(f)): float(r) for a, f, r in
-             zip(unit_map["approach"], unit_map["facing"], unit_map["rate"], strict=True)}  # fmt: skip
+    rates = {
+        (str(a), str(f)): float(r)
+        for a, f, r in zip(unit_map["approach"], unit_map["facing"], unit_map["rate"], strict=True)
+    }
     rows, cols = axis_order(list(unit_map["approach"])), axis_order(list(unit_map["facing"]))
     if setting not in rates:
         return False

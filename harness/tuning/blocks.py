@@ -59,8 +59,12 @@ def task_decisions(decisions: pd.DataFrame) -> list[tuple[str, dict[str, Any], p
     return out
 
 
-def tuned_yaml(decisions: pd.DataFrame, tasks: dict[str, TaskConfig], header: list[str],
-               sources: dict[str, str]) -> str:  # fmt: skip
+def tuned_yaml(
+    decisions: pd.DataFrame,
+    tasks: dict[str, TaskConfig],
+    header: list[str],
+    sources: dict[str, str],
+) -> str:
     """The text of ``tuned.yaml``: per task, the keys to merge, with the decision in comments."""
     text = [f"# {line}" for line in [*header, MERGE_NOTE]]
     for name, decided, rows in task_decisions(decisions):
@@ -76,8 +80,12 @@ def tuned_yaml(decisions: pd.DataFrame, tasks: dict[str, TaskConfig], header: li
     return "\n".join(text) + "\n"
 
 
-def tuned_markdown(decisions: pd.DataFrame, yaml_text: str, header: list[str],
-                   heatmaps: dict[tuple[str, str], Path]) -> str:  # fmt: skip
+def tuned_markdown(
+    decisions: pd.DataFrame,
+    yaml_text: str,
+    header: list[str],
+    heatmaps: dict[tuple[str, str], Path],
+) -> str:
     """``tuned.md``: the decision table per unit and the keys to merge."""
     rows = []
     for row in series_rows(decisions):
@@ -98,10 +106,31 @@ def tuned_markdown(decisions: pd.DataFrame, yaml_text: str, header: list[str],
                 f"[png]({image.parent.name}/{image.name})" if image else "",
             ]
         )
-    columns = ["robot arm object", "decision", "setting (chosen, else current)",
-               "rate on fresh seeds (95% CI)", "reference rate", "current on the same seeds",
-               "current reference rate", "paired gain (95% CI)", "screening rate",
-               "isolated", "map"]  # fmt: skip
-    parts = ["# Tune decisions", "", *header, "", *markdown_table(columns, rows), "",
-             "## tuned.yaml", "", "```yaml", yaml_text.rstrip(), "```", ""]  # fmt: skip
+    columns = [
+        "robot arm object",
+        "decision",
+        "setting (chosen, else current)",
+        "rate on fresh seeds (95% CI)",
+        "reference rate",
+        "current on the same seeds",
+        "current reference rate",
+        "paired gain (95% CI)",
+        "screening rate",
+        "isolated",
+        "map",
+    ]
+    parts = [
+        "# Tune decisions",
+        "",
+        *header,
+        "",
+        *markdown_table(columns, rows),
+        "",
+        "## tuned.yaml",
+        "",
+        "```yaml",
+        yaml_text.rstrip(),
+        "```",
+        "",
+    ]
     return "\n".join(parts)

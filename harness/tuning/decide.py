@@ -10,8 +10,8 @@ After each round (a *look*; at most ``looks`` = ``max_seeds / block`` of them):
 
 - **claims**: each alive challenger c against the current setting, the exact one-sided McNemar
   test (``scipy.stats.binomtest`` of c-only successes among the discordant seeds, p = 1/2,
-  alternative "greater"), Holm-corrected over the alive challengers
-  (``statsmodels.stats.multitest.multipletests``) at level ``alpha / looks``. Bonferroni over
+  alternative "greater"), Holm-corrected over the alive challengers (:func:`holm`, equal to
+  statsmodels ``multipletests(method="holm")``) at level ``alpha / looks``. Bonferroni over
   the looks makes the claims valid whatever the race stops on: the chance of any false
   "better than current" over the whole race is at most ``alpha`` (Holm 1979; the union bound).
   A challenger rejected at a look is *confirmed* (it stays confirmed).
@@ -23,9 +23,10 @@ After each round (a *look*; at most ``looks`` = ``max_seeds / block`` of them):
   The current setting is never dropped: it is the control every claim is paired with.
 
 The race of a unit stops when no challenger is alive, when no alive challenger is ahead of the
-current setting after ``min_looks`` looks (ties keep the current), when exactly one challenger is alive and confirmed, or
-at ``looks`` rounds / the budget. Verdict: a confirmed challenger -> "switch" (the best
-confirmed by its rate); else an alive challenger ahead of current -> "undecided within budget"
+current setting after ``min_looks`` looks (ties keep the current), when exactly one challenger
+is alive and confirmed, or at ``looks`` rounds / the budget. Verdict: a confirmed challenger
+-> "switch" (the confirmed one with the largest paired gain); else an alive challenger ahead
+of current -> "undecided within budget"
 (with the seeds a paired test would need to settle it); else "keep current".
 """
 
@@ -36,7 +37,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import binomtest, norm
-from statsmodels.stats.multitest import multipletests
 
 KEEP = "keep current"
 SWITCH = "switch"
@@ -102,11 +102,17 @@ def one_sided_mcnemar(better_only: int, worse_only: int) -> float:
 
 
 def holm(p_values: list[float], level: float) -> tuple[list[bool], list[float]]:
-    """Holm's step-down rejections and adjusted p-values (statsmodels ``multipletests``)."""
-    if not p_values:
-        return [], []
-    reject, adjusted, _, _ = multipletests(p_values, alpha=level, method="holm")
-    return [bool(r) for r in reject], [float(p) for p in adjusted]
+    """Holm's step-down rejections and adjusted p-values, as statsmodels
+    ``multipletests(method="holm")`` gives them (tests/test_tune_decide.py checks they agree).
+    Computed here because ``multipletests`` runs ``gc.collect()`` on every Holm call
+    (statsmodels/stats/multitest.py, 0.14-0.15): 0.1-0.7 s each in a process holding a tune."""
+    order = np.argsort(p_values, kind="stable")
+    m = len(p_values)
+    steps = np.asarray(p_values, float)[order] * (m - np.arange(m))
+    adjusted_sorted = np.minimum(np.maximum.accumulate(steps), 1.0)
+    adjusted = np.empty(m)
+    adjusted[order] = adjusted_sorted
+    return [bool(p <= level) for p in adjusted], [float(p) for p in adjusted]
 
 
 def leader(race: UnitRace) -> Racer:
@@ -125,7 +131,9 @@ def update(race: UnitRace) -> None:
         if racer.fallback:
             racer.alive, racer.dropped_at = False, race.look
     challengers = race.challengers()
-    claims = [one_sided_mcnemar(*discordant(r.outcomes, race.current.outcomes)) for r in challengers]
+    claims = [
+        one_sided_mcnemar(*discordant(r.outcomes, race.current.outcomes)) for r in challengers
+    ]
     for racer, rejected, adjusted in zip(challengers, *holm(claims, level), strict=True):
         if rejected and racer.confirmed_at is None:
             racer.confirmed_at, racer.p_value = race.look, adjusted

@@ -48,8 +48,10 @@ def unit_row(unit: Unit, unit_map: pd.DataFrame, names: dict[str, str], why: str
     current = race.current
     shown = decided.chosen or current
     n = min(len(shown.outcomes), len(current.outcomes))
-    screen = {(str(a), str(f)): r for a, f, r in
-              zip(unit_map["approach"], unit_map["facing"], unit_map["rate"], strict=True)}  # fmt: skip
+    screen = {
+        (str(a), str(f)): r
+        for a, f, r in zip(unit_map["approach"], unit_map["facing"], unit_map["rate"], strict=True)
+    }
     low, high = gain_interval(shown, current) if decided.chosen else (0.0, 0.0)
     won = sum(a and not b for a, b in zip(shown.outcomes, current.outcomes, strict=False))
     lost = sum(b and not a for a, b in zip(shown.outcomes, current.outcomes, strict=False))

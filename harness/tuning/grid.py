@@ -91,9 +91,7 @@ def dedupe(values: list[list[Any] | None]) -> list[list[Any] | None]:
     return kept
 
 
-def axis_values(
-    grid: list[list[Any]], currents: list[list[Any] | None]
-) -> list[list[Any] | None]:
+def axis_values(grid: list[list[Any]], currents: list[list[Any] | None]) -> list[list[Any] | None]:
     """One axis of the tune: the distinct grid values, then the current settings not in it.
 
     A grid value that keeps the same axes as a current setting gives way to it, so the

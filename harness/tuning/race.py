@@ -29,8 +29,9 @@ CONFIRM_SEED_OFFSET = 100_000
 
 @dataclass(frozen=True)
 class Budget:
-    """When the race stops at the latest: episodes run, or episode CPU seconds (the rows'
-    ``wall_time_s``, one core each), over the whole race; None: no limit but ``max_seeds``."""
+    """When the race stops at the latest: episodes run, or episode-seconds (the sum of the rows'
+    ``wall_time_s``: each episode runs on one core, so on an idle machine this is its CPU time;
+    on a loaded one it is more), over the whole race; None: no limit but ``max_seeds``."""
 
     episodes: int | None = None
     seconds: float | None = None
@@ -86,9 +87,18 @@ def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
 class RaceRunner:
     """Builds and runs the episodes of the rounds in ``run_dir`` (reusing stored rows)."""
 
-    def __init__(self, run_dir: Path, screen: SweepConfig, tasks: list[TaskConfig],
-                 max_seeds: int, *, objective: str, backend: str, workers: int,
-                 may_run: bool) -> None:  # fmt: skip
+    def __init__(
+        self,
+        run_dir: Path,
+        screen: SweepConfig,
+        tasks: list[TaskConfig],
+        max_seeds: int,
+        *,
+        objective: str,
+        backend: str,
+        workers: int,
+        may_run: bool,
+    ) -> None:
         self.sweep = confirm_sweep(screen, max_seeds)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
@@ -96,7 +106,11 @@ class RaceRunner:
             json.dumps(p, sort_keys=True): i for i, p in enumerate(sweep_points(self.sweep))
         }
         self.objective, self.backend, self.workers, self.may_run = (
-            objective, backend, workers, may_run)  # fmt: skip
+            objective,
+            backend,
+            workers,
+            may_run,
+        )
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -104,7 +118,9 @@ class RaceRunner:
         """Create (or reopen) the race's run directory and read the rows it holds."""
         if self.run.sweep_yaml.is_file():
             self.run = RunDir.existing(self.run.path, force=True)
-            self.stored = {str(r["episode_id"]): r for r in self.run.store.load().to_dict("records")}
+            self.stored = {
+                str(r["episode_id"]): r for r in self.run.store.load().to_dict("records")
+            }
         elif self.may_run:
             self.run.create(self.sweep, list(self.tasks.values()), taken="")
         else:
@@ -122,9 +138,14 @@ class RaceRunner:
             configured = apply_overrides(base, point_overrides(base, point))
             self.configured[(task, key)] = configured
         return EpisodeSpec(
-            task=configured, task_name=task, point_id=self.points.get(key, -1), point=point,
-            episode_index=index, seed=episode_seed(self.sweep.seed, index), run=self.sweep.name,
-        )  # fmt: skip
+            task=configured,
+            task_name=task,
+            point_id=self.points.get(key, -1),
+            point=point,
+            episode_index=index,
+            seed=episode_seed(self.sweep.seed, index),
+            run=self.sweep.name,
+        )
 
     def round(self, units: list[Unit], block: int, log: RaceLog) -> bool:
         """Run one block for every running unit and apply the look; False if cut short."""
@@ -133,8 +154,11 @@ class RaceRunner:
             others = json.loads(unit.context)
             start = unit.race.look * block
             for racer in unit.race.alive():
-                point = {APPROACH_KEY: json.loads(racer.setting[0]),
-                         FACING_KEY: json.loads(racer.setting[1]), **others}  # fmt: skip
+                point = {
+                    APPROACH_KEY: json.loads(racer.setting[0]),
+                    FACING_KEY: json.loads(racer.setting[1]),
+                    **others,
+                }
                 specs = [self._spec(unit.task, point, i) for i in range(start, start + block)]
                 wanted.append((racer, specs))
         todo = [s for _, specs in wanted for s in specs if s.resolved_id not in self.stored]
@@ -153,7 +177,9 @@ class RaceRunner:
             rows = [self.stored[s.resolved_id] for s in specs]
             racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
             racer.reference.extend(bool(r.get("success")) for r in rows)
-            racer.fallback = racer.fallback or any(r.get("filter_outcome") == "fallback" for r in rows)
+            racer.fallback = racer.fallback or any(
+                r.get("filter_outcome") == "fallback" for r in rows
+            )
             log.episodes += len(rows)
             log.seconds += sum(float(r.get("wall_time_s") or 0.0) for r in rows)
             log.rows.extend(rows)

@@ -14,6 +14,7 @@ import json
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import cast
 
 import pandas as pd
 import yaml
@@ -29,8 +30,14 @@ from harness.tuning.analysis import challengers, settings_frame, success_map
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
 from harness.tuning.decide import Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
-from harness.tuning.grid import APPROACH_KEY, FACING_KEY, current_setting, filter_key, load_inputs
-from harness.tuning.grid import tune_sweep
+from harness.tuning.grid import (
+    APPROACH_KEY,
+    FACING_KEY,
+    current_setting,
+    filter_key,
+    load_inputs,
+    tune_sweep,
+)
 from harness.tuning.heatmaps import write_heatmaps
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
 from harness.tuning.write import write_copy
@@ -67,14 +74,29 @@ class TuneResult:
     log: RaceLog = field(default_factory=RaceLog)
 
 
-def tune(paths: list[Path], *, step: int = 5, bands: int = 3, out: Path | None = None,
-         seed: int | None = None, options: TuneOptions = TuneOptions(), workers: int | None = None,
-         backend: str = "process", progress: bool = False,
-         write: Path | None = None) -> TuneResult:  # fmt: skip
+def tune(
+    paths: list[Path],
+    *,
+    step: int = 5,
+    bands: int = 3,
+    out: Path | None = None,
+    seed: int | None = None,
+    options: TuneOptions = TuneOptions(),
+    workers: int | None = None,
+    backend: str = "process",
+    progress: bool = False,
+    write: Path | None = None,
+) -> TuneResult:
     """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide."""
     tasks, axes, sweep_seed = load_inputs(paths)
-    sweep = tune_sweep(tasks, axes, step=step, bands=bands, episodes=options.screen_seeds,
-                       seed=seed if seed is not None else (sweep_seed or 0))  # fmt: skip
+    sweep = tune_sweep(
+        tasks,
+        axes,
+        step=step,
+        bands=bands,
+        episodes=options.screen_seeds,
+        seed=seed if seed is not None else (sweep_seed or 0),
+    )
     out = out or RunDir.default_path(sweep.name)
     screen = out / SCREEN_DIR
     if (screen / "sweep.yaml").is_file():
@@ -83,8 +105,9 @@ def tune(paths: list[Path], *, step: int = 5, bands: int = 3, out: Path | None =
         with tempfile.TemporaryDirectory(prefix="harness-tune-") as folder:
             path = Path(folder) / "tune.yaml"
             path.write_text(yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False))
-            outcome = run_sweep(path, out=screen, workers=workers, backend=backend,
-                                progress=progress)  # fmt: skip
+            outcome = run_sweep(
+                path, out=screen, workers=workers, backend=backend, progress=progress
+            )
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
     options = TuneOptions(**{**asdict(options), "sources": sources})
     (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
@@ -116,25 +139,38 @@ def _current(task: TaskConfig, axes: dict[str, list[object]]) -> tuple[str, str]
     return found[0], found[1]
 
 
-def _units(success: pd.DataFrame, tasks: dict[str, TaskConfig], axes: dict[str, list[object]],
-           options: TuneOptions) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]]]:  # fmt: skip
+def _units(
+    success: pd.DataFrame,
+    tasks: dict[str, TaskConfig],
+    axes: dict[str, list[object]],
+    options: TuneOptions,
+) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]]]:
     units, names = [], {}
     looks = max(1, options.max_seeds // options.block)
-    for (task, context), group in success.groupby(["task", "context"], sort=False):
+    for key, group in success.groupby(["task", "context"], sort=False):
+        task, context = cast(tuple[str, str], key)
         current = _current(tasks[str(task)], axes)
         chosen = challengers(frame_of(group), current, options.top)
         racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
         units.append(Unit(str(task), str(context), UnitRace(racers, looks, options.alpha)))
         first = group.iloc[0]
         names[(str(task), str(context))] = {
-            "robot": str(first["robot"]), "arm": str(first["arm"]),
+            "robot": str(first["robot"]),
+            "arm": str(first["arm"]),
             "object": object_name(str(context), str(first["object"])),
-        }  # fmt: skip
+        }
     return units, names
 
 
-def decide(out: Path, options: TuneOptions, *, backend: str, workers: int | None, may_run: bool,
-           write: Path | None) -> TuneResult:  # fmt: skip
+def decide(
+    out: Path,
+    options: TuneOptions,
+    *,
+    backend: str,
+    workers: int | None,
+    may_run: bool,
+    write: Path | None,
+) -> TuneResult:
     """Race the screening's best against the current setting per unit and write the outputs."""
     screen = RunDir(out / SCREEN_DIR)
     sweep = screen.load_sweep()
@@ -142,9 +178,16 @@ def decide(out: Path, options: TuneOptions, *, backend: str, workers: int | None
     settings = settings_frame(load_episodes(screen.path), sweep, options.objective)
     success = success_map(settings)
     units, names = _units(success, tasks, sweep.axes, options)
-    runner = RaceRunner(out / CONFIRM_DIR, sweep, list(tasks.values()), options.max_seeds,
-                        objective=options.objective, backend=backend,
-                        workers=workers or default_workers(), may_run=may_run)  # fmt: skip
+    runner = RaceRunner(
+        out / CONFIRM_DIR,
+        sweep,
+        list(tasks.values()),
+        options.max_seeds,
+        objective=options.objective,
+        backend=backend,
+        workers=workers or default_workers(),
+        may_run=may_run,
+    )
     log = run_race(units, runner, options.block, Budget.parse(options.budget))
     why = "budget spent" if log.budget_spent else ("interrupted" if log.interrupted else "")
     decisions = pd.DataFrame(
@@ -161,8 +204,17 @@ def decide(out: Path, options: TuneOptions, *, backend: str, workers: int | None
     (folder / "tuned.yaml").write_text(text, encoding="utf-8")
     (folder / "tuned.md").write_text(tuned_markdown(decisions, text, header, images), "utf-8")
     written = _write(decisions, tasks, options, write) if write else []
-    return TuneResult(out, log.interrupted, decisions, text, folder / "tuned.yaml",
-                      folder / "tuned.md", list(images.values()), written, log)  # fmt: skip
+    return TuneResult(
+        out,
+        log.interrupted,
+        decisions,
+        text,
+        folder / "tuned.yaml",
+        folder / "tuned.md",
+        list(images.values()),
+        written,
+        log,
+    )
 
 
 def _unit_map(success: pd.DataFrame, unit: Unit) -> pd.DataFrame:
@@ -176,14 +228,15 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
         f"(sweep seed {seed + 100_000}), blocks of {options.block} up to {options.max_seeds}; "
         f"exact one-sided McNemar, Holm over the racers, alpha {options.alpha} split over "
         f"{max(1, options.max_seeds // options.block)} looks.",
-        f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode CPU s"
+        f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode-seconds"
         + ("; budget spent" if log.budget_spent else "")
         + ("; interrupted (run the tune again with the same --out)" if log.interrupted else ""),
     ]
 
 
-def _write(decisions: pd.DataFrame, tasks: dict[str, TaskConfig], options: TuneOptions,
-           folder: Path) -> list[Path]:  # fmt: skip
+def _write(
+    decisions: pd.DataFrame, tasks: dict[str, TaskConfig], options: TuneOptions, folder: Path
+) -> list[Path]:
     """Per task with a file: the merged copy and its diff under ``folder``."""
     written: list[Path] = []
     for name, decided, _ in task_decisions(decisions):

@@ -32,8 +32,14 @@ def bernoulli_correlation(rate: float, latent: float, rng: np.random.Generator) 
     return float(np.corrcoef(pair[0], pair[1])[0, 1])
 
 
-def one_race(rates: list[float], block: int, max_seeds: int, latent: float,
-             rng: np.random.Generator, alpha: float = 0.05) -> tuple[str, int, int]:  # fmt: skip
+def one_race(
+    rates: list[float],
+    block: int,
+    max_seeds: int,
+    latent: float,
+    rng: np.random.Generator,
+    alpha: float = 0.05,
+) -> tuple[str, int, int]:
     """(verdict, chosen rank or -1, seeds used) of one race; rates[0] is the current setting."""
     outcomes = draw(rates, max_seeds, latent, rng)
     racers = [Racer(("a", str(k)), k) for k in range(len(rates))]
@@ -46,8 +52,9 @@ def one_race(rates: list[float], block: int, max_seeds: int, latent: float,
     return decided.verdict, chosen, decided.seeds
 
 
-def switch_rate(rates: list[float], runs: int, block: int, max_seeds: int, latent: float,
-                seed: int) -> tuple[float, float, float]:  # fmt: skip
+def switch_rate(
+    rates: list[float], runs: int, block: int, max_seeds: int, latent: float, seed: int
+) -> tuple[float, float, float]:
     """(share of runs that switch, that switch to rank 1, mean fresh seeds used)."""
     rng = np.random.default_rng(seed)
     results = [one_race(rates, block, max_seeds, latent, rng) for _ in range(runs)]
@@ -57,7 +64,7 @@ def switch_rate(rates: list[float], runs: int, block: int, max_seeds: int, laten
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     p.add_argument("--runs", type=int, default=2000)
     p.add_argument("--rate", type=float, default=0.8, help="the current setting's rate")
     p.add_argument("--latent", type=float, default=0.62, help="copula correlation")
@@ -67,18 +74,23 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--gains", default="0.05,0.1,0.15,0.2")
     args = p.parse_args(argv)
     rho = bernoulli_correlation(args.rate, args.latent, np.random.default_rng(1))
-    print(f"current rate {args.rate}, outcome correlation between settings {rho:.2f}, "
-          f"{args.top} challengers, blocks of {args.block} up to {args.max_seeds}, "
-          f"{args.runs} races each")  # fmt: skip
+    print(
+        f"current rate {args.rate}, outcome correlation between settings {rho:.2f}, "
+        f"{args.top} challengers, blocks of {args.block} up to {args.max_seeds}, "
+        f"{args.runs} races each"
+    )
     null = [args.rate] * (args.top + 1)
     rate, _, seeds = switch_rate(null, args.runs, args.block, args.max_seeds, args.latent, 2)
     print(f"no challenger better: switch in {rate:.1%} of races (mean {seeds:.0f} seeds)")
     for gain in (float(g) for g in args.gains.split(",")):
         rates = [args.rate, min(args.rate + gain, 1.0), *[args.rate] * (args.top - 1)]
-        rate, best, seeds = switch_rate(rates, args.runs, args.block, args.max_seeds,
-                                        args.latent, 3)  # fmt: skip
-        print(f"one challenger +{gain:.2f}: switch in {rate:.1%}, to it in {best:.1%} "
-              f"(mean {seeds:.0f} seeds)")
+        rate, best, seeds = switch_rate(
+            rates, args.runs, args.block, args.max_seeds, args.latent, 3
+        )
+        print(
+            f"one challenger +{gain:.2f}: switch in {rate:.1%}, to it in {best:.1%} "
+            f"(mean {seeds:.0f} seeds)"
+        )
 
 
 if __name__ == "__main__":
