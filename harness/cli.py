@@ -226,14 +226,14 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument(
         "--block",
         type=_bounded_int(1, 1000),
-        default=10,
-        help="fresh seeds per race round (default 10)",
+        default=20,
+        help="fresh seeds per race round (default 20)",
     )
     p.add_argument(
         "--max-seeds",
         type=_bounded_int(1, 100_000),
-        default=40,
-        help="fresh seeds per robot, arm and object at most (default 40)",
+        default=100,
+        help="fresh seeds per robot, arm and object at most (default 100)",
     )
     p.add_argument(
         "--budget",

@@ -52,8 +52,8 @@ class TuneOptions:
     objective: str = "valid"
     screen_seeds: int = 10
     top: int = 3  # challengers raced against the current setting, per unit
-    block: int = 10  # fresh seeds per race round
-    max_seeds: int = 40  # fresh seeds per unit at most (max_seeds / block looks)
+    block: int = 20  # fresh seeds per race round
+    max_seeds: int = 100  # fresh seeds per unit at most (max_seeds / block looks)
     budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
     alpha: float = 0.05
     sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
