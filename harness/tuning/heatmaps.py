@@ -1,8 +1,8 @@
 """Tune heatmaps: the success map of one robot, arm and object over approach x facing cones.
 
 Rows are approach settings, columns facing settings, each sorted (single angles ascending, then
-bands, then no filter); the colour is the rate, each
-cell says k/n when the grid is small enough to read. The best setting is outlined in black, the
+bands, then no filter); the colour is the objective's screening rate, each
+cell says k/n when the grid is small enough to read. The chosen setting is outlined in black, the
 current one in white dashes.
 """
 
