@@ -202,6 +202,7 @@ def _add_compare(sub: Subparsers) -> None:
                    help="pair by identical settings, or by robot, arm and object whatever "
                    "filters ran (a tuned task file vs the current one); auto: by arm when "
                    "each run holds one setting per robot, arm and object")  # fmt: skip
+    _add_objective(p)
     p.set_defaults(func=_handler("report", "compare"))
 
 

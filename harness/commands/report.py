@@ -113,7 +113,7 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
 def compare(args: argparse.Namespace) -> int:
     """Per-setting success-rate differences between two runs: McNemar on shared seeds, else a
     two-proportion test (``harness.report.compare``)."""
-    comparison = compare_runs(Path(args.run_a), Path(args.run_b), args.match)
+    comparison = compare_runs(Path(args.run_a), Path(args.run_b), args.match, args.objective)
     console = make_console()
     by_arm = bool(len(comparison)) and comparison["match"].iloc[0] == "arm"
     params = [] if by_arm else (
@@ -121,7 +121,9 @@ def compare(args: argparse.Namespace) -> int:
     )  # fmt: skip
     shown = ["filters_a", "filters_b"] if by_arm else params
     what = "robot, arm and object" if by_arm else "setting"
-    table = Table(title=f"B - A per {what}   A = {args.run_a}   B = {args.run_b}")
+    table = Table(
+        title=f"B - A per {what} ({args.objective} rate)   A = {args.run_a}   B = {args.run_b}"
+    )
     for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)
     for column in ("A", "B", "B - A", "p", "test", "pairs"):

@@ -122,14 +122,15 @@ def _by_arm(frame: pd.DataFrame) -> pd.DataFrame:
     return frame.assign(filters=filters, settings="", task="")
 
 
-def _side(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per matched setting: point, point_id, n, successes and the seed -> success record."""
+def _side(frame: pd.DataFrame, verdict: str = "success") -> pd.DataFrame:
+    """Per matched setting: point, point_id, n, successes and the seed -> success record
+    (``verdict``: the ``success`` or the ``valid`` column)."""
     rows = []
     if "filters" not in frame:
         frame = frame.assign(filters=[filters_text(s) for s in frame["settings"]])
     for key, group in frame.groupby(MATCH_KEY, sort=False):
         seeds = column(group, "seed") if "seed" in group else pd.Series([-1] * len(group))
-        record = dict(zip(seeds, column(group, "success").astype(bool), strict=True))
+        record = dict(zip(seeds, column(group, verdict).astype(bool), strict=True))
         paired = bool((seeds >= 0).all()) and seeds.is_unique
         rows.append(
             {
@@ -137,7 +138,7 @@ def _side(frame: pd.DataFrame) -> pd.DataFrame:
                 "point_id": int(column(group, "point_id").min()),
                 "point": str(group["point"].iloc[0]),
                 "n": len(group),
-                "successes": int(column(group, "success").sum()),
+                "successes": int(column(group, verdict).astype(bool).sum()),
                 "filters": str(group["filters"].iloc[0]),
                 "record": record if paired else None,
             }
@@ -163,9 +164,12 @@ def _test(row: Any) -> dict[str, Any]:
                 test=result.test, pairs=0, only_a=0, only_b=0)  # fmt: skip
 
 
-def compare_runs(run_a: str | Path, run_b: str | Path, match: str = "settings") -> pd.DataFrame:
+def compare_runs(
+    run_a: str | Path, run_b: str | Path, match: str = "settings", objective: str = "reference"
+) -> pd.DataFrame:
     """Per matched setting, ``rate_b - rate_a`` with its test (see the module docstring).
 
+    ``objective`` ``valid`` compares the validity verdicts instead of the reference success.
     Settings found in one run only are listed with ``present`` = ``a only`` / ``b only`` and no
     test. ``test`` is ``mcnemar`` (paired: ``pairs`` shared seeds, ``only_a`` / ``only_b``
     discordant successes), ``z`` or ``fisher``.
@@ -179,7 +183,8 @@ def compare_runs(run_a: str | Path, run_b: str | Path, match: str = "settings") 
         match = "arm" if both else "settings"
     if match == "arm":
         frame_a, frame_b = _by_arm(frame_a), _by_arm(frame_b)
-    merged = pd.merge(_side(frame_a), _side(frame_b), on=MATCH_KEY, how="outer",
+    verdict = "valid" if objective == "valid" else "success"
+    merged = pd.merge(_side(frame_a, verdict), _side(frame_b, verdict), on=MATCH_KEY, how="outer",
                       suffixes=("_a", "_b"), indicator=True)  # fmt: skip
     merged["present"] = (
         merged.pop("_merge")
