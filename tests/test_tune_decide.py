@@ -127,3 +127,35 @@ def test_grid_deduplicates_filters_that_keep_the_same_axes() -> None:
     # A current setting given as the band keeps its own spelling; the equal single angle goes.
     banded = axis_values(approach_values(15, 1), [["downward", 90.0, 180.0]])
     assert ["downward", 90.0, 180.0] in banded and ["downward", 90.0] not in banded
+
+
+def test_objects_pool_into_one_file_decision_only_when_they_agree() -> None:
+    import pandas as pd
+
+    from harness.tuning.decisions import file_decision
+
+    def rows(*verdicts: tuple[str, str]) -> pd.DataFrame:
+        return pd.DataFrame(
+            [
+                {"verdict": v, "approach": a, "facing": "f", "current_approach": "now",
+                 "current_facing": "f"}
+                for v, a in verdicts
+            ]
+        )  # fmt: skip
+
+    same = file_decision(rows((SWITCH, "x"), (SWITCH, "x")))
+    assert same == {"verdict": SWITCH, "setting": ("x", "f"), "agree": True}
+    split = file_decision(rows((SWITCH, "x"), (KEEP, "now")))
+    assert split == {"verdict": KEEP, "setting": ("now", "f"), "agree": False}
+    apart = file_decision(rows((SWITCH, "x"), (SWITCH, "y")))
+    assert apart["agree"] is False and apart["setting"] == ("now", "f")
+
+
+def test_budget_in_episodes_or_seconds() -> None:
+    from harness.tuning.race import Budget
+
+    assert Budget.parse(None) == Budget() and not Budget().spent(10**6, 1e9)
+    assert Budget.parse("400") == Budget(episodes=400)
+    assert Budget.parse("400").spent(400, 0.0) and not Budget.parse("400").spent(399, 1e9)
+    assert Budget.parse("300s") == Budget(seconds=300.0)
+    assert Budget.parse("300s").spent(0, 300.0) and not Budget.parse("300s").spent(10**6, 299.0)
