@@ -56,7 +56,7 @@ def benchmark(session: nox.Session) -> None:
 def lint(session: nox.Session) -> None:
     """ruff check, ruff format --check, and pyright (basic mode, pyrightconfig.json)."""
     session.install("-e", ".[dev,ray]", "pyright[nodejs]>=1.1.400")
-    session.run("ruff", "check", "harness", "tests", "noxfile.py")
-    session.run("ruff", "format", "--check", "harness", "tests", "noxfile.py")
+    session.run("ruff", "check", "harness", "tests", "robots", "noxfile.py")
+    session.run("ruff", "format", "--check", "harness", "tests", "robots", "noxfile.py")
     python = os.path.join(session.virtualenv.location, "bin", "python")
     session.run("pyright", "--pythonpath", python)

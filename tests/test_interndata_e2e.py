@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from helpers import INTERNDATA_ROBOTS_TEXT
 
 from harness.cli import main as cli_main
 from harness.config import ConfigError, load_sweep
-from harness.config.interndata import load_interndata_tasks
 from harness.failures import FailureReason
+from harness.interndata import load_interndata_tasks
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 HARNESS = Path(sys.executable).with_name("harness")
@@ -88,9 +89,9 @@ def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.nd
     scene reset with each episode's seed (its scene stream; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
     from harness.episode import SETTLE_TIME_S
-    from harness.episode_ids import episode_seed
-    from harness.episode_streams import EpisodeStreams
-    from harness.scene_cache import get_scene
+    from harness.episode.ids import episode_seed
+    from harness.episode.scene_cache import get_scene
+    from harness.episode.streams import EpisodeStreams
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene
@@ -306,7 +307,7 @@ def test_cli_unsupported_robot(examples_dir: Path, bottle: Path, tmp_path: Path)
         result,
         f"error: {path}:{line_of(path, 'robot_config_file')} "
         "tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
-        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, split_aloha",
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT,
     )
 
 

@@ -19,6 +19,7 @@ import yaml
 
 from harness.cli import main as cli_main
 from harness.config import load_task
+from harness.interndata import load_interndata_tasks
 from harness.report import compare_runs
 from harness.report.stats import mcnemar_exact, wilson_interval
 from harness.report.tables import load_episodes
@@ -135,6 +136,27 @@ def test_the_keys_to_merge_hold_the_decision_in_the_robots_keys(tuned, tmp_path:
     pasted = tmp_path / "fr3_tuned.yaml"
     pasted.write_text(yaml.safe_dump(task, sort_keys=False))
     assert cli_main(["validate", str(pasted)]) == 0
+
+
+def test_the_keys_merge_into_an_interndata_file(tuned, tmp_path: Path) -> None:
+    source = INTERNDATA / "tasks" / "franka_single_pick_banana.yaml"
+    if not source.is_file():
+        pytest.skip("the InternDataEngine example data (../shared) is not here")
+    keys = yaml.safe_load(tuned.tuned_yaml.read_text())["fr3_pick_cube"]["pick"]
+    data = yaml.safe_load(source.read_text())
+    skill = data["tasks"][0]["skills"][0]["franka"][0]["left"][0]
+    assert skill["name"] == "pick"
+    skill.update(keys)
+    pasted = tmp_path / "franka_tuned.yaml"
+    pasted.write_text(yaml.safe_dump(data, sort_keys=False))
+    bottle = INTERNDATA / "objects" / "recyclable_garbage" / "bottle_0" / "Aligned_obj.usd"
+    picks = load_interndata_tasks(
+        pasted, objects={"pick_object_left": str(bottle)}, check_assets=False
+    )
+    filters = picks[0].task.pick
+    assert filters.filter_z_dir is not None and filters.filter_x_dir is not None
+    assert filters.filter_z_dir.as_list() == keys["filter_z_dir"]
+    assert filters.filter_x_dir.as_list() == keys["filter_x_dir"]
 
 
 def test_write_changes_only_the_filter_keys(tuned) -> None:

@@ -32,8 +32,8 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
-from harness.candidate_cache import SELECTION_KEYS
 from harness.config import TaskConfig, apply_overrides
+from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.errors import HarnessError
 from harness.grasps.ee_poses import ee_poses_for_pick
 from harness.grasps.grasp_set import load_grasp_file
@@ -101,7 +101,7 @@ def executed_grasps(run_dir: Path) -> pd.DataFrame:
 def execution_keys(frame: pd.DataFrame) -> list[str]:
     """One key per distinct execution: the task, the seed, the chosen pose and the point's
     non-selection values. Points that differ only in filters share a seed's execution of the
-    same candidate (``harness.candidate_cache``): one execution, several rows."""
+    same candidate (``harness.episode.candidate_cache``): one execution, several rows."""
     selection = {f"param.pick.{key}" for key in SELECTION_KEYS}
     others = [c for c in param_columns(frame.columns) if c not in selection]
     cells = frame[["task", "seed", "chosen_index", *others]].astype(str)

@@ -30,8 +30,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from harness.candidate_cache import SELECTION_KEYS
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
+from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.grasps import neutral_form, resolve_filters
 from harness.grasps.filters import DIRECTION_ROW_SIGN
 from harness.robots.facts import reference_convention

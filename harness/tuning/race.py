@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from harness.config import SweepConfig, TaskConfig, apply_overrides
-from harness.episode_ids import episode_seed
-from harness.episode_spec import EpisodeSpec
+from harness.episode.ids import episode_seed
+from harness.episode.spec import EpisodeSpec
 from harness.runs.executors import executor_for
 from harness.runs.expansion import point_overrides, sweep_points
 from harness.runs.rundir import RunDir

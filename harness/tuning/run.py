@@ -21,6 +21,7 @@ import yaml
 
 from harness.config import TaskConfig
 from harness.errors import HarnessError
+from harness.report.finish import finish_run
 from harness.report.frames import frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
@@ -108,6 +109,7 @@ def tune(
             outcome = run_sweep(
                 path, out=screen, workers=workers, backend=backend, progress=progress
             )
+    finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
     options = TuneOptions(**{**asdict(options), "sources": sources})
     (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
@@ -189,6 +191,8 @@ def decide(
         may_run=may_run,
     )
     log = run_race(units, runner, options.block, Budget.parse(options.budget))
+    if may_run and log.episodes and not log.interrupted:
+        finish_run(out / CONFIRM_DIR)
     why = "budget spent" if log.budget_spent else ("interrupted" if log.interrupted else "")
     decisions = pd.DataFrame(
         [unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why) for u in units]
