@@ -109,13 +109,13 @@ def deep_check(path: str, loaded: object) -> None:
     from harness.runs.preflight import check_task, check_tasks
 
     if isinstance(loaded, TaskConfig):
-        check_task(loaded)
+        print_warnings(check_task(loaded))
     elif isinstance(loaded, SweepConfig):
         from harness.runs.expansion import expand, load_sweep_tasks
         from harness.runs.limits import check_sweep_size
 
         tasks = load_sweep_tasks(loaded, Path(path))
-        check_sweep_size(loaded, len(tasks))
+        check_sweep_size(loaded, len(tasks), file=path)
         episodes = expand(loaded, Path(path), tasks, progress=True)
         check_tasks([e.task for e in episodes[:: loaded.episodes_per_point]])
 

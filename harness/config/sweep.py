@@ -37,12 +37,13 @@ TASK_KEYS = frozenset(TaskConfig.model_fields)
 ROBOT_KEYS = ("name", "gripper")
 
 
-def canonical_key(key: str) -> str:
-    """The key in a task's ``model_dump``: ``object.`` is ``objects.0.``, ``robot.gripper.`` is
-    ``gripper.`` and ``robot.name`` is ``robot`` (a file's ``robot: {name, gripper}``)."""
+def canonical_key(key: str, target_index: int = 0) -> str:
+    """The key in a task's ``model_dump``: ``object.`` is ``objects.<target_index>.`` (the
+    picked object, ``pick.objects[0]``), ``robot.gripper.`` is ``gripper.`` and ``robot.name``
+    is ``robot`` (a file's ``robot: {name, gripper}``)."""
     parts = key.split(".")
     if parts[0] == "object":
-        parts = ["objects", "0", *parts[1:]]
+        parts = ["objects", str(target_index), *parts[1:]]
     elif parts[0] == "robot" and len(parts) > 1:
         parts = ["robot"] if parts[1:] == ["name"] else parts[1:]
     return ".".join(parts)
@@ -85,6 +86,18 @@ def check_dotted_key(key: str) -> str:
     return key
 
 
+def _first_equal(earlier: list[Any], value: Any) -> int | None:
+    """Index of the first item of ``earlier`` equal to ``value`` (as the episode id sees it:
+    ``0.02`` and ``2.0e-2`` are one value), else None."""
+    for index, item in enumerate(earlier):
+        try:
+            if item == value and type(item) is type(value):
+                return index
+        except Exception:
+            continue
+    return None
+
+
 class SweepConfig(StrictModel):
     """Tasks x points x seeds. Points come from a grid over ``axes`` or ``random`` draws."""
 
@@ -116,6 +129,15 @@ class SweepConfig(StrictModel):
             check_dotted_key(key)
             if not values:
                 raise KeyedValueError((key,), f"axis {key!r} has no values")
+            for index, value in enumerate(values):
+                first = _first_equal(values[:index], value)
+                if first is not None:
+                    raise KeyedValueError(
+                        (key, index),
+                        f"axis {key!r}: value {value!r} (item {index}) equals item {first} "
+                        f"({values[first]!r}); both points would share episode ids and one "
+                        f"would be dropped, so list each value once",
+                    )
         return axes
 
     @field_validator("random_axes")

@@ -12,6 +12,10 @@ from harness.config.messages import suggest
 from harness.config.pick import PickConfig
 from harness.config.values import FiniteFloat, StrictModel, Vec3
 
+# Placements farther than this from the table-top centre are refused: Scene.unstable already
+# calls an object 10 m out sim_unstable, so such a placement can only fail (x: 1e300 ran).
+MAX_PLACEMENT_M = 10.0
+
 
 class Placement(StrictModel):
     """Uniform placement: position = centre + U(pos_range), yaw = U(yaw_range) in degrees.
@@ -27,6 +31,13 @@ class Placement(StrictModel):
     def _ordered(self) -> Placement:
         lo, hi = self.pos_range
         for axis, (a, b) in enumerate(zip(lo, hi, strict=True)):
+            if max(abs(a), abs(b)) > MAX_PLACEMENT_M:
+                raise KeyedValueError(
+                    "pos_range",
+                    f"pos_range axis {'xyz'[axis]}: {max(a, b, key=abs):g} m is more than "
+                    f"{MAX_PLACEMENT_M:g} m from the table centre (a scene object that far out "
+                    "is sim_unstable at once)",
+                )
             if a > b:
                 raise KeyedValueError(
                     "pos_range", f"pos_range axis {'xyz'[axis]}: min {a} must be <= max {b}"
@@ -45,10 +56,35 @@ class ObjectConfig(StrictModel):
     mesh: str = Field(min_length=1, description="Mesh path (relative to the YAML) or object name.")
     grasps: str | None = Field(default=None, description="Grasp file; default by naming rule.")
     scale: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (1.0, 1.0, 1.0)
-    mass: FiniteFloat = Field(default=0.1, gt=0.0, le=100.0)
-    friction: FiniteFloat = Field(default=1.0, gt=0.0, le=10.0)
+    mass: FiniteFloat | None = Field(
+        default=None,
+        gt=0.0,
+        le=100.0,
+        description="kg. Default: the USD's physics:mass (UsdPhysics.MassAPI; 0.5 on every "
+        "reference object), else 0.1 (chosen).",
+    )
+    friction: FiniteFloat | None = Field(
+        default=None,
+        gt=0.0,
+        le=10.0,
+        description="Default: the static friction of the USD's bound physics material (1.0 on "
+        "every reference object), else 1.0 (MuJoCo's default).",
+    )
+    fixed: bool = Field(
+        default=False,
+        description="A fixture: a static body placed like the others that collides and never "
+        "moves (the reference's GeometryObject, e.g. a bin). The picked object cannot be one.",
+    )
     placement: Placement | None = Field(
         default=None, description="Default: the robot arm's object region from robot.yaml."
+    )
+    min_distance: FiniteFloat | None = Field(
+        default=None,
+        ge=0.0,
+        le=1.0,
+        description="Placed at least this far (m, between bounding circles in xy) from every "
+        "object placed before it, redrawing up to 100 times (the reference's distractors "
+        "min_object_distance). Default: placed independently.",
     )
     orientations: list[Vec3] | None = Field(
         default=None,
@@ -113,12 +149,15 @@ class GripperChoice(StrictModel):
     pad_friction: FiniteFloat | None = Field(default=None, gt=0.0, le=10.0)
     kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
     kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
+    grasp: Literal["force", "position"] | None = Field(
+        default=None, description="force-controlled or position-controlled closing."
+    )
 
-    def overrides(self) -> dict[str, float]:
+    def overrides(self) -> dict[str, float | str]:
         """The grip physics values this task sets (robot.yaml keys)."""
         return {
             key: value
-            for key in ("force_limit", "pad_friction", "kp", "kv")
+            for key in ("force_limit", "pad_friction", "kp", "kv", "grasp")
             if (value := getattr(self, key)) is not None
         }
 
@@ -172,6 +211,12 @@ class TaskConfig(StrictModel):
         default=1.0 / 30.0, gt=0.0, le=0.5, description="Control step (s); the reference's 1/30."
     )
     source: str | None = Field(default=None, description="File this task was loaded from.")
+    not_runnable: str | None = Field(
+        default=None,
+        description="Why this pick cannot run on its own: set by the InternData mapper for a "
+        "pick whose object an earlier skill of the file handles (a handover's second pick "
+        "takes it from the other gripper). Its episodes are 'not_runnable' rows, in no rate.",
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -189,6 +234,13 @@ class TaskConfig(StrictModel):
                 )
         if self.pick.objects is None:
             self.pick = self.pick.model_copy(update={"objects": [names[0]]})
+        if self.pick.objects and self.pick.objects[0] in names:
+            index = names.index(self.pick.objects[0])
+            if self.objects[index].fixed:
+                raise KeyedValueError(
+                    ("objects", index, "fixed"),
+                    f"object {names[index]!r} is picked, so it cannot be a fixed fixture",
+                )
         for index, name in enumerate(self.pick.objects or []):
             if name not in names:
                 raise KeyedValueError(

@@ -145,14 +145,17 @@ class PickExecutor:
         ctrl = np.clip(q + qd * self.feedforward, self.ctrl_lower, self.ctrl_upper)
         return ctrl.reshape(-1, len(self.chunk_sizes), q.shape[1])
 
-    def _gripper_setpoints(self, start: float, goal: float) -> np.ndarray:
-        """(rows, chunks) gripper targets: a ramp at the robot's finger speed, sped up if needed
-        to finish within half of the closing window (``gripper_change_steps`` control steps)."""
+    def _gripper_setpoints(self, start: float, goal: float, final: float) -> np.ndarray:
+        """(rows, chunks) gripper targets: a ramp to ``goal`` at the robot's finger speed, sped
+        up if needed to finish within half of the closing window (``gripper_change_steps``
+        control steps), then one control step at ``final`` (the squeeze target of a
+        force-controlled grasp; ``goal`` otherwise)."""
         window = 0.5 * self.pick.gripper_change_steps * self.control_dt
         speed = max(self.arm_spec.gripper.speed, abs(goal - start) / max(window, 1e-3))
         trajectory = gripper_trajectory(start, goal, speed)
         q, _, _ = trajectory.sample_many(self._chunk_times(trajectory.duration))
-        return q[:, 0].reshape(-1, len(self.chunk_sizes))
+        rows = q[:, 0].reshape(-1, len(self.chunk_sizes))
+        return np.vstack([rows, np.full((1, len(self.chunk_sizes)), final)])
 
     @property
     def time(self) -> float:
@@ -192,13 +195,14 @@ class PickExecutor:
             self.gripper_state = command.gripper
             d, h = self.data, self.handles
             current = float(d.ctrl[h.gripper_actuator])
-            goal = (
-                self.arm_spec.finger_open_position
-                if command.gripper == "open"
-                else self.arm_spec.finger_closed_position
-            )
-            if abs(goal - current) > 1e-6:
-                self.gripper_plan = self._gripper_setpoints(current, goal)
+            opening = command.gripper == "open"
+            spec = self.arm_spec
+            goal = spec.finger_open_position if opening else spec.finger_closed_position
+            # A force-controlled grasp ends below the closed width: the servo then presses with
+            # its force limit wherever the fingers stopped (GripperActuator.grasp).
+            final = goal if opening else spec.finger_squeeze_position
+            if abs(final - current) > 1e-6:
+                self.gripper_plan = self._gripper_setpoints(current, goal, final)
                 self.gripper_row = 0
                 self._event(f"gripper {command.gripper}")
 
@@ -310,6 +314,7 @@ class PickExecutor:
             # The grasp as executed: the arm has had the whole closing window to settle.
             self.out.tcp_grasp_error_m = self._tcp_error()
             self.out.contact_during_close = max(forces) > 0.0
+            self.out.T_tcp_object_closed = self.object_pose_in_tcp()
             self.out.finger_force_left_n, self.out.finger_force_right_n = forces
             self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
             if self.semantics.check_closing_forces and self._judge(
@@ -334,6 +339,7 @@ class PickExecutor:
         """Execute until the verdict, a failure, or the episode length limit."""
         out, d = self.out, self.data
         out.object_z_before = float(d.xpos[self.obj.body_id][2])
+        self.penetration.depth(d)  # the baseline: where the robot stands before it moves
         # The controller's last planned target starts as the EE pose (its reset).
         self.planned_target = self.scene.T_world_body(self.handles.ee_body)
         self._start_command(0)
@@ -442,6 +448,16 @@ class PickExecutor:
     def object_in_tcp(self) -> np.ndarray:
         return self._object_in_tcp()
 
+    def object_pose_in_tcp(self) -> np.ndarray:
+        """The object's pose in the TCP frame (4 x 4)."""
+        T_tcp = self.scene.T_world_body(self.handles.tcp_body)
+        return invert_T(T_tcp) @ self.scene.T_world_body(self.obj.body_id)
+
+    @property
+    def grasp_reference(self) -> np.ndarray | None:
+        """The object's pose in the TCP frame when the closing ended (None if it never did)."""
+        return self.out.T_tcp_object_closed
+
     def _validity_phase(self, verdict_reached: bool) -> None:
         """After the verdict: the validity phase and its verdict (strict's success); the
         command list's columns (steps, peak speeds) stay those of the list."""
@@ -466,7 +482,8 @@ class PickExecutor:
         )
         self._event(
             f"validity: {'valid' if failed is None else failed.name}, robustness "
-            f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm"
+            f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm / "
+            f"{math.degrees(measure.hold_rotation_rad):.1f} deg"
         )
         if self.semantics.hold_after_list:  # strict: this is the verdict
             out.slip_m, out.lift_height_m = measure.hold_slip_m, measure.lift_height_m

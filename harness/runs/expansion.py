@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import itertools
+import json
 import sys
 import time
 from pathlib import Path
@@ -123,7 +124,8 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
             for values in itertools.product(*(sweep.axes[k] for k in keys))
         ]
     rng = np.random.default_rng(np.random.SeedSequence([sweep.seed, 0x5EED]))
-    points = []
+    points: list[dict[str, Any]] = []
+    seen: set[str] = set()
     for _ in range(sweep.points):
         point: dict[str, Any] = {}
         for key, axis in sweep.random_axes.items():
@@ -132,7 +134,16 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
             else:
                 assert axis.low is not None and axis.high is not None  # RandomAxis: one form
                 point[key] = float(rng.uniform(axis.low, axis.high))
-        points.append(point)
+        identity = json.dumps(point, sort_keys=True, default=str)  # as the episode id sees it
+        if identity not in seen:  # a repeated draw would share episode ids: run it once
+            seen.add(identity)
+            points.append(point)
+    if len(points) < sweep.points:
+        print(
+            f"note: sweep {sweep.name!r}: {sweep.points} random draws gave {len(points)} "
+            f"distinct points (random_axes with choices repeat); each distinct point runs once",
+            file=sys.stderr,
+        )
     return points
 
 
@@ -171,15 +182,20 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
 def object_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     """Swapping the target object's mesh also renames the object after the mesh.
 
-    A sweep axis ``object.mesh: [cube, banana]`` then reports ``object = banana`` in its rows
-    (and ``pick.objects`` follows), unless the point names the object itself.
+    A sweep axis ``object.mesh: [cube, banana]`` (``object.`` is the picked object, wherever it
+    is in ``objects``) then reports ``object = banana`` in its rows (and ``pick.objects``
+    follows), unless the point names the object itself. ``objects.0.mesh`` does the same only
+    when ``objects[0]`` is the picked object.
     """
-    mesh_keys = ("object.mesh", "objects.0.mesh")
-    mesh = next((point[k] for k in mesh_keys if k in point), None)
-    if mesh is None or any(k in point for k in ("object.name", "objects.0.name")):
-        return {}
     target = task.target_object
-    if task.objects[0].name != target.name:
+    index = next(i for i, obj in enumerate(task.objects) if obj.name == target.name)
+    if "object.mesh" in point:
+        mesh = point["object.mesh"]
+    elif "objects.0.mesh" in point and index == 0:
+        mesh = point["objects.0.mesh"]
+    else:
+        return {}
+    if any(k in point for k in ("object.name", f"objects.{index}.name")):
         return {}
     name = Path(str(mesh)).stem if Path(str(mesh)).suffix else str(mesh)
     if name == target.name:
@@ -187,7 +203,7 @@ def object_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     if name in {obj.name for obj in task.objects}:
         raise ConfigError(f"object mesh {mesh!r} would rename the target to an existing name")
     picked = [name if n == target.name else n for n in (task.pick.objects or [target.name])]
-    return {"objects.0.name": name, "pick.objects": picked}
+    return {f"objects.{index}.name": name, "pick.objects": picked}
 
 
 def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
@@ -256,6 +272,13 @@ def expand(
                     )
                 )
     report.done()
+    ids = {e.resolved_id for e in episodes}
+    if len(ids) != len(episodes):  # a row per id: a repeated id would silently drop rows
+        raise ConfigError(
+            f"{len(episodes) - len(ids)} episode(s) repeat another's id (identical points)",
+            file=sweep_path,
+            key="axes",
+        )
     if sweep.record.startswith("sample:"):
         chosen = select_samples(episodes, int(sweep.record.split(":")[1]))
         episodes = [dataclasses.replace(e, record=e.resolved_id in chosen) for e in episodes]

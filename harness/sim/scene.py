@@ -32,7 +32,7 @@ from harness.config import ObjectConfig, PhysicsConfig, Placement, TaskConfig
 from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset
 from harness.robots.model import RobotModel
-from harness.sim.budget import spend
+from harness.sim.budget import check_deadline, spend
 from harness.sim.composition import TABLE_NAME, compose, with_object_defaults
 from harness.sim.index import (
     ArmHandles,
@@ -48,6 +48,9 @@ from harness.sim.index import (
 from harness.sim.queries import SceneQueries
 from harness.transforms import euler_xyz_deg_to_matrix, make_T, matrix_to_quat, quat_to_matrix
 
+# Physics steps per mj_step call between deadline checks (~10-50 ms of a robot scene).
+STEP_CHUNK = 500
+
 MAX_SANE_SPEED = 1e3  # rad/s or m/s; anything faster is a diverged integration
 # Scene bounds (world frame, origin at the table-top centre): an object beyond them has tunnelled
 # through the table or been launched, and the episode is ``sim_unstable``, not a quiet
@@ -56,6 +59,9 @@ MAX_SANE_SPEED = 1e3  # rad/s or m/s; anything faster is a diverged integration
 MAX_FALL_M = 2.0
 MAX_REACH_M = 10.0
 DROP_CLEARANCE = 0.001  # objects start this far above the table (the reference's 1 mm)
+# Draws of an object with min_distance before it keeps the last one (chosen; the reference
+# tries 1000 polygon placements, core/utils/visual_distractor.py find_polygon_placement).
+MAX_PLACEMENT_DRAWS = 100
 
 
 def yaw_quat(yaw_rad: float) -> np.ndarray:
@@ -211,24 +217,37 @@ class Scene(SceneQueries):
         T_world_objects: dict[str, np.ndarray] = {}
         choice: int | None = None
         configs = {config.name: with_object_defaults(config) for config in task.objects}
+        footprints: list[tuple[np.ndarray, float]] = []  # (xy, radius) of the objects placed
         for obj in self.objects.values():
             # The task's placement and orientations (the scene may have been built for another
             # task with the same objects), falling back to the scene's own.
             config = configs.get(obj.name, obj.config)
             region = config.placement or arm.object_region
-            pos, yaw = sample_placement(region, rng)
-            R_base = np.eye(3)
-            if config.orientations:
-                index = int(rng.integers(len(config.orientations)))
-                R_base = euler_xyz_deg_to_matrix(config.orientations[index])
-                if obj.name == task.target_object.name:
-                    choice = index
-            R = quat_to_matrix(yaw_quat(yaw)) @ R_base
+            for _attempt in range(MAX_PLACEMENT_DRAWS if config.min_distance is not None else 1):
+                pos, yaw = sample_placement(region, rng)
+                R_base = np.eye(3)
+                if config.orientations:
+                    index = int(rng.integers(len(config.orientations)))
+                    R_base = euler_xyz_deg_to_matrix(config.orientations[index])
+                    if obj.name == task.target_object.name:
+                        choice = index
+                R = quat_to_matrix(yaw_quat(yaw)) @ R_base
+                radius = float(np.max(np.linalg.norm((obj.asset.vertices @ R.T)[:, :2], axis=1)))
+                if config.min_distance is None or all(
+                    np.linalg.norm(pos[:2] - xy) - radius - r >= config.min_distance
+                    for xy, r in footprints
+                ):
+                    break
+            footprints.append((pos[:2].copy(), radius))
             lowest = float(np.min(obj.asset.vertices @ R[2, :]))
             pos = pos.copy()
             pos[2] += -lowest + DROP_CLEARANCE
-            d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
-            d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
+            if obj.fixed:
+                d.mocap_pos[obj.mocap_id] = pos
+                d.mocap_quat[obj.mocap_id] = matrix_to_quat(R)
+            else:
+                d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
+                d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
             T_world_objects[obj.name] = make_T(R, pos)
 
         home = self.home_configuration(task, rng)
@@ -286,10 +305,18 @@ class Scene(SceneQueries):
     # -- stepping -------------------------------------------------------------------------------
 
     def step(self, nstep: int) -> None:
-        """Advance the physics ``nstep`` steps inside MuJoCo (one call), within the episode's
-        step budget and wall-clock limit (``harness.sim.budget``)."""
+        """Advance the physics ``nstep`` steps, within the episode's step budget and wall-clock
+        limit (``harness.sim.budget``): the budget is taken before the first step, the deadline
+        checked every ``STEP_CHUNK`` steps (one ``mj_step`` call of 200k settle steps could not
+        be interrupted: a 4 s limit gave a 32 s episode). Same states as one call."""
         spend(nstep)
-        mujoco.mj_step(self.model, self.data, nstep)
+        done = 0
+        while done < nstep:
+            if done:
+                check_deadline()
+            chunk = min(STEP_CHUNK, nstep - done)
+            mujoco.mj_step(self.model, self.data, chunk)
+            done += chunk
 
     def unstable(self) -> str | None:
         """A reason string when the simulation has diverged (MuJoCo's bad-acceleration reset or a
@@ -313,6 +340,8 @@ class Scene(SceneQueries):
         top or beyond ``MAX_REACH_M`` of its centre (a tunnelled or launched object, not a
         pick that merely missed)."""
         for name, obj in self.objects.items():
+            if obj.fixed:  # a fixture stays where it was placed (beside the table, maybe low)
+                continue
             x, y, z = (float(v) for v in self.data.qpos[obj.qpos_adr : obj.qpos_adr + 3])
             if z < -MAX_FALL_M:
                 return f"object {name!r} fell {-z:.3g} m below the table top: it left the scene"

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.patches import Rectangle
 
+from harness.files import safe_child
 from harness.report.frames import column, frame_of, series_rows
 from harness.tuning.analysis import filter_label
 
@@ -96,6 +97,8 @@ def write_heatmaps(
         title = f"{name}: {objective} rate on the screening seeds (n = {n}); {row['verdict']}"
         chosen = (str(row["approach"]), str(row["facing"]))
         current = (str(row["current_approach"]), str(row["current_facing"]))
-        path = out_dir / f"{row['robot']}_{row['arm']}_{row['object']}.png"
+        path = safe_child(
+            out_dir, str(row["robot"]), str(row["arm"]), str(row["object"]), suffix=".png"
+        )
         paths[(task, context)] = heatmap(group, title, chosen, current, path, objective)
     return paths

@@ -101,13 +101,20 @@ def tune(
     out = out or RunDir.default_path(sweep.name)
     screen = out / SCREEN_DIR
     if (screen / "sweep.yaml").is_file():
-        outcome = run_sweep(resume_dir=screen, workers=workers, backend=backend, progress=progress)
+        outcome = run_sweep(
+            resume_dir=screen, workers=workers, backend=backend, progress=progress, max_points=None
+        )
     else:
         with tempfile.TemporaryDirectory(prefix="harness-tune-") as folder:
             path = Path(folder) / "tune.yaml"
             path.write_text(yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False))
             outcome = run_sweep(
-                path, out=screen, workers=workers, backend=backend, progress=progress
+                path,
+                out=screen,
+                workers=workers,
+                backend=backend,
+                progress=progress,
+                max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
     finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
