@@ -112,6 +112,7 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument(
         "--record", type=_record_policy, default="failures", help="none|failures|all|sample:N"
     )
+    _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -157,6 +158,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
+    _add_engine(p)
     _add_objective(p)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -178,6 +180,16 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
         default=default,
         help="replay one success and one failure per robot arm and embed their MP4s in "
         "report.html (a few seconds each)",
+    )
+
+
+def _add_engine(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--engine",
+        choices=["mujoco", "mjwarp"],
+        default="mujoco",
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
+        "worlds on a GPU, Warp's CPU device without one)",
     )
 
 
@@ -214,6 +226,7 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--seed", type=SEED, help="sweep seed (default: the sweep's, else 0)")
     p.add_argument("--out", metavar="DIR", help="the tune's run directory (default: reports/)")
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
+    _add_engine(p)
     _add_objective(p)
     p.set_defaults(func=_handler("tune", "main"))
 

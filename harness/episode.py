@@ -84,6 +84,7 @@ def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     row = EpisodeRow(
         **{name: identity[name] for name in IDENTITY_COLUMNS},
         semantics=pick.semantics,
+        engine=spec.engine,
         test_mode=pick.test_mode,
         timing=pick.timing,
         filter_x_dir=filt(pick.filter_x_dir),
@@ -122,6 +123,8 @@ def run_episode(
         key, evaluation = None, SeedEvaluation()
     else:
         key = evaluation_key(spec.task, spec.seed)
+        if spec.engine != "mujoco":  # executed outcomes are the engine's own
+            key = (key, spec.engine)
         evaluation = candidate_cache.evaluation(key)
     try:
         _run(spec, scene_cache, result, evaluation, key)

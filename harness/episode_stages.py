@@ -23,13 +23,13 @@ import numpy as np
 
 from harness.candidate_cache import WALL_TIME_COLUMNS, ExecutedOutcome, ResetFacts, SeedEvaluation
 from harness.config import PickConfig, TaskConfig
+from harness.engines import ExecutionJob, engine_for
 from harness.episode_spec import EpisodeResult, EpisodeSpec
 from harness.episode_streams import EpisodeStreams
 from harness.episode_trace import make_trace, planned_tcp
 from harness.failures import FailureReason
 from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
-from harness.pick.executor import PickExecutor
 from harness.pick.outcome import PickOutcome
 from harness.pick.selection import (
     candidate_failures_json,
@@ -392,22 +392,23 @@ def _execute(
     result.timings["plan_s"] = row["plan_time_s"]
     clock = time.perf_counter()
     warmup_steps = max(1, round(WARMUP_TIME_S / scene.model.opt.timestep))
-    warmup_ctrl = scene.data.ctrl.copy()
     setup.mark_stepped()
-    scene.step(warmup_steps)
     result.timings["warmup_steps"] = float(warmup_steps)
-    if (reason := scene.unstable()) is not None:
-        raise EpisodeStopError("sim_unstable", f"during the warm-up steps: {reason}")
-    executor = PickExecutor(
+    job = ExecutionJob(
         scene, setup.task, targets, setup.facts.object_init_position,
-        planning.poses.lift_offset, setup.planner.checker,
-        record=True, log_ctrl=setup.spec.log_ctrl, semantics=setup.semantics,
+        planning.poses.lift_offset, setup.planner.checker, setup.semantics, warmup_steps,
+        record=True, log_ctrl=setup.spec.log_ctrl,
     )  # fmt: skip
-    outcome = executor.run()
+    execution = engine_for(setup.spec.engine).execute(job)
+    if execution.outcome is None:
+        raise EpisodeStopError(
+            "sim_unstable", f"during the warm-up steps: {execution.warmup_unstable}"
+        )
+    outcome = execution.outcome
     result.timings["sim_s"] = time.perf_counter() - clock
     result.timings["validity_s"] = outcome.validity_time_s
-    if executor.ctrl_log is not None:
-        result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
+    if execution.ctrl_log is not None:
+        result.ctrl_log = execution.ctrl_log
     planning.finish_trace(outcome, targets, planned)
     row.update(
         {
@@ -422,6 +423,6 @@ def _execute(
             "tcp_grasp_error_m": outcome.tcp_grasp_error_m,
         }
     )
-    row.update(validity_columns(executor.validity, outcome.table_penetration_m, outcome.validity))
+    row.update(validity_columns(execution.validity, outcome.table_penetration_m, outcome.validity))
     if outcome.failure_reason:
         raise EpisodeStopError(outcome.failure_reason, outcome.message)

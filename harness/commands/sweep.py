@@ -35,6 +35,7 @@ def main(args: argparse.Namespace) -> int:
         episodes_per_point=args.episodes_per_point,
         progress=not args.no_progress,
         share=False if getattr(args, "no_share", False) else None,
+        engine=args.engine,
     )
     stats = outcome.stats
     if args.objective != "reference" or args.videos:  # rebuilt: ranked otherwise, or filmed

@@ -27,6 +27,7 @@ def main(args: argparse.Namespace) -> int:
             workers=args.workers,
             seed=args.seed,
             progress=True,
+            engine=args.engine,
         )
     if result.interrupted:
         console.print(

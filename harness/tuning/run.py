@@ -57,6 +57,7 @@ def tune(
     seed: int | None = None,
     backend: str = "process",
     progress: bool = False,
+    engine: str = "mujoco",
 ) -> TuneResult:
     """Run the grid of ``harness.tuning.grid`` over the tasks of ``paths`` and analyse it."""
     tasks, axes, sweep_seed = load_inputs(paths)
@@ -77,6 +78,7 @@ def tune(
             workers=workers,
             backend=backend,
             progress=progress,
+            engine=engine,
         )
     if outcome.stats.interrupted:
         return TuneResult(outcome.run_dir, True, Path(), Path(), [], pd.DataFrame(), "")
