@@ -81,25 +81,25 @@ def record(
     for i in range(3):
         out[w, s, SIG_OBJ_POS + i] = p[i]
         out[w, s, SIG_OBJ_VEL + i] = qvel[w, obj_dof + i]
-    joint = 0.0
+    joint = wp.float32(0.0)
     for i in range(robot_dof.shape[0]):
         joint = wp.max(joint, wp.abs(qvel[w, robot_dof[i]]))
     out[w, s, SIG_JOINT_SPEED] = joint
-    fastest = 0.0
-    bad = 0.0
+    fastest = wp.float32(0.0)
+    bad = wp.float32(0.0)
     for i in range(qvel.shape[1]):
         v = qvel[w, i]
         if not wp.isfinite(v):
-            bad = 1.0
+            bad = wp.float32(1.0)
         else:
             fastest = wp.max(fastest, wp.abs(v))
     for i in range(qpos.shape[1]):
         if not wp.isfinite(qpos[w, i]):
-            bad = 1.0
+            bad = wp.float32(1.0)
     out[w, s, SIG_MAX_QVEL] = fastest
     out[w, s, SIG_NONFINITE] = bad
     # harness.pick.penetration.TablePenetration.depth, per world
-    lowest = 1.0e9
+    lowest = wp.float32(1.0e9)
     for i in range(pen_geom.shape[0]):
         g = pen_geom[i]
         c = geom_xpos[w, g]
@@ -136,7 +136,7 @@ def finger_forces(
     if c >= nacon[0]:
         return
     g = contact_geom[c]
-    side = -1
+    side = wp.int32(-1)
     if finger_side[g[0]] >= 0 and object_geom[g[1]] == 1:
         side = finger_side[g[0]]
     elif finger_side[g[1]] >= 0 and object_geom[g[0]] == 1:
