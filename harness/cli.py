@@ -348,7 +348,8 @@ def _add_bench(sub: Subparsers) -> None:
         "--only",
         nargs="+",
         metavar="SECTION",
-        help="run only these sections: grasps ik timing episodes graspgen sweeps",
+        help="run only these sections: grasps ik timing episodes graspgen sweeps sharing, "
+        "engines (mjwarp vs mujoco; only when named)",
     )
     p.set_defaults(func=_handler("bench", "main"))
 

@@ -15,8 +15,7 @@ import math
 
 import numpy as np
 
-from harness.engines.base import ExecutionJob
-from harness.engines.schedule import ExecutionSchedule
+from harness.engines.schedule import DeviceJob, ExecutionSchedule
 from harness.engines.signals import (
     EE_MAT,
     EE_POS,
@@ -44,12 +43,10 @@ def _forces(row: np.ndarray) -> tuple[float, float]:
     return float(row[FORCE_LEFT]), float(row[FORCE_RIGHT])
 
 
-def _tcp_error(job: ExecutionJob, row: np.ndarray) -> float:
+def _tcp_error(job: DeviceJob, row: np.ndarray) -> float:
     """``PickExecutor._tcp_error`` on a signal row."""
-    convention = job.scene.robot.convention
-    axis = convention.approach_index
-    offset = job.task.pick.tcp_offset or convention.tcp_offset
-    planned = job.targets.T_world_grasp
+    axis, offset = job.approach_index, job.tcp_offset
+    planned = job.T_world_grasp
     R = row[EE_MAT].reshape(3, 3)
     p_planned = planned[:3, 3] + planned[:3, axis] * offset
     p_executed = row[EE_POS] + R[:, axis] * offset
@@ -59,7 +56,7 @@ def _tcp_error(job: ExecutionJob, row: np.ndarray) -> float:
 class _Judge:
     """Walks the signal rows as the CPU loop walks its control steps."""
 
-    def __init__(self, job: ExecutionJob, schedule: ExecutionSchedule, steps: np.ndarray) -> None:
+    def __init__(self, job: DeviceJob, schedule: ExecutionSchedule, steps: np.ndarray) -> None:
         self.job, self.schedule, self.steps = job, schedule, steps
         self.pick = job.task.pick
         self.out = PickOutcome()
@@ -175,8 +172,7 @@ def needs_tug(steps: np.ndarray, window: HoldWindow, object_init_z: float) -> bo
 
 
 def judge(
-    job: ExecutionJob,
-    schedule: ExecutionSchedule,
+    job: DeviceJob,
     steps: np.ndarray,
     validity: bool,
     window: HoldWindow | None,
@@ -184,7 +180,7 @@ def judge(
 ) -> PickOutcome:
     """The outcome of one world: ``steps`` its signal rows (motion, then the validity window),
     ``rungs`` the end rows of the 24 tug rungs (``RUNGS`` order) when it was tugged."""
-    state = _Judge(job, schedule, steps)
+    state = _Judge(job, job.schedule, steps)
     reached = state.motion()
     if validity:
         if reached and window is not None:

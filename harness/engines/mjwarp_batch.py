@@ -21,10 +21,10 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
+from harness.config import TaskConfig
 from harness.engines import mjwarp_kernels as kernels
-from harness.engines.base import ExecutionJob
 from harness.engines.judge import RUNGS, judge, needs_tug
-from harness.engines.schedule import ExecutionSchedule
+from harness.engines.schedule import DeviceJob, ExecutionSchedule
 from harness.engines.signals import (
     SIGNALS,
     HoldWindow,
@@ -35,6 +35,7 @@ from harness.engines.signals import (
 from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
 from harness.pick.validity import TUG_DIRECTIONS, tug_rung_steps, validity_enabled
+from harness.sim import Scene
 
 NCONMAX = 128  # contacts per world (a grasp holds ~10-40)
 NJMAX = 768  # constraint rows per world
@@ -54,13 +55,13 @@ class BatchTimings:
 class DeviceModel:
     """A task model on a Warp device, with the constant inputs of the signal kernels."""
 
-    def __init__(self, job: ExecutionJob, device: str) -> None:
-        scene = job.scene
+    def __init__(self, scene: Scene, task: TaskConfig, device: str) -> None:
         m = scene.model
         self.mj_model = m
+        self.template = scene.data
         self.device = device
-        handles = scene.arms[job.task.arm]
-        obj = scene.objects[job.task.target_object.name]
+        handles = scene.arms[task.arm]
+        obj = scene.objects[task.target_object.name]
         with wp.ScopedDevice(device):
             self.model = mjw.put_model(m)
             self.robot_dof = wp.array(scene.robot_dof.astype(np.int32), dtype=wp.int32)
@@ -119,16 +120,8 @@ def _replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def
         wp.capture_launch(capture.graph)
 
 
-def _world_arrays(jobs: list[ExecutionJob]) -> dict[str, np.ndarray]:
-    datas = [job.scene.data for job in jobs]
-    return {
-        "qpos": np.stack([d.qpos for d in datas]),
-        "qvel": np.stack([d.qvel for d in datas]),
-        "qacc_warmstart": np.stack([d.qacc_warmstart for d in datas]),
-        "ctrl": np.stack([d.ctrl for d in datas]),
-        "mocap_pos": np.stack([d.mocap_pos for d in datas]),
-        "mocap_quat": np.stack([d.mocap_quat for d in datas]),
-    }
+def _world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
+    return {name: np.stack([job.state[name] for job in jobs]) for name in jobs[0].state}
 
 
 def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.ndarray, np.ndarray]:
@@ -152,16 +145,15 @@ class WorldBatch:
         self.dm = dm
         self.timings = BatchTimings()
 
-    def _data(self, jobs: list[ExecutionJob], nworld: int) -> mjw.Data:
+    def _data(self, nworld: int) -> mjw.Data:
         return mjw.put_data(
-            self.dm.mj_model, jobs[0].scene.data, nworld=nworld, nconmax=NCONMAX, njmax=NJMAX
+            self.dm.mj_model, self.dm.template, nworld=nworld, nconmax=NCONMAX, njmax=NJMAX
         )
 
-    def run(
-        self, jobs: list[ExecutionJob], schedules: list[ExecutionSchedule]
-    ) -> list[PickOutcome]:
+    def run(self, jobs: list[DeviceJob]) -> list[PickOutcome]:
         dm, device = self.dm, self.dm.device
         n = len(jobs)
+        schedules = [job.schedule for job in jobs]
         validity = [validity_enabled(job.task.pick) for job in jobs]
         dt = schedules[0].control_dt
         hold_time = jobs[0].task.pick.hold_time
@@ -171,7 +163,7 @@ class WorldBatch:
         rows = int(spans.max())
         clock = time.perf_counter()
         with wp.ScopedDevice(device):
-            d = self._data(jobs, n)
+            d = self._data(n)
             for name, values in _world_arrays(jobs).items():
                 getattr(d, name).assign(values.astype(np.float32))
             table, last = _schedule_rows(schedules, rows)
@@ -232,12 +224,12 @@ class WorldBatch:
                 outcomes.append(PickOutcome(failure_reason="sim_unstable", message=reason))
                 continue
             rung = rung_rows.get(w)
-            outcomes.append(judge(job, schedules[w], steps[w], validity[w], windows[w], rung))
+            outcomes.append(judge(job, steps[w], validity[w], windows[w], rung))
         return outcomes
 
     def _tug(
         self,
-        jobs: list[ExecutionJob],
+        jobs: list[DeviceJob],
         d: mjw.Data,
         saved: list[wp.array],
         motion: np.ndarray,
@@ -259,7 +251,7 @@ class WorldBatch:
                 slot.append(win.hold_end - (int(motion[w]) - 1))
                 force.append(np.asarray(directions[name]) * k * dm.weight)
         nt = len(source)
-        td = self._data(jobs, nt)
+        td = self._data(nt)
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[

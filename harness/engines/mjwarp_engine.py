@@ -14,11 +14,13 @@ from __future__ import annotations
 import os
 from typing import Any
 
+from harness.config import TaskConfig
 from harness.engines.base import Execution, ExecutionJob
-from harness.engines.schedule import build_schedule
+from harness.engines.schedule import DeviceJob, device_job
 from harness.errors import HarnessError
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
+from harness.sim import Scene
 
 
 def _import_warp() -> tuple[Any, Any]:
@@ -54,25 +56,25 @@ class MjwarpEngine:
         self.device = device or default_device()
         self._models: dict[int, Any] = {}
 
-    def _batch(self, job: ExecutionJob) -> Any:
+    def batch(self, scene: Scene, task: TaskConfig) -> Any:
+        """A ``WorldBatch`` on the device model of ``scene`` (made once per model)."""
         from harness.engines.mjwarp_batch import DeviceModel, WorldBatch
 
-        key = id(job.scene.model)
+        key = id(scene.model)
         dm = self._models.get(key)
         if dm is None:
-            dm = self._models[key] = DeviceModel(job, self.device)
+            dm = self._models[key] = DeviceModel(scene, task, self.device)
         return WorldBatch(dm)
 
     def execute(self, job: ExecutionJob) -> Execution:
-        schedule = build_schedule(job)
-        outcome = self._batch(job).run([job], [schedule])[0]
+        packed = device_job(job)
+        outcome = self.batch(job.scene, job.task).run([packed])[0]
         validity = validity_enabled(job.task.pick)
         if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
             return Execution(None, validity, warmup_unstable=outcome.message)
         return Execution(outcome, validity)
 
-    def execute_many(self, jobs: list[ExecutionJob]) -> tuple[list[PickOutcome], Any]:
-        """Jobs of one task model in one batch; the outcomes and the batch's timings."""
-        schedules = [build_schedule(job) for job in jobs]
-        batch = self._batch(jobs[0])
-        return batch.run(jobs, schedules), batch.timings
+    def execute_many(self, scene: Scene, jobs: list[DeviceJob]) -> tuple[list[PickOutcome], Any]:
+        """Jobs of ``scene``'s task model in one batch; the outcomes and the batch's timings."""
+        batch = self.batch(scene, jobs[0].task)
+        return batch.run(jobs), batch.timings

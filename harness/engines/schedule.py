@@ -20,8 +20,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from harness.config import TaskConfig
 from harness.engines.base import ExecutionJob
 from harness.pick.executor import PickExecutor
+from harness.pick.semantics import Semantics
 from harness.pick.verdict import VerdictTerm
 from harness.sim import Scene
 
@@ -117,4 +119,34 @@ def build_schedule(job: ExecutionJob) -> ExecutionSchedule:
     return ExecutionSchedule(
         ctrl, list(executor.chunk_sizes), job.warmup_steps, warmup_ctrl,
         executor.close_step, executor.verdict_step, executor.control_dt,
+    )  # fmt: skip
+
+
+@dataclass
+class DeviceJob:
+    """An execution job in plain arrays (picklable: planning workers send it to the process that
+    owns the device): the start state, the schedule, and what the verdicts need of the plan."""
+
+    task: TaskConfig
+    semantics: Semantics
+    object_init_position: np.ndarray
+    T_world_grasp: np.ndarray
+    approach_index: int
+    tcp_offset: float
+    state: dict[str, np.ndarray]
+    schedule: ExecutionSchedule
+
+
+def device_job(job: ExecutionJob) -> DeviceJob:
+    """The job's start state and schedule (``build_schedule``) as a ``DeviceJob``."""
+    d = job.scene.data
+    convention = job.scene.robot.convention
+    state = {
+        name: np.array(getattr(d, name))
+        for name in ("qpos", "qvel", "qacc_warmstart", "ctrl", "mocap_pos", "mocap_quat")
+    }
+    return DeviceJob(
+        job.task, job.semantics, np.asarray(job.object_init_position, dtype=float),
+        job.targets.T_world_grasp.copy(), int(convention.approach_index),
+        float(job.task.pick.tcp_offset or convention.tcp_offset), state, build_schedule(job),
     )  # fmt: skip
