@@ -171,8 +171,14 @@ def agreement(cpu_rows: list[dict[str, Any]], gpu: dict[str, Any]) -> list[dict[
     return records
 
 
-def measure(seeds: int, workers: int, device: str, arms: tuple[str, ...] = ARMS) -> dict[str, Any]:
-    all_specs = specs(tasks(arms), seeds)
+def measure(
+    seeds: int,
+    workers: int,
+    device: str,
+    arms: tuple[str, ...] = ARMS,
+    objects: tuple[str, ...] = OBJECTS,
+) -> dict[str, Any]:
+    all_specs = specs(tasks(arms, objects), seeds)
     cpu_rows, cpu_s = run_cpu(all_specs, workers)
     gpu = run_gpu(all_specs, workers, device)
     records = agreement(cpu_rows, gpu)
@@ -189,7 +195,7 @@ def figures(result: dict[str, Any]) -> list[Figure]:
     )
     same_valid = sum(r["cpu_valid"] == r["gpu_valid"] for r in records)
     k = max(1, len(records))
-    what = f"{n} episodes ({len(records)} executed) of {len(ARMS)} arms x {len(OBJECTS)} objects"
+    what = f"{n} episodes ({len(records)} executed)"
     return [
         figure(SECTION, "episodes per hour, CPU only (mujoco)", [cpu_rate], "ep/h", notes=what),
         figure(
@@ -228,8 +234,9 @@ def main() -> None:
 
     seeds, out = int(sys.argv[1]), Path(sys.argv[2])
     arms = tuple(sys.argv[3:]) or ARMS
+    objects = tuple(os.environ.get("BENCH_OBJECTS", ",".join(OBJECTS)).split(","))
     out.mkdir(parents=True, exist_ok=True)
-    result = measure(seeds, os.cpu_count() or 1, default_device(), arms)
+    result = measure(seeds, os.cpu_count() or 1, default_device(), arms, objects)
     with (out / "agreement.jsonl").open("w") as f:
         for record in result["records"]:
             f.write(json.dumps(record, default=float) + "\n")

@@ -54,13 +54,14 @@ class MjwarpEngine:
     def __init__(self, device: str | None = None) -> None:
         _import_warp()
         self.device = device or default_device()
-        self._models: dict[int, Any] = {}
+        self._models: dict[tuple[int, str, str], Any] = {}
 
     def batch(self, scene: Scene, task: TaskConfig) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` (made once per model)."""
         from harness.engines.mjwarp_batch import DeviceModel, WorldBatch
 
-        key = id(scene.model)
+        # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
+        key = (id(scene.model), task.arm, task.target_object.name)
         dm = self._models.get(key)
         if dm is None:
             dm = self._models[key] = DeviceModel(scene, task, self.device)
