@@ -64,10 +64,13 @@ def sweep(
     """Run a sweep and return its episode table (one row per episode, ``episodes.csv``'s
     columns). ``config``: a sweep YAML path, a ``SweepConfig`` or a dict in the YAML's shape.
     The run directory (report, recordings) is ``out``, else ``reports/<name>-<time>``."""
+    from harness.report.finish import finish_run  # scipy, matplotlib: only when sweeping
+
     if isinstance(config, (str, Path)):
         outcome = run_sweep(
             Path(config), out=_out(out), workers=workers, backend=backend, progress=progress
         )
+        finish_run(outcome.run_dir)
         return load_run(outcome.run_dir)
     data = config.model_dump(mode="json") if isinstance(config, SweepConfig) else dict(config)
     data["tasks"] = [_absolute_task(entry) for entry in data.get("tasks", [])]
@@ -77,6 +80,7 @@ def sweep(
         outcome = run_sweep(
             path, out=_out(out), workers=workers, backend=backend, progress=progress
         )
+    finish_run(outcome.run_dir)
     return load_run(outcome.run_dir)
 
 

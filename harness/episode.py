@@ -2,7 +2,7 @@
 
 ``run_episode(spec, scene_cache)`` never raises for episode-level problems: every outcome is one
 flat row (``EpisodeResult.row``, the columns of ``harness.runs.store``) with ``success`` and a
-``failure_reason`` from the taxonomy (ARCHITECTURE.md):
+``failure_reason`` from the taxonomy (``harness.failures``):
 
 ``filter_empty`` (no candidate at all), ``no_feasible_candidate`` (strict: none passed the
 feasibility test), ``plan_failed`` (the executed motion could not be planned or timed),

@@ -1,5 +1,5 @@
-"""The failure taxonomy of an episode (ARCHITECTURE.md): one definition for the executor and the
-row schema.
+"""The failure taxonomy of an episode (``FAILURE_REASONS`` below, in pipeline order; what each
+means per semantics: docs/semantics.md): one definition for the executor and the row schema.
 
 Kept in its own module, free of heavy imports, so that ``harness.pick.executor`` (MuJoCo) and
 ``harness.runs.store`` (pandas) can both name it without importing each other.

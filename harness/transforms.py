@@ -1,8 +1,8 @@
 """SE(3) and quaternion helpers, vectorised over leading dimensions.
 
-Conventions (../shared/ARCHITECTURE.md): ``T_a_b`` is the 4x4 pose of frame b in frame a (it maps
-b-coordinates into a); quaternions are **wxyz** everywhere in the harness, as in MuJoCo and the
-reference. Rerun wants xyzw: convert only at that boundary with :func:`wxyz_to_xyzw`.
+Conventions (docs/architecture.md, Conventions): ``T_a_b`` is the 4x4 pose of frame b in frame a
+(it maps b-coordinates into a); quaternions are **wxyz** everywhere in the harness, as in MuJoCo
+and the reference. Rerun wants xyzw: convert only at that boundary with :func:`wxyz_to_xyzw`.
 
 Every function accepts arrays with any number of leading (batch) dimensions, e.g. quaternions of
 shape ``(..., 4)`` and rotations of shape ``(..., 3, 3)``, and never loops in Python over them.

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import AVAILABLE_ROBOTS_TEXT
 
 from harness.cli import main
 
@@ -144,7 +145,7 @@ def test_robot_convention_comes_from_robot_yaml() -> None:
 
     convention = robot_convention("lift2", "right")
     assert convention.ee_axis == reference_convention("lift2").ee_axis == "x"
-    with pytest.raises(HarnessError, match="available robots: fr3, lift2, split_aloha"):
+    with pytest.raises(HarnessError, match=f"available robots: {AVAILABLE_ROBOTS_TEXT}"):
         robot_convention("ur5", "left")
     with pytest.raises(HarnessError, match="no right arm"):
         robot_convention("fr3", "right")

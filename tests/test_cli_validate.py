@@ -2,29 +2,9 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
-import pytest
-
-PROJECT_ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = PROJECT_ROOT / "tasks" / "examples"
-HARNESS = Path(sys.executable).with_name("harness")
-
-
-def harness(*args: str | Path, cwd: Path = PROJECT_ROOT) -> subprocess.CompletedProcess[str]:
-    if not HARNESS.exists():
-        pytest.skip(f"console script {HARNESS} is not installed (pip install -e .)")
-    return subprocess.run(
-        [str(HARNESS), *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        stdin=subprocess.DEVNULL,
-        timeout=120,
-        check=False,
-    )
+from helpers import EXAMPLES, INTERNDATA_ROBOTS_TEXT, harness
 
 
 def test_valid_task() -> None:
@@ -152,6 +132,6 @@ def test_interndata_unsupported_robot(examples_dir: Path, tmp_path: Path) -> Non
     )
     assert result.stderr == (
         f"error: {path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot "
-        "'genie1.yaml' (workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, "
-        "split_aloha\n"
+        "'genie1.yaml' (workflows/simbox/core/configs/robots/genie1.yaml); supported: "
+        f"{INTERNDATA_ROBOTS_TEXT}\n"
     )

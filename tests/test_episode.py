@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_scene import make_task, write_box
+from helpers import PICK_TASKS, make_task, write_box
+from reference_robots import REFERENCE_PLANNER_FILES
 
 from harness.config import PickConfig, apply_overrides, load_task
 from harness.episode import (
@@ -32,7 +33,7 @@ from harness.scene_cache import get_scene, grasp_file_for
 from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
-TASK_FILES = ["fr3", "split_aloha_left", "split_aloha_right", "lift2_left", "lift2_right"]
+TASK_FILES = PICK_TASKS
 ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error"}
 
 
@@ -331,16 +332,9 @@ def test_harness_run_writes_a_run_directory(tmp_path: Path, capsys) -> None:
 # Reference semantics: timeline, draw order, command targets, forward test (docs/semantics.md)
 
 CENTRE = {"placement": {"pos_range": [[0.05, 0.0, 0.0], [0.05, 0.0, 0.0]]}}
-# The reference's planner files (docs/reference-pick-skill.md section 3): the pre-grasp backs off
-# along EE
-# column 0 when "r5a" is in the file name, else column 2 (quirk 14).
-REFERENCE_PLANNER_FILES = {
-    "fr3": ["fr3_left_arm.yml"],
-    "lift2": ["r5a_left_arm.yml", "r5a_right_arm.yml"],
-    "split_aloha": ["piper100_left_arm.yml", "piper100_right_arm.yml"],
-}
 
 
+# The reference's planner files (docs/reference-pick-skill.md section 3, tests/reference_robots.py).
 @pytest.mark.parametrize("robot", sorted(REFERENCE_PLANNER_FILES))
 def test_pregrasp_column_matches_the_reference_r5a_rule(robot: str) -> None:
     """The harness backs off along ee_axis; the reference along column 0 for "r5a" planner files

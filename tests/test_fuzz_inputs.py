@@ -20,10 +20,14 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from helpers import ROBOTS
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from reference_robots import FUZZ_CLEAN_ARMS
 
 from harness import cli
+from harness.robots import RobotModel
+from harness.robots.facts import robot_arms
 
 ROOT = Path(__file__).resolve().parents[1]
 CUBE = ROOT / "tasks" / "objects" / "cube"
@@ -54,16 +58,11 @@ def grasp_arrays(draw: st.DrawFn, clean: bool) -> np.ndarray:
     return array
 
 
-ROBOT_HOMES = {"fr3": 7, "split_aloha": 6, "lift2": 6}
-
+# Arm joint count per bundled robot (a home of another length is an error).
+ROBOT_HOMES = {name: len(RobotModel.load(name).arms[robot_arms(name)[0]].joints) for name in ROBOTS}
 
 # Arms that exist, with the direction filter their canonical task uses.
-CLEAN_ARMS = [
-    ("fr3", "left"),
-    ("split_aloha", "left"),
-    ("split_aloha", "right"),
-    ("lift2", "right"),
-]
+CLEAN_ARMS = FUZZ_CLEAN_ARMS
 
 
 @st.composite

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import canonical_filters
 from pydantic import ValidationError
+from reference_robots import EE_AXES_IN_GRASPNET, REFERENCE_ROBOTS
 from scipy.spatial.transform import Rotation
 from scipy.stats import chisquare
 
@@ -36,9 +38,10 @@ from harness.pick.semantics import Semantics
 from harness.robots.facts import reference_convention
 from harness.transforms import make_T, yaw_matrix
 
-ROBOTS = ("fr3", "lift2", "split_aloha")
-# Each robot's grasp convention from its robots/<name>/robot.yaml (test_robot.py checks those
-# values against the reference robot configs).
+# The grasp tests pin the reference's hand math, so they run on the reference robots. Each
+# robot's grasp convention from its robots/<name>/robot.yaml (test_robot.py checks those values
+# against the reference robot configs).
+ROBOTS = REFERENCE_ROBOTS
 REFERENCE_CONVENTIONS = {robot: reference_convention(robot) for robot in ROBOTS}
 
 
@@ -49,13 +52,6 @@ def rule_of(pick: PickConfig) -> CandidateRule:
 
 def rng0() -> np.random.Generator:
     return np.random.default_rng(0)
-
-
-CANONICAL = {  # docs/reference-pick-skill.md section 9
-    "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-    "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
-    "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-}
 
 
 def grasp_row(
@@ -84,11 +80,12 @@ R_TOP_DOWN = np.column_stack([G_X, G_Y, G_Z])
 
 # EE axes (x, y, z) of the top-down grasp per robot, from the table "EE axes in GraspNet terms"
 # and, for the flipped copy, the same turned 180 degrees about the approach axis.
-EXPECTED_AXES = {
-    "fr3": ((-G_Z, G_Y, G_X), (G_Z, -G_Y, G_X)),  # (-g_z, g_y, g_x), flip about z
-    "lift2": ((G_X, -G_Y, -G_Z), (G_X, G_Y, G_Z)),  # (g_x, -g_y, -g_z), flip about x
-    "split_aloha": ((-G_Y, -G_Z, G_X), (G_Y, G_Z, G_X)),  # (-g_y, -g_z, g_x), flip about z
-}
+AXIS_OF = {"x": G_X, "y": G_Y, "z": G_Z}
+
+
+def graspnet_axes(names: tuple[str, ...]) -> list[np.ndarray]:
+    """``("-z", "y", "x")`` -> [-G_Z, G_Y, G_X]."""
+    return [-AXIS_OF[n[1]] if n.startswith("-") else AXIS_OF[n] for n in names]
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -99,7 +96,7 @@ def test_post_process_hand_math_top_down(robot: str) -> None:
     )
     poses = post_process(grasps, convention)
     assert len(poses) == 2 and poses.n_grasps == 1
-    unflipped, flipped = EXPECTED_AXES[robot]
+    unflipped, flipped = (graspnet_axes(a) for a in EE_AXES_IN_GRASPNET[robot])
     np.testing.assert_array_equal(poses.rotations[0], np.column_stack(unflipped))
     np.testing.assert_array_equal(poses.rotations[1], np.column_stack(flipped))
     # The EE origin sits tcp_offset - depth behind the grasp point along the approach (-Z), i.e.
@@ -296,7 +293,7 @@ def test_masks_are_anded_and_reported_individually() -> None:
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_canonical_filters_translate_to_one_neutral_pair(robot: str) -> None:
     convention = REFERENCE_CONVENTIONS[robot]
-    pick = PickConfig(**CANONICAL[robot])
+    pick = PickConfig(**canonical_filters(robot))
     neutral = neutral_form(pick.axis_filters(), convention)
     assert neutral == {
         "approach_filter": spec("downward", 140),
@@ -306,7 +303,7 @@ def test_canonical_filters_translate_to_one_neutral_pair(robot: str) -> None:
     back = resolve_filters(
         PickConfig(approach_filter=["downward", 140], facing_filter=["forward", 90]), convention
     )
-    assert back == PickConfig(**CANONICAL[robot]).axis_filters()
+    assert back == PickConfig(**canonical_filters(robot)).axis_filters()
 
 
 def test_resolve_filters_merges_and_rejects_clashes() -> None:
@@ -607,16 +604,16 @@ def test_canonical_filters_select_identical_grasps_across_robots(
                 r: select_candidates(
                     poses[r],
                     REFERENCE_CONVENTIONS[r],
-                    PickConfig(**CANONICAL[r]),
+                    PickConfig(**canonical_filters(r)),
                     T_base_obj,
                     np.random.default_rng(seed),
-                    rule_of(PickConfig(**CANONICAL[r])),
+                    rule_of(PickConfig(**canonical_filters(r))),
                 )
                 for r in ROBOTS
             }
             fr3 = selections["fr3"]
             assert fr3.filter_result.passed > 0, folder
-            for robot in ("lift2", "split_aloha"):
+            for robot in ROBOTS[1:]:
                 other = selections[robot]
                 np.testing.assert_array_equal(
                     other.filter_result.combined, fr3.filter_result.combined, err_msg=robot
@@ -645,10 +642,10 @@ def test_neutral_filters_match_canonical_masks(example_objects: list[Path]) -> N
         b = select_candidates(
             poses,
             convention,
-            PickConfig(**CANONICAL[robot]),
+            PickConfig(**canonical_filters(robot)),
             T_base_obj,
             rng,
-            rule_of(PickConfig(**CANONICAL[robot])),
+            rule_of(PickConfig(**canonical_filters(robot))),
         )
         np.testing.assert_array_equal(a.filter_result.combined, b.filter_result.combined)
 
@@ -662,7 +659,7 @@ def test_bottle_0_passes_430_of_6000_at_any_yaw(examples_dir: Path) -> None:
     for robot in ROBOTS:
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
-        filters = PickConfig(**CANONICAL[robot]).axis_filters()
+        filters = PickConfig(**canonical_filters(robot)).axis_filters()
         for yaw in yaws:
             T_base_obj = make_T(yaw_matrix(yaw), [0.5, 0.0, 0.02])
             result = filter_ee_poses(poses, T_base_obj, filters)
@@ -675,7 +672,7 @@ def test_example_reference_order_top_block_and_duplicates(
     path = examples_dir / "objects/recyclable_garbage/bottle_0/Aligned_grasp_sparse.npy"
     convention = REFERENCE_CONVENTIONS["fr3"]
     poses = post_process(load_grasp_file(path), convention)
-    pick = PickConfig(**CANONICAL["fr3"])
+    pick = PickConfig(**canonical_filters("fr3"))
     T_base_obj = make_T(yaw_matrix(0.3), [0.5, 0.0, 0.02])
     selection = select_candidates(
         poses, convention, pick, T_base_obj, np.random.default_rng(9), rule_of(pick)

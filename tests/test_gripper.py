@@ -14,6 +14,8 @@ import mujoco
 import numpy as np
 import pytest
 import yaml
+from helpers import ROBOT_ARMS
+from reference_robots import FINGERTIP_M, pinned
 
 from harness.config import ConfigError, SweepConfig, apply_overrides, load_task
 from harness.config.task import GripperChoice
@@ -31,20 +33,7 @@ from harness.sim import scene_key
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = Path("/work/shared/datasets/interndata-examples")
-ARMS = [("fr3", "left"), ("lift2", "left"), ("lift2", "right"), ("split_aloha", "left"),
-        ("split_aloha", "right")]  # fmt: skip
-
-# Fingertip (farthest finger collision point along the approach axis) past the EE frame, from
-# the cited sources (robots/<name>/robot.yaml comments):
-FINGERTIP_M = {
-    # Franka Hand rubber tip: pad centre 0.1037 past the hand, 18.5 mm tall (Menagerie
-    # franka_emika_panda/panda.xml fingertip pads; finger roots at 0.0584).
-    "fr3": 0.1037 + 0.0185 / 2,
-    # Menagerie arx_l5/arx_l5.xml: fingers at link6 x 0.08657, pad box to x 0.05 + 0.02.
-    "lift2": 0.08657 + 0.05 + 0.02,
-    # Menagerie agilex_piper/piper.xml: pads end at the finger origin, link6 z 0.13503.
-    "split_aloha": 0.13503,
-}
+ARMS = ROBOT_ARMS
 
 
 def compiled(
@@ -103,7 +92,9 @@ def fingertip(
 def test_fingertip_is_where_the_cited_source_puts_it(name: str, arm_name: str) -> None:
     robot = RobotModel.load(name)
     model, data, _ = compiled(robot)
-    assert fingertip(model, data, robot, arm_name) == pytest.approx(FINGERTIP_M[name], abs=1e-3)
+    assert fingertip(model, data, robot, arm_name) == pytest.approx(
+        pinned(FINGERTIP_M, name), abs=1e-3
+    )
 
 
 def test_sdk070_variant_is_the_sdk_jaw_in_the_compiled_model() -> None:

@@ -7,21 +7,14 @@ import time
 import mujoco
 import numpy as np
 import pytest
+from helpers import ROBOT_ARMS
 
-from harness.planning.ik import IKSettings, WholeBodyIK, pose_errors
+from harness.planning.arm_ik import arm_ik
+from harness.planning.ik import IKSettings, pose_errors
 from harness.robots import RobotModel
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses
 
-ARMS = [("fr3", "left"), ("split_aloha", "left"), ("split_aloha", "right"), ("lift2", "right")]
-
-
-def make_ik(robot: RobotModel, arm: str) -> tuple[WholeBodyIK, np.ndarray]:
-    spec = robot.arm(arm)
-    active = ([robot.lift_joint] if robot.lift_joint else []) + list(spec.joints)
-    ik = WholeBodyIK(robot.urdf_path, active, spec.ee_frame, robot.lift_joint)
-    home = robot.home_configuration()
-    ik.set_posture(home)
-    return ik, np.array([home[j] for j in active])
+ARMS = ROBOT_ARMS
 
 
 @pytest.mark.parametrize(("name", "arm"), ARMS)
@@ -31,7 +24,7 @@ def test_reachable_targets_are_solved_accurately(name: str, arm: str) -> None:
     targets deep in joint-limit corners end in a local minimum that is only within the 5 mm /
     0.05 rad acceptance)."""
     robot = RobotModel.load(name)
-    ik, home = make_ik(robot, arm)
+    ik, home = arm_ik(robot, arm)
     settings = IKSettings()
     rng = np.random.default_rng(3)
     solved = tight = 0
@@ -62,7 +55,7 @@ def test_placo_and_mujoco_agree_on_the_ee_frame_with_a_moved_base() -> None:
     model = spec.compile()
     data = mujoco.MjData(model)
     addresses = robot_addresses(model, robot)
-    ik, _ = make_ik(robot, "left")
+    ik, _ = arm_ik(robot, "left")
     rng = np.random.default_rng(0)
     for _ in range(20):
         root = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 0)])
@@ -87,7 +80,7 @@ def test_placo_and_mujoco_agree_on_the_ee_frame_with_a_moved_base() -> None:
 def test_unreachable_target_fails_quickly_with_its_residual(name: str, arm: str) -> None:
     """A target 2 m away: no success, the residual reported, bounded effort, no hang."""
     robot = RobotModel.load(name)
-    ik, home = make_ik(robot, arm)
+    ik, home = arm_ik(robot, arm)
     target = ik.fk(home)
     target[:3, 3] += [2.0, 0.0, 0.0]
     settings = IKSettings(max_iterations=60, max_restarts=6)
@@ -103,7 +96,7 @@ def test_unreachable_target_fails_quickly_with_its_residual(name: str, arm: str)
 def test_random_restarts_rescue_a_bad_seed() -> None:
     """From a seed on the far side of the joint space, restarts find a solution."""
     robot = RobotModel.load("fr3")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     target = ik.fk(home)
     bad_seed = ik.upper - 1e-3
     no_restarts = ik.solve(target, bad_seed, None, IKSettings(max_iterations=5, max_restarts=0))
@@ -118,7 +111,7 @@ def test_lift_moves_only_when_the_arm_cannot_reach() -> None:
     """Lift-2: a target the arm reaches keeps the lift still; a target above what the arm can
     reach from a low lift is solved by raising the lift together with the arm."""
     robot = RobotModel.load("lift2")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     near = ik.fk(ik.clip(home + np.r_[0.0, 0.3, 0.4, 0.3, 0.0, 0.2, 0.0]))
     result = ik.solve(near, home, np.random.default_rng(0))
     assert result.success
@@ -139,7 +132,7 @@ def test_held_lift_stays_at_its_seed() -> None:
     needs the lift raised is then out of reach, with the lift exactly at its seed; releasing
     the hold solves it again."""
     robot = RobotModel.load("lift2")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     high = ik.fk(ik.clip(np.r_[0.46, 0.0, 1.57, 1.57, 0.0, 0.0, 0.0]))
     seed = home.copy()
     seed[0] = 0.0
@@ -157,7 +150,7 @@ def test_held_lift_stays_at_its_seed() -> None:
 def test_idle_arm_holds_its_posture() -> None:
     """Dual-arm: solving for the left arm never moves the right arm's joints."""
     robot = RobotModel.load("split_aloha")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     right = robot.arm("right").joints
     posture = {j: float(np.mean(robot.joint_limits(j))) + 0.1 for j in right}
     ik.set_posture(posture)
@@ -170,7 +163,7 @@ def test_idle_arm_holds_its_posture() -> None:
 
 def test_seed_outside_the_limits_is_clipped_not_fatal() -> None:
     robot = RobotModel.load("fr3")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     target = ik.fk(home)
     result = ik.solve(target, ik.upper + 0.5, np.random.default_rng(0))
     assert result.success
@@ -179,7 +172,7 @@ def test_seed_outside_the_limits_is_clipped_not_fatal() -> None:
 def test_masked_joint_a_hair_past_its_limit_does_not_break_the_qp() -> None:
     """Simulation can leave a finger 1e-11 past its stop; the posture is clipped for placo."""
     robot = RobotModel.load("fr3")
-    ik, home = make_ik(robot, "left")
+    ik, home = arm_ik(robot, "left")
     finger = robot.arm("left").finger_joints[1]
     upper = robot.joint_limits(finger)[1]
     ik.set_posture({finger: upper + 1e-11})

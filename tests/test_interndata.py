@@ -12,11 +12,12 @@ from typing import Any
 
 import pytest
 import yaml
+from helpers import INTERNDATA_ROBOTS_TEXT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from harness.config import AxisFilter, ConfigError, TaskConfig, parse_text
-from harness.config.interndata import (
+from harness.interndata import (
     CATEGORY_ORIENTATIONS,
     InternDataPick,
     load_interndata_tasks,
@@ -234,7 +235,7 @@ def sort_the_rubbish(examples_dir: Path, bottle: Path, example_objects: list[Pat
 def test_sort_the_rubbish_maps_both_arms_in_phase_order(
     examples_dir: Path, bottle: Path, example_objects: list[Path], caplog: pytest.LogCaptureFixture
 ) -> None:
-    with caplog.at_level(logging.WARNING, logger="harness.config.interndata.resolver"):
+    with caplog.at_level(logging.WARNING, logger="harness.interndata.resolver"):
         picks = sort_the_rubbish(examples_dir, bottle, example_objects)
     assert [(p.arm, p.stage, p.phase, p.skill_index, p.order) for p in picks] == [
         ("right", 0, 0, 0, 0),  # phase 0: the right arm's pick, place, home
@@ -336,7 +337,7 @@ def test_unsupported_robot(examples_dir: Path, tmp_path: Path, bottle: Path) -> 
     line = line_of(path, "robot_config_file:")
     assert err.one_line() == (
         f"{path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
-        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, split_aloha"
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT
     )
 
 
@@ -750,7 +751,7 @@ def test_relative_paths_resolve_against_the_current_directory(
 
 
 def test_compatibility_table_lists_every_key_the_mapper_knows() -> None:
-    from harness.config import interndata
+    from harness import interndata
 
     text = (PROJECT_ROOT / "docs" / "interndata.md").read_text()
     keys = [

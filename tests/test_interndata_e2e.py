@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from helpers import INTERNDATA_ROBOTS_TEXT
 
 from harness.cli import main as cli_main
 from harness.config import ConfigError, load_sweep
-from harness.config.interndata import load_interndata_tasks
 from harness.failures import FailureReason
+from harness.interndata import load_interndata_tasks
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 HARNESS = Path(sys.executable).with_name("harness")
@@ -306,7 +307,7 @@ def test_cli_unsupported_robot(examples_dir: Path, bottle: Path, tmp_path: Path)
         result,
         f"error: {path}:{line_of(path, 'robot_config_file')} "
         "tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
-        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: fr3, lift2, split_aloha",
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT,
     )
 
 

@@ -8,35 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_scene import make_task, write_box
+from helpers import make_task, scene_planner, top_down_grasp, write_box
 
 from harness.planning.collision import CollisionChecker
 from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
-from harness.planning.planner import PickPlanner
 from harness.planning.world import PlanningWorld
-from harness.scene_cache import get_scene
 from harness.sim import Scene
 from harness.transforms import invert_T
-
-
-def _planner(task) -> tuple[Scene, PickPlanner]:
-    bundle = get_scene(task, {})
-    scene = bundle.scene
-    scene.reset(task, np.random.default_rng(0))
-    planner = bundle.planner(task.arm)
-    return scene, planner
-
-
-def top_down_grasp(scene: Scene, arm: str, obj: str = "target") -> np.ndarray:
-    """A world EE pose grasping the object from straight above (FR3 convention: z down)."""
-    T_obj = scene.T_world_object(obj)
-    T = np.eye(4)
-    T[:3, :3] = np.diag([1.0, -1.0, -1.0])
-    T_base = scene.T_world_base(arm)
-    T[:3, :3] = T_base[:3, :3] @ T[:3, :3]
-    T[:3, 3] = T_obj[:3, 3] + [0.0, 0.0, scene.robot.convention.tcp_offset]
-    return T
-
 
 # --------------------------------------------------------------------------------------------
 # Pure functions
@@ -127,7 +105,7 @@ def fr3(tmp_path_factory: pytest.TempPathFactory):
             "placement": {"pos_range": [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], "yaw_range": [0, 0]}
         },
     )
-    scene, planner = _planner(task)
+    scene, planner = scene_planner(task)
     return task, scene, planner
 
 
@@ -185,7 +163,7 @@ def test_checker_ignore_substring(tmp_path: Path) -> None:
             }
         ],
     )
-    scene, planner = _planner(task)
+    scene, planner = scene_planner(task)
     planner.sync(PlanningWorld("target", check_table=False))  # also the IK's base pose and posture
     q_home = scene.active_q("left")
     hits = {}
@@ -306,7 +284,7 @@ def test_rrt_is_used_when_the_direct_path_collides(tmp_path: Path) -> None:
             }
         ],
     )
-    scene, planner = _planner(task)
+    scene, planner = scene_planner(task)
     planner.sync(PlanningWorld("target", check_table=True))
     q_now = scene.active_q("left")
     T_grasp = top_down_grasp(scene, "left")

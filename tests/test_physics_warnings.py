@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from test_cli_validate import harness
+from helpers import harness
 
 from harness.config import PhysicsConfig, physics_warnings
 

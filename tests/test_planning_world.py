@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_motion import _planner, top_down_grasp
-from test_scene import make_task, write_box
+from helpers import make_task, scene_planner, top_down_grasp, write_box
 
 from harness.config import PickConfig
 from harness.pick.semantics import REFERENCE_IGNORE_SUBSTRINGS, STRICT_TABLE_CLEARANCE, Semantics
@@ -73,7 +72,7 @@ def physical_table(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scene, Pic
         ],
         physics={"table_contact": True},
     )
-    scene, planner = _planner(task)
+    scene, planner = scene_planner(task)
     strict = Semantics.from_pick(PickConfig(semantics="strict"))
     planner.sync(strict.planning_world("target"))
     q_home = scene.active_q("left")

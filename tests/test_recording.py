@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_scene import make_task, write_box
+from helpers import make_task, write_box
 
 from harness.episode import EpisodeSpec, run_episode
 from harness.viz.recording import record_episode

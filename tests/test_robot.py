@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import functools
 import importlib.util
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -16,11 +16,27 @@ import mujoco
 import numpy as np
 import placo
 import pytest
+from helpers import AVAILABLE_ROBOTS_TEXT, ROBOTS, canonical_filters
+from reference_robots import (
+    APPROACH_AT_HOME,
+    ARM_NAMES,
+    ARM_SPACING,
+    EE_LINKS,
+    INTERNDATA_CONFIG_FILES,
+    LINK_MASSES,
+    OPEN_WIDTHS,
+    PLACEMENTS,
+    REFERENCE_CONVENTIONS,
+    REFERENCE_ROBOTS,
+    TCP_FRAME_OFFSET,
+    pinned,
+)
 from scipy.spatial.transform import Rotation
 
 from harness.config import AxisFilter, ConfigError
+from harness.config.robot_registry import canonical_task_files
 from harness.errors import HarnessError
-from harness.grasps import GripperConvention, filter_ee_poses, load_grasp_file, post_process
+from harness.grasps import filter_ee_poses, load_grasp_file, post_process
 from harness.robots import ROBOTS_DIR, RobotModel, available_robots
 from harness.robots.facts import (
     interndata_home,
@@ -29,13 +45,22 @@ from harness.robots.facts import (
     reference_convention,
     robot_arms,
 )
+from harness.robots.generator.collisions import candidate_pairs
+from harness.robots.generator.generate import build_robot, generated_robots
+from harness.robots.generator.urdf_text import urdf_text
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses, set_configuration
+from harness.robots.spec import (
+    ActuatorGains,
+    ArmSpec,
+    ConventionSpec,
+    GripperActuator,
+    InternDataSpec,
+    LiftSpec,
+    RobotFile,
+    TimingLimits,
+)
 
-ROBOTS = ["fr3", "lift2", "split_aloha"]
 AXIS = {"x": 0, "y": 1, "z": 2}
-
-# Franka TCP (hand + 0.1034 z) versus the reference's tcp_offset 0.1043 (sic).
-TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125}
 
 
 @pytest.fixture(scope="module", params=ROBOTS)
@@ -55,8 +80,18 @@ def _placo(robot: RobotModel) -> placo.RobotWrapper:
 # Loading and the reference values
 
 
-def test_available_robots() -> None:
-    assert available_robots() == ROBOTS
+def test_available_robots_are_the_robot_folders_each_with_a_task() -> None:
+    """The registry lists every robots/<name>/ with a robot.yaml (not the _template), sorted;
+    each has its URDF, its collision pairs and at least one canonical task file."""
+    folders = sorted(
+        p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml") if not p.parent.name.startswith("_")
+    )
+    assert available_robots() == folders and set(REFERENCE_ROBOTS) <= set(folders)
+    assert "_template" not in available_robots()
+    for name in folders:
+        assert (ROBOTS_DIR / name / f"{name}.urdf").is_file(), name
+        assert (ROBOTS_DIR / name / "collisions.json").is_file(), name
+        assert canonical_task_files(name), f"{name}: no tasks/pick/{name}[_<arm>].yaml"
 
 
 def test_load_by_name_path_and_folder(robot: RobotModel) -> None:
@@ -66,39 +101,8 @@ def test_load_by_name_path_and_folder(robot: RobotModel) -> None:
     assert robot.urdf_path == ROBOTS_DIR / robot.name / f"{robot.name}.urdf"
 
 
-# The reference robot configs' grasp conventions (InternDataEngine fr3.yaml, lift2.yaml,
-# split_aloha.yaml; docs/reference-pick-skill.md section 3), written out here as the expected
-# values that robots/<name>/robot.yaml must reproduce.
-REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
-    "fr3": GripperConvention(
-        R_ee_graspnet=np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
-        ee_axis="z",
-        facing_axis="x",
-        tcp_offset=0.1043,
-        gripper_min_width=0.0,
-        gripper_max_width=0.08,
-    ),
-    "lift2": GripperConvention(
-        R_ee_graspnet=np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
-        ee_axis="x",
-        facing_axis="z",
-        tcp_offset=0.125,
-        gripper_min_width=0.0,
-        gripper_max_width=0.088,
-    ),
-    "split_aloha": GripperConvention(
-        R_ee_graspnet=np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]),
-        ee_axis="z",
-        facing_axis="y",
-        tcp_offset=0.12,
-        gripper_min_width=0.0,
-        gripper_max_width=0.10,
-    ),
-}
-
-
 def test_convention_equals_reference(robot: RobotModel) -> None:
-    ours, ref = robot.convention, REFERENCE_CONVENTIONS[robot.name]
+    ours, ref = robot.convention, pinned(REFERENCE_CONVENTIONS, robot.name)
     np.testing.assert_array_equal(ours.R_ee_graspnet, ref.R_ee_graspnet)
     assert (ours.ee_axis, ours.facing_axis, ours.approach_axis) == (
         ref.ee_axis,
@@ -113,8 +117,9 @@ def test_convention_equals_reference(robot: RobotModel) -> None:
 
 
 def test_arm_names_frames_and_home(robot: RobotModel) -> None:
-    expected_arms = ["left"] if robot.name == "fr3" else ["left", "right"]
-    assert list(robot.arms) == expected_arms
+    assert list(robot.arms) in (["left"], ["left", "right"])
+    if robot.name in ARM_NAMES:
+        assert list(robot.arms) == ARM_NAMES[robot.name]
     q = robot.home_configuration()
     assert set(q) == set(robot.movable_joints)
     for joint, value in q.items():
@@ -123,22 +128,28 @@ def test_arm_names_frames_and_home(robot: RobotModel) -> None:
     for arm in robot.arms.values():
         assert arm.base_frame == f"{arm.name}_arm_base"
         assert arm.tcp_frame == f"{arm.name}_tcp"
-        assert arm.ee_frame == f"{arm.name}_{'hand' if robot.name == 'fr3' else 'link6'}"
+        assert arm.ee_frame in robot.frames
+        if robot.name in EE_LINKS:
+            assert arm.ee_frame == f"{arm.name}_{EE_LINKS[robot.name]}"
         for finger in arm.finger_joints:
             assert q[finger] == pytest.approx(arm.open_width / 2)
     assert robot.root_frame == "base"
 
 
 def test_reference_homes_and_widths() -> None:
-    fr3, lift2, aloha = (RobotModel.load(n) for n in ("fr3", "lift2", "split_aloha"))
+    fr3, lift2, aloha = (
+        RobotModel.load("fr3"),
+        RobotModel.load("lift2"),
+        RobotModel.load("split_aloha"),
+    )
     assert fr3.arms["left"].home == [0.0, -0.143, 0.0, -2.435, 0.0, 2.235, 0.789]
     assert lift2.lift_joint == "lift_joint" and lift2.lift_home == 0.46
     assert lift2.joint_limits("lift_joint") == (0.0, 0.46)
     assert all(abs(v) < 0.006 for v in lift2.arms["right"].home)
     assert aloha.arms["left"].home_noise_std[1] == pytest.approx(0.24539099)
-    widths = {r.name: r.arms["left"].open_width for r in (fr3, lift2, aloha)}
+    widths = {name: RobotModel.load(name).arms["left"].open_width for name in OPEN_WIDTHS}
     # The reference's jaws; the Split ALOHA default is its piper100 (the SDK's 0.07: sdk070).
-    assert widths == {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10}
+    assert widths == OPEN_WIDTHS
     # Known typos fixed: Piper and R5a J1 upper 2.168 -> 2.618.
     assert aloha.joint_limits("left_joint1") == (-2.618, 2.618)
     assert lift2.joint_limits("right_joint1") == (-2.618, 2.618)
@@ -150,11 +161,7 @@ def test_reference_homes_and_widths() -> None:
 
 
 def test_placements_follow_reference_offsets() -> None:
-    for name, y, z_range in (
-        ("fr3", (-0.495, -0.445), (0.0, 0.05)),
-        ("lift2", (-0.80, -0.80), (-0.775, -0.67)),
-        ("split_aloha", (-0.86, -0.86), (-0.765, -0.715)),
-    ):
+    for name, (y, z_range) in PLACEMENTS.items():
         placement = RobotModel.load(name).placement
         lo, hi = placement.pos_range
         assert (lo[1], hi[1]) == y and (lo[2], hi[2]) == z_range
@@ -171,7 +178,7 @@ def test_tcp_is_tcp_offset_along_the_approach_axis_at_home(robot: RobotModel) ->
     for arm in robot.arms.values():
         T_ee_tcp = wrapper.get_T_a_b(arm.ee_frame, arm.tcp_frame)
         expected = np.zeros(3)
-        expected[axis] = TCP_FRAME_OFFSET[robot.name]
+        expected[axis] = pinned(TCP_FRAME_OFFSET, robot.name)
         np.testing.assert_allclose(T_ee_tcp[:3, 3], expected, atol=1e-12)
         np.testing.assert_allclose(T_ee_tcp[:3, :3], np.eye(3), atol=1e-12)
     # fr3: the frame is Franka's 0.1034; the reference convention keeps its 0.1043 (sic).
@@ -183,11 +190,7 @@ def test_approach_axis_direction_at_home(robot: RobotModel) -> None:
     """fr3 points down; split_aloha forward and 15 deg down; lift2 straight forward."""
     wrapper = _placo(robot)
     axis = AXIS[robot.convention.approach_axis]
-    expected = {
-        "fr3": np.array([-0.057, 0.0, -0.998]),
-        "split_aloha": np.array([0.967, 0.007, -0.256]),
-        "lift2": np.array([1.0, 0.0, 0.002]),
-    }[robot.name]
+    expected = pinned(APPROACH_AT_HOME, robot.name)
     for arm in robot.arms.values():
         approach = wrapper.get_T_a_b(arm.base_frame, arm.ee_frame)[:3, axis]
         np.testing.assert_allclose(approach, expected, atol=2e-3)
@@ -201,7 +204,8 @@ def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
     if len(robot.arms) == 2:
         left = wrapper.get_T_a_b(robot.root_frame, "left_arm_base")[:3, 3]
         right = wrapper.get_T_a_b(robot.root_frame, "right_arm_base")[:3, 3]
-        spacing = {"lift2": 0.50, "split_aloha": 0.594}[robot.name]
+        assert left[1] > right[1]
+        spacing = pinned(ARM_SPACING, robot.name)
         assert left[1] - right[1] == pytest.approx(spacing, abs=1e-9)
 
 
@@ -237,11 +241,7 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
     """Reference section 11: with robot.yaml's conventions, FR3 x-forward-90 + z-downward-140,
     Lift-2 x-downward-140 + z-forward-90 and Split ALOHA y-forward-90 + z-downward-140 keep
     the same poses for the same object pose in each arm's base frame."""
-    canonical = {
-        "fr3": {"filter_x_dir": ("forward", 90.0), "filter_z_dir": ("downward", 140.0)},
-        "lift2": {"filter_x_dir": ("downward", 140.0), "filter_z_dir": ("forward", 90.0)},
-        "split_aloha": {"filter_y_dir": ("forward", 90.0), "filter_z_dir": ("downward", 140.0)},
-    }
+    canonical = {name: canonical_filters(name) for name in REFERENCE_ROBOTS}
     rng = np.random.default_rng(11)
     for folder in example_objects[:4]:
         grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
@@ -256,8 +256,8 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
                 specs = {k: AxisFilter(direction=d, angles=(a,)) for k, (d, a) in filters.items()}
                 masks[name] = filter_ee_poses(poses, T_base_obj, specs).combined
             assert masks["fr3"].any()
-            np.testing.assert_array_equal(masks["fr3"], masks["lift2"])
-            np.testing.assert_array_equal(masks["fr3"], masks["split_aloha"])
+            for name in REFERENCE_ROBOTS:
+                np.testing.assert_array_equal(masks["fr3"], masks[name], err_msg=name)
 
 
 # --------------------------------------------------------------------------------------------
@@ -293,38 +293,39 @@ def test_inertials_are_physical_with_reference_masses(robot: RobotModel) -> None
         assert principal.min() > 0, link
         assert 2 * principal.max() <= principal.sum() * (1 + 1e-9), f"{link}: triangle inequality"
     masses = {link: m for link, (m, _) in inertials.items()}
-    if robot.name == "fr3":
-        fr3 = [2.397, 2.927, 2.936, 2.245, 2.616, 2.327, 1.817, 0.627]
-        assert [masses[f"left_link{i}"] for i in range(8)] == fr3
-        assert masses["left_hand"] == 0.73 and masses["left_leftfinger"] == 0.015
-    elif robot.name == "split_aloha":
-        piper = [1.02, 0.71, 1.17, 0.5, 0.38, 0.383]
-        assert [
-            masses[f"right_{n}"] for n in ["base_link"] + [f"link{i}" for i in range(1, 6)]
-        ] == piper
-    else:
-        r5a = [0.423, 0.097, 1.199, 0.841, 0.124, 0.636, 0.441]
-        assert [
-            masses[f"left_{n}"] for n in ["base_link"] + [f"link{i}" for i in range(1, 7)]
-        ] == r5a
-        assert masses["base"] == 21.0 and masses["lift_link"] == 14.2
+    for link, mass in pinned(LINK_MASSES, robot.name).items():
+        assert masses[link] == mass, link
     for arm in robot.arms.values():  # massless planning frames
         assert arm.base_frame not in masses and arm.tcp_frame not in masses
 
 
-@functools.cache
-def _generator():
-    """robots/build_urdfs.py (not a package module) imported by path."""
-    spec = importlib.util.spec_from_file_location("build_urdfs", ROBOTS_DIR / "build_urdfs.py")
+def test_the_template_folder_is_a_working_robot(tmp_path: Path) -> None:
+    """robots/_template/ (build.py + robot.yaml) builds and loads like a robot, so copying it
+    starts from a valid folder; its robot.yaml names every key of the schema."""
+    template = ROBOTS_DIR / "_template"
+    spec = importlib.util.spec_from_file_location("template_build", template / "build.py")
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses resolve annotations through sys.modules
     spec.loader.exec_module(module)
-    return module
+    robot_urdf = module.build()
+    assert robot_urdf.name == "_template"
+    (tmp_path / "_template.urdf").write_text(urdf_text(robot_urdf))
+    (tmp_path / "collisions.json").write_text("[]\n")
+    shutil.copy(template / "robot.yaml", tmp_path / "robot.yaml")
+    robot = RobotModel.load(tmp_path / "robot.yaml")
+    assert list(robot.arms) == ["left"] and robot.arms["left"].open_width == 0.08
+    text = (template / "robot.yaml").read_text()
+    keys = set(re.findall(r"^[# ]*([A-Za-z_]+):", text, re.M))
+    for model in (RobotFile, ArmSpec, GripperActuator, LiftSpec, ConventionSpec, InternDataSpec):
+        missing = set(model.model_fields) - keys
+        assert not missing, f"robots/_template/robot.yaml does not name {sorted(missing)}"
+    for model in (ActuatorGains, TimingLimits):
+        assert set(model.model_fields) <= keys
 
 
 def test_committed_urdfs_equal_the_generator_output(robot: RobotModel) -> None:
-    generator = _generator()
-    text = generator.urdf_text(generator.BUILDERS[robot.name]())
+    if robot.name not in generated_robots():
+        pytest.skip(f"robots/{robot.name} has no build.py (its URDF is not generated here)")
+    text = urdf_text(build_robot(robot.name))
     assert robot.urdf_path.read_text() == text, "run python robots/build_urdfs.py"
 
 
@@ -332,10 +333,9 @@ def test_collision_pairs_are_clear_at_home_and_not_adjacent(robot: RobotModel) -
     pairs = json.loads(robot.collisions_path.read_text())
     assert pairs, "no self-collision pairs"
     links = set(robot.frames)
-    generator = _generator()
-    assert sorted(map(sorted, pairs)) == sorted(
-        map(sorted, generator.candidate_pairs(generator.BUILDERS[robot.name]()))
-    )
+    if robot.name in generated_robots():
+        candidates = candidate_pairs(build_robot(robot.name))
+        assert sorted(map(sorted, pairs)) == sorted(map(sorted, candidates))
     for a, b in pairs:
         assert a in links and b in links
     wrapper = placo.RobotWrapper(str(robot.urdf_path), placo.Flags.ignore_collisions)
@@ -361,7 +361,7 @@ def test_robots_list_and_show(capsys: pytest.CaptureFixture[str]) -> None:
     assert "lift lift_joint: range 0.0-0.46 m, home 0.46" in out
     assert "right arm base at [0.249, -0.646, 0.032]" in out
     assert main(["robots", "show", "ur5"]) == 2
-    assert "available robots: fr3, lift2, split_aloha" in capsys.readouterr().err
+    assert f"available robots: {AVAILABLE_ROBOTS_TEXT}" in capsys.readouterr().err
 
 
 def test_robots_show_renders_a_png(tmp_path: Path) -> None:
@@ -389,7 +389,9 @@ def test_robots_show_renders_a_png(tmp_path: Path) -> None:
 
 
 def test_unknown_robot_lists_the_available_ones() -> None:
-    with pytest.raises(HarnessError, match=r"unknown robot 'ur5'; available robots: fr3, lift2"):
+    with pytest.raises(
+        HarnessError, match=f"unknown robot 'ur5'; available robots: {AVAILABLE_ROBOTS_TEXT}"
+    ):
         RobotModel.load("ur5")
     with pytest.raises(HarnessError, match="robot file not found"):
         RobotModel.load("no/such/robot.yaml")
@@ -444,17 +446,13 @@ def test_bad_robot_yaml_is_located(
 
 def test_robot_facts_come_from_the_robot_folders() -> None:
     """Every robot fact a tool needs is read from robots/<name>/robot.yaml (no Python tables)."""
-    assert interndata_robots() == {
-        "fr3.yaml": "fr3",
-        "lift2.yaml": "lift2",
-        "split_aloha.yaml": "split_aloha",
-    }
+    for name, config_file in INTERNDATA_CONFIG_FILES.items():
+        assert interndata_robots()[config_file] == name
     assert robot_arms("fr3") == ("left",) and robot_arms("lift2") == ("left", "right")
     assert interndata_home("fr3", "left") == [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
     assert interndata_home("split_aloha", "right") == [0.0] * 6
-    assert [max_jaw_opening(r) for r in ("fr3", "lift2", "split_aloha")] == [0.08, 0.088, 0.10]
-    for robot in ("fr3", "lift2", "split_aloha"):
-        expected = REFERENCE_CONVENTIONS[robot]
+    assert {r: max_jaw_opening(r) for r in OPEN_WIDTHS} == OPEN_WIDTHS
+    for robot, expected in REFERENCE_CONVENTIONS.items():
         convention = reference_convention(robot)
         assert convention.tcp_offset == expected.tcp_offset
         np.testing.assert_array_equal(convention.R_ee_graspnet, expected.R_ee_graspnet)

@@ -5,6 +5,8 @@ section 11)."""
 from __future__ import annotations
 
 import numpy as np
+from helpers import canonical_filters
+from reference_robots import REFERENCE_ROBOTS
 
 from harness.config import PickConfig
 from harness.grasps import CandidateRule, ee_poses_for_pick, load_grasp_file, select_candidates
@@ -12,11 +14,7 @@ from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import make_T, yaw_matrix
 
-CANONICAL = {
-    "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-    "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
-    "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-}
+CANONICAL = {name: canonical_filters(name) for name in REFERENCE_ROBOTS}
 
 
 def rule_of(pick: PickConfig) -> CandidateRule:

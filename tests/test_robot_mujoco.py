@@ -6,8 +6,9 @@ import mujoco
 import numpy as np
 import placo
 import pytest
+from helpers import ROBOT_ARMS, ROBOTS
 
-from harness.robots import RobotModel, available_robots
+from harness.robots import RobotModel
 from harness.robots.mujoco_spec import (
     ArmAddresses,
     build_robot_spec,
@@ -17,10 +18,7 @@ from harness.robots.mujoco_spec import (
     set_configuration,
 )
 
-ROBOTS = ["fr3", "split_aloha", "lift2"]
-ARMS = [
-    (name, arm) for name in ROBOTS for arm in ("left", "right") if (name, arm) != ("fr3", "right")
-]
+ARMS = ROBOT_ARMS
 
 CUBE_SIZE = 0.04
 CUBE_MASS = 0.1
@@ -29,10 +27,6 @@ CUBE_MASS = 0.1
 @pytest.fixture(scope="module", params=ROBOTS)
 def robot(request: pytest.FixtureRequest) -> RobotModel:
     return RobotModel.load(request.param)
-
-
-def test_all_bundled_robots_are_covered() -> None:
-    assert available_robots() == sorted(ROBOTS)
 
 
 def test_fk_matches_placo_on_every_frame(robot: RobotModel) -> None:

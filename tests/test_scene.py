@@ -1,103 +1,21 @@
 """Scene: composition, placement from the task's ranges, home noise, settling, state queries.
 
-The helpers at the top (a box mesh with antipodal grasps written to a folder) are shared with the
-other pick tests, so the scene tests do not depend on the default object set.
+The synthetic box object and the canonical task come from ``tests/helpers.py`` (shared with the
+other pick tests), so the scene tests do not depend on the default object set.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
 import pytest
-import trimesh
+from helpers import make_task, write_box
 
 from harness.config import PhysicsConfig, TaskConfig
 from harness.sim import TABLE_NAME, Scene
 from harness.transforms import invert_T
-
-CANONICAL = {
-    "fr3": {"filter_x_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-    "lift2": {"filter_x_dir": ["downward", 140], "filter_z_dir": ["forward", 90]},
-    "split_aloha": {"filter_y_dir": ["forward", 90], "filter_z_dir": ["downward", 140]},
-}
-CANONICAL_PICK = {
-    "pre_grasp_offset": 0.05,
-    "post_grasp_offset_min": 0.05,
-    "post_grasp_offset_max": 0.20,
-    "lift_th": 0.02,
-    "gripper_change_steps": 10,
-    "t_eps": 0.01,
-    "o_eps": 1,
-    "process_valid": True,
-}
-
-
-# --------------------------------------------------------------------------------------------
-# Shared helpers: synthetic objects with grasps
-
-
-def box_grasps(half_width: float, half_height: float, score_tilt: float = 0.2) -> np.ndarray:
-    """Antipodal grasps of a box centred at the origin: closing across x or y faces, approach
-    tilted -90..90 deg (15 deg steps) from straight down about the closing axis, TCP at the
-    centre (depth 0.01 and 0.02). GraspNet layout (N x 17), float32."""
-    rows = []
-    for closing in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
-        perpendicular = np.cross(closing, [0.0, 0.0, 1.0])
-        for tilt in np.deg2rad(np.arange(-90, 91, 15)):
-            g_x = np.cos(tilt) * np.array([0.0, 0.0, -1.0]) + np.sin(tilt) * perpendicular
-            g_z = np.cross(g_x, closing)
-            R = np.stack([g_x, closing, g_z], axis=1)
-            for depth in (0.01, 0.02):
-                row = np.zeros(17)
-                row[0] = 0.1 if abs(tilt) < 0.8 else score_tilt
-                row[1] = 2 * half_width
-                row[2] = 0.02
-                row[3] = depth
-                row[4:13] = R.reshape(-1)
-                row[13:16] = -g_x * depth
-                row[16] = -1
-                rows.append(row)
-    del half_height
-    return np.asarray(rows, dtype=np.float32)
-
-
-def write_box(folder: Path, extents: tuple[float, float, float], name: str = "box") -> Path:
-    """A box mesh (OBJ) with its grasp file (``grasps.npy``) in ``folder``; returns the mesh."""
-    folder.mkdir(parents=True, exist_ok=True)
-    mesh_path = folder / f"{name}.obj"
-    trimesh.creation.box(extents=extents).export(mesh_path)
-    np.save(folder / "grasps.npy", box_grasps(extents[0] / 2, extents[2] / 2))
-    return mesh_path
-
-
-def make_task(
-    robot: str,
-    arm: str,
-    mesh: Path,
-    pick: dict[str, Any] | None = None,
-    **task: Any,
-) -> TaskConfig:
-    """A canonical pick task (docs/reference-pick-skill.md section 9) of ``robot``/``arm`` on
-    ``mesh``."""
-    obj = {"name": "target", "mesh": str(mesh), **task.pop("object", {})}
-    data = {
-        "name": f"{robot}_{arm}_test",
-        "robot": robot,
-        "arm": arm,
-        "objects": [obj, *task.pop("extra_objects", [])],
-        "physics": {"table_contact": False, **task.pop("physics", {})},
-        "pick": {
-            **CANONICAL[robot],
-            **CANONICAL_PICK,
-            "test_mode": "ik" if robot == "fr3" else "forward",
-            **(pick or {}),
-        },
-        **task,
-    }
-    return TaskConfig.model_validate(data)
 
 
 @pytest.fixture(scope="session")

@@ -9,11 +9,13 @@ cycle) and inside ``try``; only ``if TYPE_CHECKING:`` blocks are skipped (they n
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / "harness"
+ROOT = PACKAGE_DIR.parent
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 
@@ -126,6 +128,56 @@ def test_cycle_finder_sees_a_lazy_import_cycle(tmp_path: Path) -> None:
     assert imported_modules("harness.m", source, {"harness.x", "harness.y"}) == {"harness.y"}
 
 
+def top_level_unit(module: str) -> str:
+    """``harness.runs.rundir`` -> ``harness.runs``: the package (or top-level module) it is in."""
+    return ".".join(module.split(".")[:2])
+
+
+def package_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The module graph collapsed onto top-level packages (and top-level modules) of harness:
+    an edge A -> B when any module of A imports any module of B (A != B)."""
+    packages: dict[str, set[str]] = {}
+    for module, imports in graph.items():
+        source = top_level_unit(module)
+        targets = packages.setdefault(source, set())
+        targets.update(top_level_unit(d) for d in imports if top_level_unit(d) != source)
+    return packages
+
+
+def test_package_cycle_finder_sees_a_cycle_through_submodules() -> None:
+    """The checker itself: modules without a cycle whose packages form one are caught."""
+    graph = {
+        "harness.a.x": {"harness.b.y"},
+        "harness.b.y": set(),
+        "harness.b.z": {"harness.c"},
+        "harness.c": {"harness.a.w"},
+        "harness.a.w": set(),
+        "harness.d": {"harness.a.x"},
+    }
+    assert import_cycles(graph) == []
+    assert package_graph(graph)["harness.a"] == {"harness.b"}
+    assert import_cycles(package_graph(graph)) == [["harness.a", "harness.b", "harness.c"]]
+
+
+def test_no_package_cycles() -> None:
+    """Packages depend in one direction: config <- robots <- ..., runs <- report."""
+    graph = import_graph()
+    cycles = import_cycles(package_graph(graph))
+    detail = []
+    for cycle in cycles:
+        members = set(cycle)
+        edges = sorted(
+            f"{m} -> {d}"
+            for m, imports in graph.items()
+            for d in imports
+            if top_level_unit(m) in members
+            and top_level_unit(d) in members
+            and top_level_unit(m) != top_level_unit(d)
+        )
+        detail.append(" <-> ".join(cycle) + " (" + ", ".join(edges) + ")")
+    assert not cycles, "import cycles between harness packages: " + "; ".join(detail)
+
+
 def test_no_import_cycles() -> None:
     cycles = import_cycles(import_graph())
     assert not cycles, "import cycles between harness modules: " + "; ".join(
@@ -133,9 +185,28 @@ def test_no_import_cycles() -> None:
     )
 
 
+def robot_generators() -> list[Path]:
+    """The robots' own URDF generators (``robots/<name>/build.py``, the template's too) and the
+    driver: code outside the package, under the same size rules."""
+    robots = ROOT / "robots"
+    return [*sorted(robots.glob("*/build.py")), robots / "build_urdfs.py"]
+
+
+@pytest.mark.parametrize(
+    "path", robot_generators(), ids=lambda p: p.relative_to(ROOT / "robots").as_posix()
+)
+def test_robot_generator_sizes(path: Path) -> None:
+    assert len(robot_generators()) >= 4
+    check_sizes(path)
+
+
 @pytest.mark.parametrize("name", sorted(package_modules()))
 def test_module_and_function_sizes(name: str) -> None:
-    path = package_modules()[name]
+    check_sizes(package_modules()[name])
+
+
+def check_sizes(path: Path) -> None:
+    """No module over MAX_MODULE_LINES, no function over MAX_FUNCTION_LINES."""
     text = path.read_text()
     lines = len(text.splitlines())
     assert lines <= MAX_MODULE_LINES, f"{path}: {lines} lines (limit {MAX_MODULE_LINES})"
@@ -164,3 +235,163 @@ def test_layout_docs_name_every_package() -> None:
     for path in PACKAGE_DIR.glob("*.py"):
         if path.stem not in ("__init__",):
             assert path.stem in architecture, f"docs/architecture.md does not mention {path.name}"
+
+
+DOC_PATH = re.compile(r"(?<![\w/.-])((?:harness|robots|tasks|tests|docs)/[\w./<>-]*)")
+
+
+def named_paths(text: str) -> list[str]:
+    """Repository paths a page names (``harness/...``, ``robots/...``, ...), placeholders
+    (``<name>``) left out, trailing punctuation dropped."""
+    paths = {match.rstrip(".,;:)") for match in DOC_PATH.findall(text)}
+    return sorted(p for p in paths if "<" not in p and ">" not in p)
+
+
+def test_named_paths_finder() -> None:
+    text = (
+        "see `harness/pick/verdict.py`, robots/_template/ and tasks/pick/<name>.yaml; x/harness/y"
+    )
+    assert named_paths(text) == ["harness/pick/verdict.py", "robots/_template/"]
+
+
+def test_every_path_docs_extending_names_exists() -> None:
+    paths = named_paths((ROOT / "docs" / "extending.md").read_text())
+    assert len(paths) >= 20, paths
+    missing = [p for p in paths if not (ROOT / p).exists()]
+    assert not missing, f"docs/extending.md names paths that do not exist: {missing}"
+
+
+# --------------------------------------------------------------------------------------------
+# A fourth robot touches its own folder, its task file(s) and docs/robots.md, nothing else.
+#
+# The bundled robots are the registry's (``available_robots()``). Code and tests that must grow
+# with a new robot are those that spell the robot set out by hand: a collection (list, tuple,
+# set, dict keys) naming every bundled robot, a string listing them all (an expected error
+# message), a dict literal of robots subscripted by a name (a KeyError for a new robot), an
+# if/elif chain over robot names with an else (a new robot takes another robot's branch). None
+# of these may appear in harness/ or tests/ outside tests/reference_robots.py (the pinned facts
+# of the reference's robots, looked up with ``pinned()``, which skips a robot without any) and
+# the few named exemptions below.
+
+FOURTH_ROBOT_EXEMPT: dict[tuple[str, str], str] = {
+    ("tests/test_failure_groups.py", "REAL"): "recorded failure rows (data), not a robot list",
+}
+FOURTH_ROBOT_FREE_MODULES = {"tests/reference_robots.py"}
+
+
+def _robot_named(node: ast.AST, robots: set[str]) -> str | None:
+    """The robot a literal names: ``"fr3"``, ``"lift2_left"`` (a task stem), ``"fr3.yaml"``, or a
+    tuple whose first element does (``("fr3", "left")``)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        for robot in robots:
+            if node.value in (robot, f"{robot}_left", f"{robot}_right", f"{robot}.yaml"):
+                return robot
+    if isinstance(node, ast.Tuple) and node.elts:
+        return _robot_named(node.elts[0], robots)
+    return None
+
+
+def _docstrings(tree: ast.AST) -> set[int]:
+    ids = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        first = body[0] if isinstance(body, list) and body else None
+        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+            ids.add(id(first.value))
+    return ids
+
+
+def _owners(tree: ast.AST) -> dict[int, str]:
+    """id(node) -> the name an assignment binds it to (for the named exemptions)."""
+    owners: dict[int, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Assign | ast.AnnAssign) and node.value is not None:
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names = [t.id for t in targets if isinstance(t, ast.Name)]
+            for child in ast.walk(node.value):
+                owners.setdefault(id(child), names[0] if names else "")
+    return owners
+
+
+def _robot_branches(node: ast.If, robots: set[str]) -> tuple[int, bool]:
+    """(branches of an if/elif chain that compare with a robot name, whether it ends in else)."""
+    count, current = 0, node
+    while True:
+        if any(_robot_named(c, robots) for c in ast.walk(current.test)):
+            count += 1
+        if len(current.orelse) == 1 and isinstance(current.orelse[0], ast.If):
+            current = current.orelse[0]
+            continue
+        return count, bool(current.orelse)
+
+
+def hand_kept_robot_sets(source: str, robots: set[str]) -> list[tuple[int, str, str]]:
+    """(line, owner, what) of every place in ``source`` that spells the robot set out by hand."""
+    tree = ast.parse(source)
+    docstrings, owners, found = _docstrings(tree), _owners(tree), []
+    for node in ast.walk(tree):
+        what = ""
+        if isinstance(node, ast.List | ast.Tuple | ast.Set | ast.Dict):
+            elements = node.keys if isinstance(node, ast.Dict) else node.elts
+            named = {_robot_named(e, robots) for e in elements if e is not None}
+            if named >= robots:
+                what = "a collection naming every bundled robot"
+        elif (
+            isinstance(node, ast.Constant)
+            and isinstance(node.value, str)
+            and id(node) not in docstrings
+            and all(re.search(rf"\b{re.escape(r)}\b", node.value) for r in robots)
+        ):
+            what = "a string listing every bundled robot"
+        elif isinstance(node, ast.Subscript) and isinstance(node.value, ast.Dict):
+            if any(_robot_named(k, robots) for k in node.value.keys if k is not None):
+                what = "a dict of robots subscripted in place"
+        elif isinstance(node, ast.If):
+            branches, has_else = _robot_branches(node, robots)
+            if branches >= 2 and has_else:
+                what = "an if/elif chain over robot names ending in else"
+        if what:
+            found.append((getattr(node, "lineno", 0), owners.get(id(node), ""), what))
+    return sorted(set(found))
+
+
+def test_hand_kept_robot_set_finder() -> None:
+    """The checker itself, on a synthetic module (robots a, b)."""
+    source = (
+        'ROBOTS = ["a", "b"]\n'
+        'ARMS = [("a", "left"), ("b_right", "x")]\n'
+        'ONE = ["a"]\n'
+        'MESSAGE = "available robots: a, b"\n'
+        'x = {"a": 1, "b": 2}[name]\n'
+        'if name == "a":\n    y = 1\nelif name == "b":\n    y = 2\nelse:\n    y = 3\n'
+        'if name == "a":\n    z = 1\n'
+        'def f():\n    "Robots a and b."\n'
+    )
+    found = hand_kept_robot_sets(source, {"a", "b"})
+    assert sorted({(line, owner) for line, owner, _ in found}) == [
+        (1, "ROBOTS"),
+        (2, "ARMS"),
+        (4, "MESSAGE"),
+        (5, "x"),
+        (6, ""),
+    ]
+
+
+def test_a_fourth_robot_needs_no_edit_in_harness_or_tests() -> None:
+    from harness.config.robot_registry import available_robots
+
+    robots = set(available_robots())
+    assert len(robots) >= 2
+    modules = [*sorted(PACKAGE_DIR.rglob("*.py")), *sorted((ROOT / "tests").glob("*.py"))]
+    problems = []
+    for path in modules:
+        relative = path.relative_to(ROOT).as_posix()
+        if relative in FOURTH_ROBOT_FREE_MODULES:
+            continue
+        for line, owner, what in hand_kept_robot_sets(path.read_text(), robots):
+            if (relative, owner) not in FOURTH_ROBOT_EXEMPT:
+                problems.append(f"{relative}:{line}: {what}")
+    assert not problems, (
+        "robot sets spelled out by hand (take them from harness.config.robot_registry / "
+        "tests/helpers.py, or pin facts in tests/reference_robots.py): " + "; ".join(problems)
+    )

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from harness.config import load_sweep
+from harness.report.finish import finish_run
 from harness.runs.expansion import expand
 from harness.runs.sweep import run_sweep
 from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
@@ -66,6 +67,7 @@ def test_process_pool_sweep_writes_every_file(tmp_path: Path):
     sweep_path = write_sweep(tmp_path, episodes=3)
     outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
     run_dir = outcome.run_dir
+    finish_run(run_dir)  # the command layer's step after a run: report + overview recording
     assert outcome.stats.finished == 6 and outcome.stats.crashed == 0
     for name in (
         "sweep.yaml",

@@ -18,7 +18,7 @@ import yaml
 
 from harness.cli import main as cli_main
 from harness.config import load_task
-from harness.config.interndata import load_interndata_tasks
+from harness.interndata import load_interndata_tasks
 from harness.report import compare_runs
 from harness.report.stats import mcnemar_exact, wilson_interval
 from harness.report.tables import load_episodes

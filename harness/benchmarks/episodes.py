@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -33,11 +32,10 @@ import numpy as np
 from harness.benchmarks.framework import Figure, figure
 from harness.benchmarks.machine import one_core
 from harness.config import load_task
+from harness.config.robot_registry import TASKS_DIR, available_robots, canonical_task_files
 from harness.episode import SETTLE_TIME_S, EpisodeSpec, run_episode
 
 SECTION = "episodes"
-TASKS_DIR = Path(__file__).resolve().parents[2] / "tasks" / "pick"
-TASKS = ("fr3", "split_aloha_left", "lift2_left")
 WALL_TARGET_S = {"fr3": 0.2}
 RATIO_TARGET = {"fr3": 2.2}
 
@@ -59,10 +57,15 @@ def bare_physics_time(result: Any, seed: int) -> float:
     return time.perf_counter() - start
 
 
+def benchmark_tasks() -> list[str]:
+    """The first canonical task file (stem) of every bundled robot (the registry's list)."""
+    return [canonical_task_files(name)[0].stem for name in available_robots()]
+
+
 def run(quick: bool) -> list[Figure]:
     with one_core() as pinned:
         figures: list[Figure] = []
-        for name in TASKS:
+        for name in benchmark_tasks():
             figures.extend(_task_figures(name, 8 if quick else 30, pinned))
         return figures
 

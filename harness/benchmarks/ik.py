@@ -15,22 +15,13 @@ import numpy as np
 
 from harness.benchmarks.framework import Figure, figure, rate_figure
 from harness.benchmarks.machine import one_core
+from harness.planning.arm_ik import arm_ik
 from harness.planning.ik import IKSettings, WholeBodyIK
-from harness.robots import RobotModel
+from harness.robots import RobotModel, available_robots
+from harness.robots.facts import robot_arms
 
 SECTION = "ik"
-ARMS = (("fr3", "left"), ("split_aloha", "left"), ("lift2", "left"))
 FAR = np.array([1.5, 1.5, 0.0])
-
-
-def _solver(name: str, arm: str) -> tuple[WholeBodyIK, np.ndarray]:
-    robot = RobotModel.load(name)
-    spec = robot.arm(arm)
-    active = ([robot.lift_joint] if robot.lift_joint else []) + list(spec.joints)
-    ik = WholeBodyIK(robot.urdf_path, active, spec.ee_frame, robot.lift_joint)
-    home = robot.home_configuration()
-    ik.set_posture(home)
-    return ik, np.array([home[j] for j in active])
 
 
 def _targets(ik: WholeBodyIK, home: np.ndarray, count: int, seed: int) -> list[np.ndarray]:
@@ -67,6 +58,11 @@ def _batch_rates(times: list[float], batch: int) -> list[float]:
     ]
 
 
+def measured_arms() -> list[tuple[str, str]]:
+    """Every bundled robot (the registry's list) with its first arm."""
+    return [(name, robot_arms(name)[0]) for name in available_robots()]
+
+
 def run(quick: bool) -> list[Figure]:
     with one_core() as pinned:
         return _figures(quick, pinned)
@@ -76,8 +72,8 @@ def _figures(quick: bool, pinned: str) -> list[Figure]:
     count = 40 if quick else 300
     batch = 10
     figures: list[Figure] = []
-    for name, arm in ARMS:
-        ik, home = _solver(name, arm)
+    for name, arm in measured_arms():
+        ik, home = arm_ik(RobotModel.load(name), arm)
         reachable = _targets(ik, home, count, seed=1)
         unreachable = []
         for T in reachable[: max(20, count // 4)]:

@@ -38,7 +38,7 @@ from harness.config import (
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
-    from harness.config.interndata import InternDataPick
+    from harness.interndata import InternDataPick
 
 LIVE_ROWS = 25  # episodes shown in the live table (the latest ones)
 
@@ -58,7 +58,7 @@ def load_interndata_picks(args: argparse.Namespace) -> list[InternDataPick]:
     """``--interndata FILE``: every pick of the file, with its assets and grasp files checked."""
     if args.task:
         raise HarnessError("give either TASK.yaml or --interndata FILE, not both")
-    from harness.config.interndata import load_interndata_tasks, parse_object_substitutions
+    from harness.interndata import load_interndata_tasks, parse_object_substitutions
 
     picks = load_interndata_tasks(
         args.interndata,
@@ -148,7 +148,7 @@ def main(args: argparse.Namespace) -> int:
     run = RunDir(Path(args.out) if args.out else RunDir.default_path(sweep.name))
     run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
     if picks:
-        from harness.config.interndata import note_lines, summary_lines
+        from harness.interndata import note_lines, summary_lines
 
         for line in summary_lines(args.interndata, picks):
             console.print(line, highlight=False, markup=False, soft_wrap=True)
@@ -172,6 +172,9 @@ def main(args: argparse.Namespace) -> int:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
     run.finalize()
+    from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
+
+    finish_run(run.path)
     wall_s = time.perf_counter() - start
     return _print_outcome(console, rows, len(episodes), run.path, wall_s, bool(picks))
 

@@ -38,6 +38,9 @@ def main(args: argparse.Namespace) -> int:
         engine=args.engine,
     )
     stats = outcome.stats
+    from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
+
+    finish_run(outcome.run_dir)
     if args.objective != "reference" or args.videos:  # rebuilt: ranked otherwise, or filmed
         from harness.report import build_report
 

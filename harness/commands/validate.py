@@ -19,7 +19,7 @@ from harness.config.physics_warnings import WARNING_INPUTS
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
-    from harness.config.interndata import InternDataPick
+    from harness.interndata import InternDataPick
 
 
 def describe(kind: str, loaded: object) -> str:
@@ -126,7 +126,7 @@ def main(args: argparse.Namespace) -> int:
         try:
             kind, loaded = load_any(path)
             if kind == "interndata":
-                from harness.config.interndata import load_interndata_tasks
+                from harness.interndata import load_interndata_tasks
 
                 picks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
                 print(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")

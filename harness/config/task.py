@@ -218,7 +218,7 @@ class TaskConfig(StrictModel):
         return self
 
     def _check_gripper_variant(self) -> None:
-        from harness.robots.registry import gripper_variant_names
+        from harness.config.robot_registry import gripper_variant_names
 
         variant = self.gripper.variant
         names = gripper_variant_names(self.robot) if variant is not None else None

@@ -63,7 +63,7 @@ def describe_validation_error(
     """The first pydantic error as ``(key path, message, path to take the line from)``.
 
     Key paths are relative to ``model``. Used by ``error_from_validation`` and by loaders whose
-    model keys come from other places in a file (``harness.config.interndata.mapper``).
+    model keys come from other places in a file (``harness.interndata.mapper``).
     """
     errors = exc.errors(include_url=False)
     err = errors[0]

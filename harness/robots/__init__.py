@@ -5,8 +5,8 @@ checks of one against the other, ``registry`` finds bundled robots, ``model`` is
 :class:`RobotModel` and ``mujoco_spec`` builds its MuJoCo model.
 """
 
+from harness.config.robot_registry import ROBOTS_DIR, available_robots, resolve_robot_yaml
 from harness.robots.model import JointDynamics, RobotModel
-from harness.robots.registry import ROBOTS_DIR, available_robots, resolve_robot_yaml
 from harness.robots.spec import ArmSpec, ConventionSpec, LiftSpec, RobotFile
 
 __all__ = [

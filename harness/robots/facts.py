@@ -13,8 +13,8 @@ from functools import cache
 import numpy as np
 
 from harness.config import read_yaml, validate_model
+from harness.config.robot_registry import available_robots, resolve_robot_yaml
 from harness.grasps.conventions import GripperConvention
-from harness.robots.registry import available_robots, resolve_robot_yaml
 from harness.robots.spec import ConventionSpec, RobotFile
 from harness.robots.validation import check_interndata_block
 

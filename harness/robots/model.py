@@ -24,12 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from harness.config import Placement, read_yaml, validate_model
+from harness.config.robot_registry import resolve_robot_yaml
 from harness.config.task import GripperChoice
 from harness.errors import HarnessError
 from harness.grasps import GripperConvention
 from harness.robots.facts import gripper_convention
 from harness.robots.gripper import resolve_arm, variant_name
-from harness.robots.registry import resolve_robot_yaml
 from harness.robots.spec import ArmSpec, LiftSpec, RobotFile
 from harness.robots.urdf import UrdfInfo, UrdfJoint, read_urdf
 from harness.robots.validation import check_against_urdf, check_interndata_block, located_error

@@ -79,7 +79,7 @@ def load_sweep_tasks(
                     ) from None
                 raise
         elif "interndata" in entry:
-            from harness.config.interndata import load_interndata_tasks, note_lines
+            from harness.interndata import load_interndata_tasks, note_lines
 
             unknown = [k for k in entry if k not in INTERNDATA_ENTRY_KEYS]
             if unknown:

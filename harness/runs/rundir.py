@@ -3,7 +3,9 @@
 Created with ``sweep.yaml`` (the sweep as run, every task inlined, so ``--resume`` needs nothing
 else) and, for InternDataEngine tasks, the mapping notes; reopened by ``--resume``; filled row by
 row through the append-only ``ResultStore``; finalized into ``episodes.csv`` /
-``episodes.parquet``, the report and the sweep overview recording.
+``episodes.parquet``. The report and the sweep overview recording are built afterwards by the
+layer that started the run (``harness.report.finish.finish_run``): ``runs`` does not import
+``report``.
 """
 
 from __future__ import annotations
@@ -15,9 +17,9 @@ from typing import Any
 import yaml
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
-from harness.config.interndata import NOTES_FILE, write_notes
 from harness.errors import DiskFullError
 from harness.files import is_disk_full
+from harness.interndata import NOTES_FILE, write_notes
 from harness.runs.safety import (
     RunLock,
     check_sweep_hash,
@@ -133,25 +135,13 @@ class RunDir:
         )
 
     def finalize(self) -> None:
-        """Export the store, rebuild the report and the sweep overview recording; unlock."""
-        try:
-            self._finalize()
-        finally:
-            self.lock.release()
-
-    def _finalize(self) -> None:
-        from harness.report import build_report  # scipy: only once there are results
-
+        """Export the store to episodes.csv / episodes.parquet; unlock. (The caller then builds
+        the report: ``harness.report.finish.finish_run``.)"""
         try:
             self.store.export()
-            build_report(self.path)
         except OSError as exc:
             if is_disk_full(exc):
                 raise self.disk_full(str(exc)) from None
             raise
-        try:
-            from harness.viz.sweep_recording import record_sweep
-
-            record_sweep(self.path)
-        except ImportError:
-            pass
+        finally:
+            self.lock.release()

@@ -18,6 +18,7 @@ import pandas as pd
 import yaml
 
 from harness.config import TaskConfig
+from harness.report.finish import finish_run
 from harness.report.frames import frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
@@ -80,6 +81,7 @@ def tune(
             progress=progress,
             engine=engine,
         )
+    finish_run(outcome.run_dir)
     if outcome.stats.interrupted:
         return TuneResult(outcome.run_dir, True, Path(), Path(), [], pd.DataFrame(), "")
     return analyse(outcome.run_dir, objective)

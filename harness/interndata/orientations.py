@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 
-from harness.config.interndata.categories import CATEGORY_ORIENTATIONS
+from harness.interndata.categories import CATEGORY_ORIENTATIONS
 
 RANDOM_GRID_STEP = 30  # degrees: orientation_mode random -> x, y in {-180, -150, ..., 150}
 

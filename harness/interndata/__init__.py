@@ -30,19 +30,19 @@ objects, regions, skills of a task entry), ``mapper`` (a pick skill -> ``TaskCon
 (what a run takes from the file). This package re-exports the public names.
 """
 
-from harness.config.interndata.categories import CATEGORY_ORIENTATIONS
-from harness.config.interndata.interpolation import resolve_interpolations
-from harness.config.interndata.keys import (
+from harness.interndata.categories import CATEGORY_ORIENTATIONS
+from harness.interndata.interpolation import resolve_interpolations
+from harness.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     ROBOT_KEYS_IGNORED,
     TASK_KEYS_IGNORED,
     TASK_KEYS_MAPPED,
 )
-from harness.config.interndata.loader import load_interndata_tasks
-from harness.config.interndata.notes import NOTES_FILE, note_lines, summary_lines, write_notes
-from harness.config.interndata.orientations import random_orientations, suggested_orientations
-from harness.config.interndata.result import InternDataPick, SkippedSkill
-from harness.config.interndata.substitutes import parse_object_substitutions, split_substitute
+from harness.interndata.loader import load_interndata_tasks
+from harness.interndata.notes import NOTES_FILE, note_lines, summary_lines, write_notes
+from harness.interndata.orientations import random_orientations, suggested_orientations
+from harness.interndata.result import InternDataPick, SkippedSkill
+from harness.interndata.substitutes import parse_object_substitutions, split_substitute
 
 __all__ = [
     "CATEGORY_ORIENTATIONS",

@@ -13,18 +13,18 @@ from typing import Any
 from pydantic import ValidationError
 
 from harness.config.errors import ConfigError
-from harness.config.interndata.keys import (
+from harness.config.task import TaskConfig
+from harness.config.validation import describe_validation_error
+from harness.config.yamlio import KeyPath
+from harness.errors import InputFileError
+from harness.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     TABLE_NAME,
     TASK_KEYS_IGNORED,
     TASK_KEYS_MAPPED,
 )
-from harness.config.interndata.resolver import ObjectEntry, PickSkill, TaskResolver
-from harness.config.interndata.result import InternDataPick
-from harness.config.task import TaskConfig
-from harness.config.validation import describe_validation_error
-from harness.config.yamlio import KeyPath
-from harness.errors import InputFileError
+from harness.interndata.resolver import ObjectEntry, PickSkill, TaskResolver
+from harness.interndata.result import InternDataPick
 
 
 class TaskMapper(TaskResolver):

@@ -14,18 +14,18 @@ from pathlib import Path
 from typing import Any
 
 from harness.config.errors import ConfigError
-from harness.config.interndata.categories import CATEGORY_ORIENTATIONS
-from harness.config.interndata.errors import Located
-from harness.config.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
-from harness.config.interndata.orientations import (
+from harness.config.messages import suggest
+from harness.config.yamlio import KeyPath, format_key_path
+from harness.interndata.categories import CATEGORY_ORIENTATIONS
+from harness.interndata.errors import Located
+from harness.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
+from harness.interndata.orientations import (
     RANDOM_GRID_STEP,
     random_orientations,
     suggested_orientations,
 )
-from harness.config.interndata.result import SkippedSkill
-from harness.config.interndata.substitutes import split_substitute
-from harness.config.messages import suggest
-from harness.config.yamlio import KeyPath, format_key_path
+from harness.interndata.result import SkippedSkill
+from harness.interndata.substitutes import split_substitute
 from harness.robots.facts import interndata_home, interndata_robots, robot_arms
 
 log = logging.getLogger(__name__)

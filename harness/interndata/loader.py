@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.config.errors import ConfigError
-from harness.config.interndata.errors import Located
-from harness.config.interndata.interpolation import resolve_interpolations
-from harness.config.interndata.mapper import TaskMapper
-from harness.config.interndata.result import InternDataPick
 from harness.config.loading import read_yaml
 from harness.config.messages import suggest
+from harness.interndata.errors import Located
+from harness.interndata.interpolation import resolve_interpolations
+from harness.interndata.mapper import TaskMapper
+from harness.interndata.result import InternDataPick
 
 
 def load_interndata_tasks(

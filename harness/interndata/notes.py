@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from harness.config.interndata.result import InternDataPick
+from harness.interndata.result import InternDataPick
 
 NOTES_FILE = "skipped.txt"
 

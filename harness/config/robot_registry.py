@@ -1,7 +1,10 @@
-"""Finding robots: the bundled robots folder, their names, and resolving a name or path.
+"""The robot registry: the bundled robots folder, their names, and resolving a name or path.
 
-``robots/`` at the repository root is data (robot.yaml + URDF per robot); this module maps a
-robot name (``fr3``), a robot.yaml path or its folder to the robot.yaml file.
+``robots/`` at the repository root is data (a folder per robot: robot.yaml, build.py, URDF);
+this module maps a robot name (``fr3``), a robot.yaml path or its folder to the robot.yaml file.
+:func:`available_robots` is THE robot list: tests, benchmarks and tools iterate it instead of
+naming robots. It lives in ``config`` (not ``robots``) because task validation resolves robot
+names and gripper variants, and ``robots`` builds on ``config``: one direction between the two.
 """
 
 from __future__ import annotations
@@ -15,10 +18,12 @@ ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
 
 
 def available_robots() -> list[str]:
-    """Names of the bundled robots (folders of ``robots/`` holding a robot.yaml)."""
+    """Names of the bundled robots (folders of ``robots/`` holding a robot.yaml), sorted; a
+    folder whose name starts with ``_`` (``robots/_template/``) is not a robot."""
     if not ROBOTS_DIR.is_dir():
         return []
-    return sorted(p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml"))
+    folders = (p.parent.name for p in ROBOTS_DIR.glob("*/robot.yaml"))
+    return sorted(name for name in folders if not name.startswith("_"))
 
 
 def resolve_robot_yaml(name_or_path: str | Path) -> Path:
@@ -33,7 +38,7 @@ def resolve_robot_yaml(name_or_path: str | Path) -> Path:
     if looks_like_path:
         raise HarnessError(f"{text}: robot file not found (expected a robot.yaml or its folder)")
     bundled = ROBOTS_DIR / text / "robot.yaml"
-    if bundled.is_file():
+    if bundled.is_file() and not text.startswith("_"):
         return bundled
     raise HarnessError(
         f"unknown robot {text!r}; available robots: {', '.join(available_robots()) or 'none'}"
@@ -56,3 +61,14 @@ def gripper_variant_names(name_or_path: str) -> list[str] | None:
         return None
     variants = data.get("gripper_variants") or {}
     return [str(data.get("gripper_variant", "default")), *map(str, variants)]
+
+
+TASKS_DIR = ROBOTS_DIR.parent / "tasks" / "pick"
+"""Folder of the canonical pick tasks: ``<robot>.yaml`` or ``<robot>_<arm>.yaml``."""
+
+
+def canonical_task_files(name: str) -> list[Path]:
+    """The canonical pick task files of a bundled robot, sorted: ``tasks/pick/<name>.yaml``
+    and ``tasks/pick/<name>_left.yaml`` / ``<name>_right.yaml`` (one per arm it is tested with)."""
+    stems = {name, f"{name}_left", f"{name}_right"}
+    return sorted(p for p in TASKS_DIR.glob("*.yaml") if p.stem in stems)
