@@ -124,7 +124,7 @@ def run_episode(
     else:
         key = evaluation_key(spec.task, spec.seed)
         if spec.engine != "mujoco":  # executed outcomes are the engine's own
-            key = (key, spec.engine)
+            key = (f"{key[0]} engine={spec.engine}", key[1])
         evaluation = candidate_cache.evaluation(key)
     try:
         _run(spec, scene_cache, result, evaluation, key)

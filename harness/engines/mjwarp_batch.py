@@ -116,8 +116,10 @@ def _replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def
         return
     with wp.ScopedCapture(device=device) as capture:
         fn()
+    graph = capture.graph
+    assert graph is not None
     for _ in range(times - 1):
-        wp.capture_launch(capture.graph)
+        wp.capture_launch(graph)
 
 
 def _world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
