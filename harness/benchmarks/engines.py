@@ -25,6 +25,7 @@ from typing import Any
 
 from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
+from harness.config.robot_registry import available_robots, canonical_task_files
 from harness.engines import Execution, ExecutionJob, register_engine
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
@@ -32,7 +33,8 @@ from harness.pick.validity import validity_enabled
 from harness.runs.expansion import point_overrides
 
 SECTION = "engines"
-ARMS = ("fr3", "split_aloha_left", "split_aloha_right", "lift2_left", "lift2_right")
+# Every canonical task file (tasks/pick/<robot>[_arm].yaml) of every bundled robot.
+ARMS = tuple(p.stem for robot in available_robots() for p in canonical_task_files(robot))
 OBJECTS = ("cube", "banana")
 TARGET_RATIO = 8.0
 TARGET_RATE = 3_000_000.0
