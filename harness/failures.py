@@ -2,7 +2,7 @@
 means per semantics: docs/semantics.md): one definition for the executor and the row schema.
 
 Kept in its own module, free of heavy imports, so that ``harness.pick.executor`` (MuJoCo) and
-``harness.runs.store`` (pandas) can both name it without importing each other.
+``harness.row`` (the row schema) can both name it without importing each other.
 """
 
 from __future__ import annotations

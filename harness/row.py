@@ -2,9 +2,10 @@
 
 One episode = one flat row. ``EpisodeRow`` is the single definition of its fixed columns: field
 order is column order, field types are column types, field defaults are the values an episode's
-row starts from (``harness.episode.base_row``), and each field's metadata holds its description
-and the value a stored row that lacks the column reads back as. ``SCHEMA`` (name -> ``Column``)
-is derived from it; the store, the CSV / Parquet export and the report read rows through it.
+row starts from (``harness.episode.pipeline.base_row``), and each field's metadata holds its
+description and the value a stored row that lacks the column reads back as. ``SCHEMA`` (name ->
+``Column``) is derived from it; the store, the CSV / Parquet export and the report read rows
+through it.
 
 Besides the fixed columns a row carries one ``param.<dotted key>`` column per swept axis
 (dynamic, after the fixed columns). ``identity_columns`` is the one writer of the identity
@@ -20,25 +21,32 @@ import typing
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
+from harness.pick.terms import ROBUSTNESS_LEVELS_G, VALIDITY_REASONS
+
 if TYPE_CHECKING:
     from harness.config import TaskConfig
 
 Dtype = Literal["str", "int", "float", "bool"]
 PARAM_PREFIX = "param."
 FILTER_OUTCOMES: tuple[str, ...] = ("ok", "fallback", "filter_empty")
-# The validity causes in the order the phase meets them (first cause wins); ``not_run``: the
-# episode ended before its verdict (no candidate, no plan, timeout, instability, error, a strict
-# stop), so the phase did not run.
-VALIDITY_REASONS: tuple[str, ...] = (
-    "table_penetration",
-    "not_lifted",
-    "one_finger",
-    "slipped_in_hold",
-    "lost_in_tug",
-    "not_run",
-)
-# The tug levels (x g x mass) of the validity phase; robustness_g is 0 or one of them.
-ROBUSTNESS_LEVELS_G: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
+# ``VALIDITY_REASONS`` (the validity causes in the order the phase meets them, then ``not_run``)
+# and ``ROBUSTNESS_LEVELS_G`` (the tug levels) come from the verdict terms' table
+# (``harness.pick.terms``).
+__all__ = [
+    "FILTER_OUTCOMES",
+    "IDENTITY_COLUMNS",
+    "KEY_COLUMNS",
+    "PARAM_PREFIX",
+    "ROBUSTNESS_LEVELS_G",
+    "SCHEMA",
+    "VALIDITY_REASONS",
+    "Column",
+    "EpisodeIdentity",
+    "EpisodeRow",
+    "empty_row",
+    "identity_columns",
+    "param_columns",
+]
 KEY_COLUMNS: tuple[str, ...] = ("task", "robot", "arm", "object")
 
 
@@ -222,7 +230,7 @@ class EpisodeRow:
 
 
 class EpisodeIdentity(Protocol):
-    """What names an episode (``harness.episode.EpisodeSpec`` has it)."""
+    """What names an episode (``harness.episode.spec.EpisodeSpec`` has it)."""
 
     @property
     def task(self) -> TaskConfig: ...

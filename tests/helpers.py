@@ -140,7 +140,7 @@ def make_task(
 
 def scene_planner(task: TaskConfig) -> tuple[Any, Any]:
     """The task's scene (reset with seed 0) and its arm's ``PickPlanner``."""
-    from harness.scene_cache import get_scene
+    from harness.episode.scene_cache import get_scene
 
     bundle = get_scene(task, {})
     scene = bundle.scene

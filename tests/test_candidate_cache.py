@@ -1,8 +1,8 @@
 """Sharing candidate evaluations between points that differ only in selection keys is exact.
 
-The candidate cache (harness/candidate_cache.py) answers a point from the verdicts and executed
-outcomes that earlier points of the same (task physics, seed) found. These tests run the same
-episodes with and without it, on real physics, and require identical rows -- every column but
+The candidate cache (harness/episode/candidate_cache.py) answers a point from the verdicts and
+executed outcomes that earlier points of the same (task physics, seed) found. These tests run the
+same episodes with and without it, on real physics, and require identical rows -- every column but
 the wall-time and memory ones -- and that the cache actually answered something.
 """
 
@@ -18,15 +18,15 @@ import pandas as pd
 import pytest
 import yaml
 
-from harness.candidate_cache import (
+from harness.config import apply_overrides, load_task
+from harness.episode import EpisodeSpec, run_episode
+from harness.episode.candidate_cache import (
     SELECTION_KEYS,
     WALL_TIME_COLUMNS,
     CandidateCache,
     evaluation_key,
 )
-from harness.config import apply_overrides, load_task
-from harness.episode import EpisodeSpec, run_episode
-from harness.episode_streams import EpisodeStreams
+from harness.episode.streams import EpisodeStreams
 from harness.grasps.race import draw_with_replacement, draw_without_replacement
 from harness.runs.expansion import point_overrides
 from harness.runs.scheduling import share_groups

@@ -19,8 +19,9 @@ from harness.episode import (
     EpisodeSpec,
     run_episode,
 )
-from harness.episode_ids import episode_seed
-from harness.episode_streams import EpisodeStreams
+from harness.episode.ids import episode_seed
+from harness.episode.scene_cache import get_scene, grasp_file_for
+from harness.episode.streams import EpisodeStreams
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
 from harness.pick import semantics as semantics_module
@@ -29,7 +30,6 @@ from harness.pick.semantics import Semantics
 from harness.pick.targets import command_targets
 from harness.robots import RobotModel
 from harness.runs.store import SCHEMA
-from harness.scene_cache import get_scene, grasp_file_for
 from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"

@@ -89,9 +89,9 @@ def object_distances(task_path: Path, bottle: Path, rows: pd.DataFrame) -> np.nd
     scene reset with each episode's seed (its scene stream; ``harness run`` seeds episode k as a
     sweep with seed 0 does)."""
     from harness.episode import SETTLE_TIME_S
-    from harness.episode_ids import episode_seed
-    from harness.episode_streams import EpisodeStreams
-    from harness.scene_cache import get_scene
+    from harness.episode.ids import episode_seed
+    from harness.episode.scene_cache import get_scene
+    from harness.episode.streams import EpisodeStreams
 
     task = load_interndata_tasks(task_path, None, {"pick_object_left": str(bottle)})[0].task
     scene = get_scene(task, None).scene

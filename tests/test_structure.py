@@ -237,6 +237,37 @@ def test_layout_docs_name_every_package() -> None:
             assert path.stem in architecture, f"docs/architecture.md does not mention {path.name}"
 
 
+def misplaced_modules(package_dir: Path) -> list[str]:
+    """Top-level modules of ``package_dir`` that belong to one of its packages: a module whose
+    name is a package's name or starts with it followed by ``_`` (``episode_ids.py`` beside
+    ``episode/``). Such a module is one concept split across two places; it moves in."""
+    packages = {p.name for p in package_dir.iterdir() if (p / "__init__.py").is_file()}
+    found = []
+    for path in sorted(package_dir.glob("*.py")):
+        stem = path.stem
+        owner = next((p for p in packages if stem == p or stem.startswith(f"{p}_")), None)
+        if owner is not None:
+            found.append(f"{path.name} (belongs in {owner}/)")
+    return found
+
+
+def test_misplaced_module_finder(tmp_path: Path) -> None:
+    """The checker itself: a flat ``episode_ids.py`` beside ``episode/`` is found, unrelated
+    modules and the package's own ``__init__`` are not."""
+    (tmp_path / "episode").mkdir()
+    (tmp_path / "episode" / "__init__.py").write_text("")
+    for name in ("__init__.py", "episode_ids.py", "episodes.py", "row.py"):
+        (tmp_path / name).write_text("")
+    assert misplaced_modules(tmp_path) == ["episode_ids.py (belongs in episode/)"]
+
+
+def test_no_top_level_module_belongs_to_a_package() -> None:
+    misplaced = misplaced_modules(PACKAGE_DIR)
+    assert not misplaced, "top-level harness modules that belong to a package: " + ", ".join(
+        misplaced
+    )
+
+
 DOC_PATH = re.compile(r"(?<![\w/.-])((?:harness|robots|tasks|tests|docs)/[\w./<>-]*)")
 
 

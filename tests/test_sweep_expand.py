@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from harness.config import ConfigError, SweepConfig
-from harness.episode_ids import episode_id, episode_seed
+from harness.episode.ids import episode_id, episode_seed
 from harness.runs.expansion import expand, select_samples, sweep_points
 
 TASK = {

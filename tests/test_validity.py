@@ -12,11 +12,11 @@ import pytest
 
 from harness.config import TaskConfig, load_task
 from harness.episode import EpisodeSpec, run_episode
+from harness.episode.scene_cache import get_scene
 from harness.pick.outcome import ValidityMeasure
 from harness.pick.penetration import TablePenetration
 from harness.pick.verdict import first_failure, validity_terms
 from harness.row import VALIDITY_REASONS, EpisodeRow
-from harness.scene_cache import get_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 # Columns the validity phase writes (or that measure wall time); every other column is the

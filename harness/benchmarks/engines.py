@@ -107,7 +107,7 @@ def run_cpu(all_specs: list[Any], workers: int) -> tuple[list[dict[str, Any]], f
 def run_gpu(all_specs: list[Any], workers: int, device: str) -> dict[str, Any]:
     """Plan on the pool, then one batch per task model on the device; outcomes and timings."""
     from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.scene_cache import get_scene
+    from harness.episode.scene_cache import get_scene
 
     with _pool(workers) as pool:
         list(pool.map(_plan, all_specs[:workers]))

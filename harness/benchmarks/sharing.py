@@ -3,7 +3,7 @@
 A dense grid -- the approach cone ``[downward, a]`` for a = 90..180 in 5 degree steps times the
 facing cone ``[forward, b]`` for b = 10..180 in 10 degree steps (342 settings) -- is evaluated
 per seed on FR3 and the Split ALOHA left arm, in one process (one core): every setting with the
-candidate cache (``harness.candidate_cache``), and a sample of the same settings and seeds
+candidate cache (``harness.episode.candidate_cache``), and a sample of the same settings and seeds
 without it. An evaluation is one (setting, seed) row. The rates are per core-hour (rows over
 this process's wall time); their ratio is measured in the same run. The unshared sample's rows
 are compared with the shared rows of the same setting and seed: they must be identical.
@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from harness.benchmarks.framework import Figure, figure
-from harness.candidate_cache import WALL_TIME_COLUMNS, CandidateCache
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.episode import EpisodeSpec, run_episode
+from harness.episode.candidate_cache import WALL_TIME_COLUMNS, CandidateCache
 from harness.objects.assets import repo_root
 from harness.runs.expansion import point_overrides
 

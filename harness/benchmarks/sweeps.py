@@ -42,7 +42,7 @@ from harness.benchmarks.machine import (
 )
 from harness.config import TaskConfig, load_task
 from harness.episode import EpisodeSpec
-from harness.episode_ids import episode_id, episode_seed
+from harness.episode.ids import episode_id, episode_seed
 from harness.runs.executors import run_process_pool
 
 SECTION = "sweeps"

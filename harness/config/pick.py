@@ -12,10 +12,15 @@ import math
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
+from pydantic.config import JsonDict
 
 from harness.config.errors import KeyedValueError
 from harness.config.filters import AxisFilter, FilterSpec, reversed_band_message
 from harness.config.values import FiniteFloat, Probability, StrictModel
+
+# The marker of a pick key that only the harness reads (InternDataEngine's Pick skill does not):
+# ``harness_only_keys`` lists them; ``harness tune`` leaves them out of its paste-ready block.
+HARNESS_ONLY: JsonDict = {"harness_only": True}
 
 
 class PickConfig(StrictModel):
@@ -58,42 +63,51 @@ class PickConfig(StrictModel):
     update_pose_cost_metric_none: bool | None = None
     constrain_grasp_approach: bool | None = None
 
-    # Harness keys.
-    semantics: Literal["reference", "strict"] = "reference"
+    # Harness keys (not InternDataEngine's), each marked ``HARNESS_ONLY`` (``harness_only_keys``).
+    semantics: Literal["reference", "strict"] = Field(
+        default="reference", json_schema_extra=HARNESS_ONLY
+    )
     approach_filter: FilterSpec = Field(
         default=None,
+        json_schema_extra=HARNESS_ONLY,
         description="Robot-neutral filter on the approach axis (robot.yaml approach_axis).",
     )
     facing_filter: FilterSpec = Field(
         default=None,
+        json_schema_extra=HARNESS_ONLY,
         description="Robot-neutral filter on the facing axis (robot.yaml facing_axis).",
     )
     strict_sampling: bool = Field(
         default=False,
+        json_schema_extra=HARNESS_ONLY,
         description="strict: order candidates by weighted sampling without replacement "
         "(weights 1/score) instead of plain score order.",
     )
-    timing: Literal["toppra", "ruckig"] = "toppra"
-    speed_scale: FiniteFloat = Field(default=1.0, gt=0.0, le=1.0)
+    timing: Literal["toppra", "ruckig"] = Field(default="toppra", json_schema_extra=HARNESS_ONLY)
+    speed_scale: FiniteFloat = Field(default=1.0, gt=0.0, le=1.0, json_schema_extra=HARNESS_ONLY)
     validity: bool = Field(
         default=True,
+        json_schema_extra=HARNESS_ONLY,
         description="on: after the reference verdict, the validity phase (penetration, two "
         "fingers, hold, tug) fills the row's validity columns; off skips it (strict always "
         "runs it: it is strict's verdict).",
     )
     min_finger_force: FiniteFloat = Field(
         default=0.5,
+        json_schema_extra=HARNESS_ONLY,
         ge=0.0,
         description="validity and strict: normal force each finger must carry (N).",
     )
     hold_time: FiniteFloat = Field(
         default=1.0,
+        json_schema_extra=HARNESS_ONLY,
         ge=0.0,
         le=60.0,
         description="validity and strict: hold at the lifted pose (s).",
     )
     max_slip: FiniteFloat = Field(
         default=0.005,
+        json_schema_extra=HARNESS_ONLY,
         gt=0.0,
         description="validity and strict: object slip allowed in the hold (m).",
     )
@@ -150,3 +164,12 @@ class PickConfig(StrictModel):
             for key in ("filter_x_dir", "filter_y_dir", "filter_z_dir")
             if (spec := getattr(self, key)) is not None
         }
+
+
+def harness_only_keys() -> frozenset[str]:
+    """The ``PickConfig`` keys marked ``HARNESS_ONLY`` (not the reference's)."""
+    return frozenset(
+        name
+        for name, info in PickConfig.model_fields.items()
+        if isinstance(info.json_schema_extra, dict) and info.json_schema_extra.get("harness_only")
+    )

@@ -105,8 +105,8 @@ class SweepConfig(StrictModel):
     share: bool = Field(
         default=True,
         description="Points that differ only in selection keys (filters, direction_to_obj) "
-        "share each seed's candidate evaluations (harness.candidate_cache); the rows are the "
-        "same either way. false evaluates every point on its own.",
+        "share each seed's candidate evaluations (harness.episode.candidate_cache); the rows are "
+        "the same either way. false evaluates every point on its own.",
     )
 
     @field_validator("axes")

@@ -12,7 +12,7 @@ stream, the draw number, the *global* grasp index), not from a sequence. So two 
 evaluated on the same seed give every grasp the same key: a grasp that wins a draw under one
 setting wins it under every other setting that keeps it and nothing better placed. That coupling
 is what lets sweep points that differ only in their filters choose -- and share -- the same
-candidates as often as the law of the draw allows (``harness.candidate_cache``).
+candidates as often as the law of the draw allows (``harness.episode.candidate_cache``).
 """
 
 from __future__ import annotations

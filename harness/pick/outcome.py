@@ -40,6 +40,19 @@ class ValidityMeasure:
         return min(0.0 if force != force else force for force in forces)
 
 
+@dataclass(frozen=True)
+class ValidityColumns:
+    """The row's validity columns (``harness.row.EpisodeRow``); ``None``: not written (the row
+    keeps its default), as ``harness.episode.records.merge_records`` reads it."""
+
+    table_penetration_m: float | None = None
+    valid: bool | None = None
+    invalid_reason: str | None = None
+    robustness_g: float | None = None
+    hold_slip_m: float | None = None
+    min_finger_force_n: float | None = None
+
+
 @dataclass
 class ValidityResult:
     """The validity verdict of an episode: the row's validity columns."""

@@ -30,7 +30,7 @@ def walk_candidates(
     ``test`` runs the feasibility test (``pick.test_mode``) of one candidate. ``known`` holds
     the verdicts already found for this scene and seed, by pose index, and receives the new
     ones: a candidate's verdict depends only on (task physics, seed, candidate)
-    (``harness.episode_streams``), so a known one is reused instead of re-tested. That covers
+    (``harness.episode.streams``), so a known one is reused instead of re-tested. That covers
     duplicates too: the reference draws with replacement, re-tests and gets the same answer.
     A reused verdict takes its position in this order and no test time.
     """

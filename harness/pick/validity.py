@@ -36,10 +36,10 @@ import mujoco
 import numpy as np
 
 from harness.config import PickConfig
-from harness.pick.outcome import ValidityMeasure, ValidityResult
+from harness.pick.outcome import ValidityColumns, ValidityMeasure, ValidityResult
 from harness.pick.recorder import TugRecord, ValidityTrace
 from harness.pick.semantics import Semantics
-from harness.row import ROBUSTNESS_LEVELS_G
+from harness.pick.terms import ROBUSTNESS_LEVELS_G
 from harness.sim import ArmHandles, Scene, SceneObject
 
 REST_SPEED = 0.02  # m/s: the object is "at rest" below this
@@ -221,28 +221,26 @@ class ValidityPhase:
 
 def validity_columns(
     enabled: bool, penetration_m: float, result: ValidityResult | None
-) -> dict[str, object]:
+) -> ValidityColumns:
     """The row's validity columns (``harness.row.EpisodeRow``).
 
     ``enabled`` False (``validity: off`` under reference): ``valid`` False, ``invalid_reason``
     '' and NaN measurements, except ``table_penetration_m`` (a fact of the motion, NaN when
     nothing executed). An enabled episode without a result never reached its verdict:
     ``not_run``."""
-    columns: dict[str, object] = {"table_penetration_m": penetration_m}
     if not enabled:
-        return columns
+        return ValidityColumns(penetration_m)
     if result is None:
-        columns.update(valid=False, invalid_reason="not_run")
-        return columns
+        return ValidityColumns(penetration_m, valid=False, invalid_reason="not_run")
     measure = result.measure
-    columns.update(
+    return ValidityColumns(
+        penetration_m,
         valid=result.valid,
         invalid_reason=result.invalid_reason,
         robustness_g=measure.robustness_g,
         hold_slip_m=measure.hold_slip_m,
         min_finger_force_n=measure.min_finger_force_n,
     )
-    return columns
 
 
 def validity_enabled(pick: PickConfig) -> bool:

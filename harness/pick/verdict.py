@@ -22,24 +22,40 @@ pipeline order, so the first cause wins). Which terms apply is the semantics' ca
   ``collision``, ``not_lifted`` -> ``lift_below_threshold``, ``one_finger`` -> ``no_contact``,
   ``slipped_in_hold`` and ``lost_in_tug`` -> ``dropped``).
 
-The terms read only the measurements in ``PickOutcome`` / ``ValidityMeasure`` (and the forces at
-closing), so they can be checked without a simulation.
+Each term is declared once, in ``harness.pick.terms.TERMS`` (name, reason, phases, measurement,
+threshold, semantics); the lists here are that table's checks of one phase. The terms read only
+the measurements in ``PickOutcome`` / ``ValidityMeasure`` (and the forces at closing), so they
+can be checked without a simulation.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 from harness.config import PickConfig
 from harness.failures import FailureReason
 from harness.pick.outcome import PickOutcome, ValidityMeasure
+from harness.pick.terms import (
+    MAX_TABLE_PENETRATION,
+    MAX_VELOCITY,
+    MIN_ROBUSTNESS_G,
+    Phase,
+    phase_checks,
+)
 
-MAX_VELOCITY = 5.0  # process_valid bound (rad/s and m/s mixed, as in the reference)
-# Validity: a robot geom deeper than this inside the table top makes the grasp non-physical (m).
-MAX_TABLE_PENETRATION = 0.002
-# Validity: the lowest tug level (x g x mass) the grasp must survive in every direction.
-MIN_ROBUSTNESS_G = 0.5
+__all__ = [
+    "MAX_TABLE_PENETRATION",
+    "MAX_VELOCITY",
+    "MIN_ROBUSTNESS_G",
+    "VerdictTerm",
+    "closing_terms",
+    "first_failure",
+    "reference_terms",
+    "strict_terms",
+    "validity_terms",
+]
 
 
 @dataclass(frozen=True)
@@ -57,51 +73,27 @@ def first_failure(terms: Iterable[VerdictTerm]) -> VerdictTerm | None:
     return next((term for term in terms if not term.passed), None)
 
 
-def velocity_valid(pick: PickConfig, out: PickOutcome) -> bool:
-    """``process_valid``: max |joint velocity| and max |object velocity component| < 5."""
-    return not pick.process_valid or (
-        out.verdict_joint_speed < MAX_VELOCITY and out.verdict_object_speed < MAX_VELOCITY
+def phase_terms(phase: Phase, pick: PickConfig, measurement: Any) -> tuple[VerdictTerm, ...]:
+    """The terms of ``phase`` (``harness.pick.terms.TERMS`` order) checked on ``measurement``."""
+    return tuple(
+        VerdictTerm(
+            term.name,
+            check.reason(measurement) if check.reason is not None else term.reason,
+            check.passed(pick, measurement),
+            check.message(pick, measurement),
+        )
+        for term, check in phase_checks(phase)
     )
 
 
 def closing_terms(pick: PickConfig, forces: tuple[float, float]) -> tuple[VerdictTerm, ...]:
     """Strict, when the closing ends: both fingers carry ``min_finger_force`` (closing only)."""
-    closes = pick.final_gripper_state == -1
-    return (
-        VerdictTerm(
-            "one_finger",
-            "no_contact",
-            not (closes and min(forces) < pick.min_finger_force),
-            f"finger forces {forces[0]:.2f} / {forces[1]:.2f} N after closing, "
-            f"below {pick.min_finger_force} N",
-        ),
-    )
+    return phase_terms("closing", pick, forces)
 
 
 def reference_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
     """The reference ``is_success``, on the measurements taken when the list empties."""
-    forces = out.verdict_forces
-    return (
-        VerdictTerm(
-            "finger_touches_object",
-            "dropped" if out.contact_during_close else "no_contact",
-            not (pick.final_gripper_state == -1 and not max(forces) > 0.0),
-            "no finger touches the object when the command list empties",
-        ),
-        VerdictTerm(
-            "velocity_valid",
-            "velocity_invalid",
-            velocity_valid(pick, out),
-            f"max joint speed {out.verdict_joint_speed:.2f}, max object velocity "
-            f"{out.verdict_object_speed:.2f} (bound {MAX_VELOCITY})",
-        ),
-        VerdictTerm(
-            "lifted",
-            "lift_below_threshold",
-            not (pick.lift_th > 0 and not out.lift_height_m > pick.lift_th),
-            f"lifted {out.lift_height_m * 1e3:.1f} mm, threshold {pick.lift_th * 1e3:.1f} mm",
-        ),
-    )
+    return phase_terms("reference", pick, out)
 
 
 def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, ...]:
@@ -110,44 +102,7 @@ def validity_terms(pick: PickConfig, v: ValidityMeasure) -> tuple[VerdictTerm, .
 
     Each term's name is the row's ``invalid_reason`` and its reason the failure strict reports
     (strict's success is this verdict)."""
-    closes = pick.final_gripper_state == -1
-    closing, held = v.closing_forces, v.finger_forces
-    return (
-        VerdictTerm(
-            "table_penetration",
-            "collision",
-            v.table_penetration_m < MAX_TABLE_PENETRATION,
-            f"a robot geom went {v.table_penetration_m * 1e3:.1f} mm into the table "
-            f"(bound {MAX_TABLE_PENETRATION * 1e3:.0f} mm)",
-        ),
-        VerdictTerm(
-            "not_lifted",
-            "lift_below_threshold",
-            v.lift_height_m > pick.lift_th,
-            f"lifted {v.lift_height_m * 1e3:.1f} mm after the hold, threshold "
-            f"{pick.lift_th * 1e3:.1f} mm",
-        ),
-        VerdictTerm(
-            "one_finger",
-            "no_contact",
-            not (closes and not v.min_finger_force_n >= pick.min_finger_force),
-            f"finger forces {closing[0]:.2f} / {closing[1]:.2f} N after closing, "
-            f"{held[0]:.2f} / {held[1]:.2f} N after the hold: one below {pick.min_finger_force} N",
-        ),
-        VerdictTerm(
-            "slipped_in_hold",
-            "dropped",
-            v.hold_slip_m <= pick.max_slip,
-            f"the object slipped {v.hold_slip_m * 1e3:.1f} mm in the hold "
-            f"(bound {pick.max_slip * 1e3:.1f} mm)",
-        ),
-        VerdictTerm(
-            "lost_in_tug",
-            "dropped",
-            v.robustness_g >= MIN_ROBUSTNESS_G,
-            f"lost in the tug: {v.tug_message}",
-        ),
-    )
+    return phase_terms("validity", pick, v)
 
 
 def strict_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
@@ -156,18 +111,7 @@ def strict_terms(pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
     assert out.validity is not None
     v = out.validity.measure
     return (
-        VerdictTerm(
-            "collision",
-            "collision",
-            not out.collisions,
-            f"robot collided: {out.collisions[0] if out.collisions else ''}",
-        ),
+        *phase_terms("motion", pick, out),
         *validity_terms(pick, v),
-        VerdictTerm(
-            "velocity_valid",
-            "velocity_invalid",
-            not pick.process_valid
-            or (v.joint_speed < MAX_VELOCITY and v.object_speed < MAX_VELOCITY),
-            "velocities above the bound after the hold",
-        ),
+        *phase_terms("hold_end", pick, v),
     )

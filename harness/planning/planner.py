@@ -15,7 +15,7 @@ Feasibility of one candidate (``test_mode``, docs/reference-pick-skill.md sectio
   asked). The plan found is the one executed. The reference plans the pre-grasp and the grasp,
   each from the current state, and never the lift; the episode can test without the carry and
   plan it (``plan_carry``) for the chosen candidate alone
-  (``harness.episode.FORWARD_TEST_PLANS_CARRY``, docs/semantics.md).
+  (``harness.pick.semantics.FORWARD_TEST_PLANS_CARRY``, docs/semantics.md).
 
 Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
 with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.

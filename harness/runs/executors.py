@@ -26,7 +26,7 @@ from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
-    from harness.episode import EpisodeSpec
+    from harness.episode.spec import EpisodeSpec
 
 
 OnResult = Callable[[dict[str, Any]], None]
@@ -342,7 +342,8 @@ def run_ray(
 class Executor(Protocol):
     """Runs ``episodes`` (recordings under ``run_dir`` per the ``record`` policy), passing each
     row to ``on_result`` as it arrives; returns how the run went. With ``share`` the points that
-    differ only in selection keys share candidate evaluations (``harness.candidate_cache``)."""
+    differ only in selection keys share candidate evaluations
+    (``harness.episode.candidate_cache``)."""
 
     def __call__(
         self,

@@ -8,7 +8,7 @@ A sweep is tasks x points x seeds. Points come from a grid (cartesian product of
 Determinism: the episode seed depends only on (sweep seed, episode index), so episode k of every
 point sees the same object placement and home noise -- points are compared on common random
 numbers. Episode ids hash (task, point, episode index), so resuming runs exactly what is missing
-(``harness.episode_ids``).
+(``harness.episode.ids``).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import itertools
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -31,11 +31,9 @@ from harness.config import (
     load_task,
     validate_model,
 )
-from harness.episode_ids import episode_id, episode_seed
+from harness.episode.ids import episode_id, episode_seed
+from harness.episode.spec import EpisodeSpec
 from harness.robots.facts import reference_convention
-
-if TYPE_CHECKING:
-    from harness.episode import EpisodeSpec
 
 
 def absolute_paths(task: TaskConfig) -> TaskConfig:
@@ -226,9 +224,6 @@ def expand(
     ``tasks`` are the sweep's resolved tasks when the caller has already loaded them. With
     ``progress``, a large expansion (~15 ms per point) says how far it is on stderr.
     """
-    # harness.episode pulls in MuJoCo and the planners: imported once episodes are made.
-    from harness.episode import EpisodeSpec
-
     if tasks is None:
         tasks = load_sweep_tasks(sweep, sweep_path)
     points = sweep_points(sweep)

@@ -1,7 +1,7 @@
 """The order episodes run in: points that can share candidate evaluations run together.
 
-Two episodes share a seed's evaluations (``harness.candidate_cache``) when their tasks differ
-only in selection keys and their seeds are equal. ``share_groups`` collects them, in order of
+Two episodes share a seed's evaluations (``harness.episode.candidate_cache``) when their tasks
+differ only in selection keys and their seeds are equal. ``share_groups`` collects them, in order of
 first appearance, so a worker runs a group back to back and its cache answers every episode
 after the first from what the first ones evaluated. Groups keep the rows identical; they only
 change which worker runs what and when.
@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from harness.candidate_cache import physics_key
+from harness.episode.candidate_cache import physics_key
 
 if TYPE_CHECKING:
-    from harness.episode_spec import EpisodeSpec
+    from harness.episode.spec import EpisodeSpec
 
 
 def share_groups(episodes: list[EpisodeSpec]) -> list[list[EpisodeSpec]]:

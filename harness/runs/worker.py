@@ -12,14 +12,14 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from harness.candidate_cache import CandidateCache
+from harness.episode.candidate_cache import CandidateCache
 from harness.errors import EpisodeTimeoutError
 from harness.files import is_disk_full
 from harness.row import identity_columns
 from harness.runs.safety import inside, safe_file_name
 
 if TYPE_CHECKING:
-    from harness.episode import EpisodeSpec
+    from harness.episode.spec import EpisodeSpec
 
 _SCENE_CACHE: dict[Any, Any] = {}
 _CANDIDATE_CACHE: CandidateCache | None = None  # made on the first shared episode
@@ -37,7 +37,8 @@ def execute(
 ) -> dict[str, Any]:
     """Run one episode and return its flat row; writes its recording when chosen.
 
-    With ``share`` the episode uses this process's candidate cache (``harness.candidate_cache``).
+    With ``share`` the episode uses this process's candidate cache
+    (``harness.episode.candidate_cache``).
     An episode answered partly from it has no trace; when its recording is wanted it runs
     again without the cache (same row) to make one.
     Never raises for episode-level problems: ``run_episode`` turns them into failure reasons,

@@ -18,7 +18,7 @@ import pandas as pd
 import yaml
 
 from harness.config import TaskConfig
-from harness.config.pick import PickConfig
+from harness.config.pick import PickConfig, harness_only_keys
 from harness.grasps import resolve_filters
 from harness.grasps.filters import FILTER_KEYS
 from harness.markdown import markdown_table
@@ -26,21 +26,9 @@ from harness.report.frames import frame_of, series_rows
 from harness.robots.facts import reference_convention
 from harness.tuning.analysis import POOLED, filter_label
 
-# PickConfig keys that only the harness reads (not InternDataEngine's Pick skill).
-HARNESS_PICK_KEYS = frozenset(
-    (
-        "semantics",
-        "approach_filter",
-        "facing_filter",
-        "strict_sampling",
-        "timing",
-        "speed_scale",
-        "validity",
-        "min_finger_force",
-        "hold_time",
-        "max_slip",
-    )
-)
+# PickConfig keys that only the harness reads (not InternDataEngine's Pick skill): marked on
+# the model (``harness.config.pick.HARNESS_ONLY``).
+HARNESS_PICK_KEYS = harness_only_keys()
 # ``objects`` names the task's own objects: the file it is pasted into keeps its own.
 SKIPPED_KEYS = HARNESS_PICK_KEYS | {"objects"}
 AXIS_KEYS = tuple(FILTER_KEYS.values())

@@ -23,8 +23,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from harness.candidate_cache import SELECTION_KEYS
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
+from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.grasps import neutral_form, resolve_filters
 from harness.robots.facts import reference_convention
 from harness.runs.expansion import absolute_paths, load_sweep_tasks

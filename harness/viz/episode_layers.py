@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.pick.terms import term_columns
 from harness.viz.scene_geometry import rerun_sdk
 
 # Candidate verdict -> RGB. Chosen is drawn on top, thicker; ``fallback`` is the infeasible
@@ -176,12 +177,18 @@ def log_contacts(rec: Any, trace: Any) -> None:
 # --------------------------------------------------------------------------------------------
 # The verdict document
 
-ROW_KEYS = (
-    "robot", "arm", "object", "seed", "episode_id", "semantics", "test_mode", "timing",
-    "n_total", "n_passed_filter", "filter_outcome", "n_tested", "n_feasible",
-    "candidate_failures", "chosen_index", "chosen_score", "approach_angle_deg", "lift_height_m",
-    "finger_force_left_n", "finger_force_right_n", "slip_m", "tcp_grasp_error_m", "valid",
-    "invalid_reason", "robustness_g", "hold_slip_m", "min_finger_force_n", "table_penetration_m",
+# The row columns the verdict document lists: the episode and its candidates, then the
+# verdict's (the execution's own, the validity verdict, and every column a verdict term reads,
+# from ``harness.pick.terms.TERMS``).
+ROW_KEYS = tuple(
+    dict.fromkeys(
+        (
+            "robot", "arm", "object", "seed", "episode_id", "semantics", "test_mode", "timing",
+            "n_total", "n_passed_filter", "filter_outcome", "n_tested", "n_feasible",
+            "candidate_failures", "chosen_index", "chosen_score", "approach_angle_deg",
+            "slip_m", "tcp_grasp_error_m", "valid", "invalid_reason", *term_columns(),
+        )
+    )
 )  # fmt: skip
 
 

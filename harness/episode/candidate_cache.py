@@ -1,16 +1,17 @@
 """Evaluate once per candidate: the per-worker cache shared by points that differ in selection.
 
 A direction filter only *selects* among the same annotated grasps. With the episode's
-per-purpose streams (``harness.episode_streams``), what happens to one candidate depends only on
+per-purpose streams (``harness.episode.streams``), what happens to one candidate depends only on
 (task physics, seed, candidate): its feasibility verdict and, when it is chosen, its executed
 outcome. So two sweep points that differ only in their selection keys (``SELECTION_KEYS``) and
 share a seed can share every candidate they both test -- the second point re-runs only the
 filters and the draw, and tests or executes only candidates the first never reached. The rows
 are identical to unshared ones (tests/test_candidate_cache.py), except for wall-time columns.
 
-``CandidateCache`` is that memory for one worker: ``SeedEvaluation`` entries keyed by
+``CandidateCache`` is that memory for one worker: ``SeedMemory`` entries keyed by
 ``evaluation_key(task, seed)`` (the task without its selection keys, plus the seed), kept for the
-last ``capacity`` keys (sweeps schedule the points of one key together, ``harness.runs``).
+last ``capacity`` keys (sweeps schedule the points of one key together, ``harness.runs``). An
+episode reads and fills its entry through ``harness.episode.evaluation.SeedEvaluation``.
 """
 
 from __future__ import annotations
@@ -18,14 +19,15 @@ from __future__ import annotations
 import json
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from harness.config import TaskConfig
 from harness.config.memo import per_task
 
-if TYPE_CHECKING:  # the planners load only where episodes run
+if TYPE_CHECKING:  # the planners and MuJoCo load only where episodes run
+    from harness.episode.records import RowRecord
     from harness.planning.plans import CandidateVerdict
 
 # The pick keys that only choose among candidates (docs/config.md): a point that differs from
@@ -75,10 +77,11 @@ class ResetFacts:
 
 @dataclass(frozen=True)
 class ExecutedOutcome:
-    """The chosen candidate's planned and executed motion: the row columns it set and, when it
-    ended the episode, the failure reason and message."""
+    """The chosen candidate's planned and executed motion: the records of its row columns
+    (``harness.episode.records``, wall time excluded) and, when it ended the episode, the failure
+    reason and message."""
 
-    columns: dict[str, Any]
+    records: tuple[RowRecord, ...]
     stop: tuple[str, str] | None = None
 
 
@@ -95,7 +98,7 @@ class CacheStats:
 
 
 @dataclass
-class SeedEvaluation:
+class SeedMemory:
     """Everything evaluated so far for one (task physics, seed)."""
 
     reset: ResetFacts | None = None
@@ -112,16 +115,16 @@ class CandidateCache:
             raise ValueError("a candidate cache needs room for at least one seed evaluation")
         self.capacity = capacity
         self.stats = CacheStats()
-        self._entries: OrderedDict[tuple[str, int], SeedEvaluation] = OrderedDict()
+        self._entries: OrderedDict[tuple[str, int], SeedMemory] = OrderedDict()
 
     def __len__(self) -> int:
         return len(self._entries)
 
-    def evaluation(self, key: tuple[str, int]) -> SeedEvaluation:
-        """The evaluation of ``key``, created empty on first use."""
+    def memory(self, key: tuple[str, int]) -> SeedMemory:
+        """The memory of ``key``, created empty on first use."""
         entry = self._entries.get(key)
         if entry is None:
-            entry = SeedEvaluation(stats=self.stats)
+            entry = SeedMemory(stats=self.stats)
             self._entries[key] = entry
             while len(self._entries) > self.capacity:
                 self._entries.popitem(last=False)

@@ -30,7 +30,7 @@ class SceneBundle:
     planners: dict[str, PickPlanner] = field(default_factory=dict)
     grasp_sets: dict[str, GraspSet] = field(default_factory=dict)
     ee_poses: dict[tuple[Any, ...], EEPoses] = field(default_factory=dict)
-    # Which reset the scene holds untouched (``harness.episode_stages.SceneFreshness``): lets an
+    # Which reset the scene holds untouched (``harness.episode.setup.Setup.ensure_fresh``): lets an
     # episode that shares a seed's evaluations skip a reset it would only repeat.
     reset_mark: Any = None
 

@@ -1,8 +1,8 @@
 """One pick episode: scene reset, candidate selection, feasibility, plan, execution, verdict.
 
 ``run_episode(spec, scene_cache)`` never raises for episode-level problems: every outcome is one
-flat row (``EpisodeResult.row``, the columns of ``harness.runs.store``) with ``success`` and a
-``failure_reason`` from the taxonomy (``harness.failures``):
+flat row (``EpisodeResult.row``, the columns of ``harness.row.EpisodeRow``) with ``success`` and
+a ``failure_reason`` from the taxonomy (``harness.failures``):
 
 ``filter_empty`` (no candidate at all), ``no_feasible_candidate`` (strict: none passed the
 feasibility test), ``plan_failed`` (the executed motion could not be planned or timed),
@@ -17,12 +17,17 @@ with the robot holding still; execute. ``max_episode_length`` counts the executi
 steps only, as the reference's loop does.
 
 Randomness: one independent stream per purpose, derived from ``spec.seed``
-(``harness.episode_streams``): the scene reset, the candidate draw, the lift offset, and per
+(``harness.episode.streams``): the scene reset, the candidate draw, the lift offset, and per
 annotated grasp its feasibility test and its executed plan -- same spec, same row. A candidate's
 verdict and executed outcome therefore depend only on (task physics, seed, candidate), which lets
-points that differ only in their selection keys share them (``harness.candidate_cache``; pass a
-``CandidateCache`` to ``run_episode``). An episode that used any shared evaluation carries no
+points that differ only in their selection keys share them (``harness.episode.candidate_cache``;
+pass a ``CandidateCache`` to ``run_episode``). An episode that used any shared evaluation carries no
 trace (``EpisodeResult.trace`` is None); run it without the cache to get one (same row).
+
+Row columns: each stage appends typed records (``harness.episode.records``: dataclasses whose
+fields are ``EpisodeRow`` columns) and ``run_episode`` merges them into the row in one place,
+in the order they were produced; the seed's shared evaluations are read and filled through
+``harness.episode.evaluation.SeedEvaluation``.
 
 The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint and object
 trajectories, TCP poses, gripper width, finger forces, phases and events, every candidate with
@@ -41,19 +46,22 @@ from typing import Any
 
 import mujoco
 
-from harness.candidate_cache import CandidateCache, SeedEvaluation, evaluation_key
-from harness.episode_spec import EpisodeResult, EpisodeSpec
-from harness.episode_stages import (
+from harness.episode.candidate_cache import CandidateCache, evaluation_key
+from harness.episode.evaluation import SeedEvaluation
+from harness.episode.execution import execute_chosen
+from harness.episode.planning import candidates, feasibility
+from harness.episode.records import EndColumns, RowRecord, WallTimeColumns, merge_records
+from harness.episode.result import EpisodeResult
+from harness.episode.setup import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,
     WARMUP_TIME_S,
     EpisodeStopError,
-    candidates,
-    execute_chosen,
-    feasibility,
     reset,
 )
+from harness.episode.spec import EpisodeSpec
 from harness.errors import EpisodeTimeoutError, HarnessError
+from harness.pick.outcome import ValidityColumns
 from harness.pick.validity import validity_enabled
 from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.version import __version__
@@ -120,35 +128,36 @@ def run_episode(
     row = base_row(spec)
     result = EpisodeResult(spec=spec, row=row)
     if candidate_cache is None:
-        key, evaluation = None, SeedEvaluation()
+        evaluation = SeedEvaluation()
     else:
         key = evaluation_key(spec.task, spec.seed)
         if spec.engine != "mujoco":  # executed outcomes are the engine's own
             key = (f"{key[0]} engine={spec.engine}", key[1])
-        evaluation = candidate_cache.evaluation(key)
+        evaluation = SeedEvaluation(candidate_cache.memory(key), key)
+    records: list[RowRecord] = []
     try:
-        _run(spec, scene_cache, result, evaluation, key)
+        _run(spec, scene_cache, result, evaluation, records)
+        failure, message = "", ""
     except EpisodeStopError as stop:
-        row["failure_reason"] = stop.reason
-        row["error_message"] = stop.message
+        failure, message = stop.reason, stop.message
     except EpisodeTimeoutError as exc:  # harness.sim.budget: the run's limits, not an error
-        row["failure_reason"] = "timeout"
-        row["error_message"] = str(exc)
+        failure, message = "timeout", str(exc)
     except HarnessError as exc:
-        row["failure_reason"] = "error"
-        row["error_message"] = str(exc)
+        failure, message = "error", str(exc)
     except Exception as exc:  # any bug or library failure must not lose the episode
-        row["failure_reason"] = "error"
         where = traceback.extract_tb(exc.__traceback__)[-1]
-        row["error_message"] = (
+        failure = "error"
+        message = (
             f"{type(exc).__name__}: {exc} (at {where.filename.rsplit('/', 1)[-1]}:{where.lineno})"
         )
-    row["success"] = row["failure_reason"] == ""
+    records.append(EndColumns(failure, message, success=failure == ""))
+    merge_records(row, records)  # the one place the stages' columns enter the row
     if validity_enabled(spec.task.pick) and not row["valid"] and not row["invalid_reason"]:
-        row["invalid_reason"] = "not_run"  # ended before the execution's verdict
+        # ended before the execution's verdict
+        merge_records(row, [ValidityColumns(invalid_reason="not_run")])
     if result.shared:
         result.trace = None  # pieces of it belong to other episodes
-    row["wall_time_s"] = time.perf_counter() - wall_start
+    merge_records(row, [WallTimeColumns(time.perf_counter() - wall_start)])
     return result
 
 
@@ -157,26 +166,21 @@ def _run(
     scene_cache: dict[Any, Any] | None,
     result: EpisodeResult,
     evaluation: SeedEvaluation,
-    key: Any,
+    records: list[RowRecord],
 ) -> None:
     """Reset, candidates, feasibility, then the chosen candidate's execution: each stage takes
-    what ``evaluation`` already knows and adds what it computes."""
-    setup = reset(spec, scene_cache, result, evaluation, key)
+    what ``evaluation`` already knows, adds what it computes, and appends its row records."""
+    setup = reset(spec, scene_cache, result, evaluation, records)
     try:
         planning = candidates(setup)
         choice = feasibility(planning)
-        pose_index = choice.chosen.pose_index
-        executed = evaluation.outcomes.get(pose_index)
-        if executed is None:
-            executed = execute_chosen(planning, choice)
-            evaluation.outcomes[pose_index] = executed
-            evaluation.stats.outcomes += 1
-        else:
-            setup.used_shared = True
-            evaluation.stats.outcome_hits += 1
+        executed, shared = evaluation.executed(
+            choice.chosen.pose_index, lambda: execute_chosen(planning, choice)
+        )
+        if shared:
             planning.record_plan_time()
     finally:
-        result.shared = setup.used_shared
-    result.row.update(executed.columns)
+        result.shared = evaluation.used_shared
+    records.extend(executed.records)
     if executed.stop is not None:
         raise EpisodeStopError(*executed.stop)  # type: ignore[arg-type]

@@ -14,7 +14,7 @@ so what one stage draws never shifts another stage's numbers:
 The candidate's own streams make its feasibility and its executed outcome depend only on (task
 physics, seed, candidate): whichever filter setting selects it, and whatever was tested before
 it, the answer is the same. That is what lets sweep points that differ only in their selection
-keys share one evaluation per candidate (``harness.candidate_cache``).
+keys share one evaluation per candidate (``harness.episode.candidate_cache``).
 
 The reference draws from two global streams (Python ``random`` for the candidate draw, NumPy for
 the scene and the lift offset, docs/reference-pick-skill.md quirk 22); the distributions here are
