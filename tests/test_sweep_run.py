@@ -202,6 +202,7 @@ def test_recordings_read_back_with_rerun(tmp_path: Path):
         assert max(values) - values[0] > 0.02  # lifted
         # The validity phase: its slip series and the tug arrows.
         assert {"/plots/validity_slip", "/world/validity/tug"} <= paths
+    finish_run(outcome.run_dir)  # the command layer writes the overview recording after a run
     overview = RrdReader(str(outcome.run_dir / "recording.rrd")).stream().to_chunks()
     overview_paths = {chunk.entity_path for chunk in overview}
     assert "/summary" in overview_paths and "/episodes" in overview_paths
