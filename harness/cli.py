@@ -9,6 +9,7 @@ line on stderr with exit code 2 -- never a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import re
 import sys
@@ -55,7 +56,10 @@ def _record_policy(text: str) -> str:
 
 
 SEED = _bounded_int(0, 2**63 - 1)
-EPISODES = _bounded_int(1, 1_000_000)
+# The config's own cap (SweepConfig.episodes_per_point <= 100,000): a larger flag would pass
+# argparse and fail later in pydantic with a traceback.
+EPISODES = _bounded_int(1, 100_000)
+GRASP_COUNT = _bounded_int(1, 1_000_000)
 WORKERS = _bounded_int(1, 1024)
 
 
@@ -156,6 +160,11 @@ def _add_sweep(sub: Subparsers) -> None:
         "--max-episodes",
         type=_bounded_int(1, 10**9),
         help="refuse sweeps larger than this (default: harness.runs.limits.MAX_EPISODES)",
+    )
+    p.add_argument(
+        "--max-points",
+        type=_bounded_int(1, 10**7),
+        help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_engine(p)
@@ -286,15 +295,17 @@ def _add_grasps(sub: Subparsers) -> None:
         default="reference",
         help="pick.semantics: reference (InternDataEngine, quirks included) or strict",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the candidate draw")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the candidate draw")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="plot the EE axis directions to a PNG")
     p.set_defaults(func=_handler("grasps", "inspect"))
     p = gsub.add_parser("generate", help="antipodal grasp annotations for a mesh (N x 17)")
     p.add_argument("mesh", metavar="MESH", help="a mesh file (.obj, .stl, .ply, .glb, .usd)")
     p.add_argument("--out", required=True, metavar="FILE.npy", help="the grasp file to write")
-    p.add_argument("-n", "--num", type=int, default=3000, help="grasps to generate")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sampler (same seed, same file)")
+    p.add_argument("-n", "--num", type=GRASP_COUNT, default=3000, help="grasps to generate")
+    p.add_argument(
+        "--seed", type=SEED, default=0, help="seed of the sampler (same seed, same file)"
+    )
     p.add_argument("--scale", type=float, default=1.0, help="scale applied to the mesh")
     p.add_argument(
         "--max-width", type=float, default=0.1, help="largest gripper opening in m (0, 1]"
@@ -335,7 +346,7 @@ def _add_objects(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("objects", "show"))
     p = osub.add_parser("build", help="regenerate the default object set under tasks/objects")
     p.add_argument("--only", nargs="+", metavar="NAME", help="build only these objects")
-    p.add_argument("--num", type=int, default=3000, help="grasps to generate per object")
+    p.add_argument("--num", type=GRASP_COUNT, default=3000, help="grasps to generate per object")
     p.set_defaults(func=_handler("objects", "build"))
 
 
@@ -377,17 +388,70 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    _terminate_like_ctrl_c()
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()  # a full disk under stdout fails here, not at interpreter exit
+        return code
     except HarnessError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return _fail(str(exc))
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        _stderr("interrupted")
         return 130
     except BrokenPipeError:  # e.g. `harness grasps inspect ... | head`
-        sys.stderr.close()
+        _silence_stdout()
         return 0
+    except OSError as exc:  # the environment said no: read-only dir, full disk, missing folder
+        return _fail(_os_error_line(exc))
+
+
+def _terminate_like_ctrl_c() -> None:
+    """SIGTERM (``kill``, a scheduler's stop) ends a command as Ctrl-C does: the run stops its
+    workers, keeps what finished and exits 130 (it used to die at once and leave orphaned
+    workers writing BrokenPipe tracebacks)."""
+    import signal
+
+    def on_term(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading_main():
+        signal.signal(signal.SIGTERM, on_term)
+
+
+def threading_main() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
+def _os_error_line(exc: OSError) -> str:
+    """``[Errno 30] Read-only file system: 'x'`` -> ``x: read-only file system``."""
+    reason = (exc.strerror or str(exc)).lower()
+    where = exc.filename if exc.filename is not None else "stdout/stderr"
+    return f"{where}: {reason}"
+
+
+def _fail(line: str) -> int:
+    _stderr(f"error: {line}")
+    return 2
+
+
+def _stderr(line: str) -> None:
+    """One line on stderr; a stdout that cannot be written (a full disk) is silenced so the
+    interpreter's exit flush does not print a second, traceback-like message."""
+    _silence_stdout()
+    with contextlib.suppress(OSError):
+        print(line, file=sys.stderr, flush=True)
+
+
+def _silence_stdout() -> None:
+    import os
+
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        with contextlib.suppress(OSError):
+            sys.stdout = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115 (until exit)
 
 
 if __name__ == "__main__":

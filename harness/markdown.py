@@ -7,9 +7,22 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 
+def markdown_text(value: Any) -> str:
+    """Text from the data (task, object, robot names, messages) made inert in Markdown: raw
+    HTML is escaped (Markdown passes ``<script>`` through to the page), line breaks become
+    spaces."""
+    return (
+        str(value)
+        .replace("&", "&amp;")
+        .replace("<", "&lt;")
+        .replace(">", "&gt;")
+        .replace("\n", " ")
+    )
+
+
 def markdown_cell(value: Any) -> str:
-    """A value as one table cell: ``|`` escaped, line breaks turned into spaces."""
-    return str(value).replace("|", "\\|").replace("\n", " ")
+    """A value as one table cell: HTML escaped (``markdown_text``), ``|`` escaped."""
+    return markdown_text(value).replace("|", "\\|")
 
 
 def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> list[str]:

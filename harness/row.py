@@ -163,6 +163,20 @@ class EpisodeRow:
         default=math.nan,
         metadata=_doc("executed vs planned TCP at grasp (m), NaN if not reached"),
     )
+    speed_scale: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "fraction of the joint limits the plans were timed at (pick.speed_scale; 0.3 = "
+            "the reference's pace)"
+        ),
+    )
+    planning_world: str = field(
+        default="",
+        metadata=_doc(
+            "the planning-world rule: reference (target out, attached for the lift, only the "
+            "planned arm) or strict (everything, the table with a clearance)"
+        ),
+    )
     object_friction: float = field(
         default=math.nan,
         metadata=_doc(
@@ -191,7 +205,17 @@ class EpisodeRow:
     )
     hold_slip_m: float = field(
         default=math.nan,
-        metadata=_doc("object motion relative to the TCP over the validity hold (m)"),
+        metadata=_doc(
+            "validity: drift of the object origin relative to the TCP from the closing to the "
+            "end of the hold (m)"
+        ),
+    )
+    hold_rotation_rad: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "validity: rotation of the object relative to the TCP from the closing to the end "
+            "of the hold (rad)"
+        ),
     )
     min_finger_force_n: float = field(
         default=math.nan,
@@ -199,7 +223,10 @@ class EpisodeRow:
     )
     table_penetration_m: float = field(
         default=math.nan,
-        metadata=_doc("deepest robot geom below the table top during the motion (m), geometric"),
+        metadata=_doc(
+            "deepest any moving robot collision geom went into the table slab during the motion "
+            "(m, MuJoCo signed distance)"
+        ),
     )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))
@@ -212,6 +239,13 @@ class EpisodeRow:
     )
     recording_error: str | None = field(
         default=None, metadata=_doc("why the episode recording could not be written")
+    )
+    config_sha256: str | None = field(
+        default=None,
+        metadata=_doc(
+            "sha256 of the run's sweep.yaml body when the row was stored (--resume "
+            "refuses rows of another configuration)"
+        ),
     )
 
     def as_dict(self) -> dict[str, Any]:

@@ -24,7 +24,6 @@ from harness.episode.scene_cache import get_scene, grasp_file_for
 from harness.episode.streams import EpisodeStreams
 from harness.failures import FAILURE_REASONS
 from harness.grasps import select_candidates
-from harness.pick import semantics as semantics_module
 from harness.pick.executor import SERVO_CHUNK_S
 from harness.pick.semantics import Semantics
 from harness.pick.targets import command_targets
@@ -34,7 +33,7 @@ from harness.transforms import invert_T
 
 TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
 TASK_FILES = PICK_TASKS
-ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error"}
+ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error", "config_sha256"}
 
 
 @pytest.fixture(scope="module")
@@ -92,17 +91,31 @@ def test_one_fr3_episode_from_the_task_file(cache: dict) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", TASK_FILES)
 def test_every_robot_and_arm_picks_the_cube(name: str) -> None:
-    """Canonical parameters, 10 seeds: at least 8 real picks per robot arm."""
+    """Canonical parameters, 10 seeds: every seed is a real pick, or fails where the reference
+    fails by its own rule -- its feasibility test leaves the lift out (pick.py), so a chosen
+    candidate whose lift pose lies beyond the arm's reach is ``plan_failed`` at the lift (issue
+    22; on the small arms 3-6 of these 10 seeds, lift poses 5-13 mm past the IK tolerance at
+    the lift line) -- and at most 2 seeds fail for any other cause (the bound this test had
+    before issue 22 switched the feasibility rule to the reference's)."""
     task = load_task(TASKS_DIR / f"{name}.yaml")
     cache: dict = {}
     failures = []
+    lift_out_of_reach = 0
     for seed in range(10):
         result = episode(task, seed, cache)
+        row = result.row
+        if row["failure_reason"] == "plan_failed" and row["error_message"].startswith(
+            "lift: IK failed"
+        ):
+            lift_out_of_reach += 1
+            assert row["n_feasible"] >= 1, row["error_message"]  # the test passed its grasp
+            continue
         try:
             check_pick(result)
         except AssertionError as exc:
             failures.append(f"seed {seed}: {exc}")
     assert len(failures) <= 2, "\n".join(failures)
+    assert 10 - lift_out_of_reach - len(failures) >= 4  # real picks on every arm
 
 
 @pytest.mark.slow
@@ -131,9 +144,11 @@ def test_reference_plans_through_a_physical_table_strict_does_not() -> None:
 def test_object_friction_decides_a_heavy_pick() -> None:
     """Issue 16 item 4: ``object.friction`` used to be a no-op (MuJoCo keeps the larger of two
     coefficients, and the pads' always won). With the reference engine's average, a 0.8 kg cube
-    squeezed with ~5.6 N per pad slips at friction 0.1 (0.55 at the pads) and holds at 1.5
-    (1.25), on the same seeds: measured 0/5 vs 5/5 (episodes 1-5 of seed 0)."""
-    base = load_task(TASKS_DIR / "fr3.yaml")
+    squeezed with 5 N per pad slips at friction 0.1 (0.55 at the pads) and holds at 1.5
+    (1.25), on the same seeds. Re-pinned (issue 22) from the FR3, whose force-controlled grasp
+    now presses 70 N and holds it at either friction, to the Lift-2 (5 N per pad): episodes
+    1-3 of seed 0 measured 0/3 vs 3/3."""
+    base = load_task(TASKS_DIR / "lift2_left.yaml")
     cache: dict = {}
     outcomes = {}
     for friction in (0.1, 1.5):
@@ -411,17 +426,12 @@ def test_reference_timeline_and_draw_order(cube: Path, cache: dict) -> None:
     assert row["post_grasp_offset"] == lift_offset
 
 
-@pytest.mark.parametrize(
-    ("semantics", "test_carry"), [("reference", True), ("reference", False), ("strict", True)]
-)
-def test_forward_test_and_the_lift(
-    cube: Path, cache: dict, monkeypatch: pytest.MonkeyPatch, semantics: str, test_carry: bool
-) -> None:
-    """A lift of 1 m is out of the FR3's reach. The forward test plans the lift (default): every
-    candidate fails there; reference proceeds with the last (plan_failed), strict stops
-    (no_feasible_candidate). Without the carry in the test (the reference's rule,
-    FORWARD_TEST_PLANS_CARRY False) the first candidate passes and its lift fails the episode."""
-    monkeypatch.setattr(semantics_module, "FORWARD_TEST_PLANS_CARRY", test_carry)
+@pytest.mark.parametrize("semantics", ["reference", "strict"])
+def test_forward_test_and_the_lift(cube: Path, cache: dict, semantics: str) -> None:
+    """A lift of 1 m is out of the FR3's reach. Reference: the forward test plans only the
+    pre-grasp and the grasp (pick.py), so the first candidate passes and its lift, planned
+    afterwards, fails the episode (plan_failed). Strict tests the lift too: every candidate
+    fails there and it stops (no_feasible_candidate)."""
     lift = {"post_grasp_offset_min": 1.0, "post_grasp_offset_max": 1.0}
     pick = {"test_mode": "forward", "semantics": semantics, **lift}
     task = make_task("fr3", "left", cube, object=CENTRE, pick=pick)
@@ -430,10 +440,6 @@ def test_forward_test_and_the_lift(
         assert row["failure_reason"] == "no_feasible_candidate"
         assert row["n_tested"] == 20 and row["n_feasible"] == 0
         assert "last: lift: " in row["error_message"]
-    elif test_carry:
-        assert row["failure_reason"] == "plan_failed"
-        assert row["n_tested"] == 20 and row["n_feasible"] == 0
-        assert row["error_message"].startswith("lift: ")
     else:
         assert row["failure_reason"] == "plan_failed"
         assert row["error_message"].startswith("lift: ")

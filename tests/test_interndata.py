@@ -264,7 +264,9 @@ def test_sort_the_rubbish_maps_both_arms_in_phase_order(
         assert (pick.post_grasp_offset_min, pick.post_grasp_offset_max) == (0.10, 0.15)
         assert (pick.t_eps, pick.test_mode) == (0.025, "forward")
         # The robot's planning ignore list reaches the pick (the cans are ignored in planning).
-        assert pick.ignore_substring == ["material", "table", "gso_box"]
+        # the robot's list replaces the controllers' default; the pick's own adds to it
+        assert pick.robot_ignore_substring == ["material", "table", "gso_box"]
+        assert pick.ignore_substring == []
         assert task.max_episode_length == 4000
         assert task.robot_placement is not None
         assert task.robot_placement.pos_range == ((0.0, -0.86, -0.775), (0.0, -0.86, -0.725))

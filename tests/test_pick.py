@@ -43,12 +43,15 @@ def test_semantics_policy_reference_and_strict(cube: Path) -> None:
     """Every reference-vs-strict decision resolved once from the pick (docs/semantics.md)."""
     task = make_task("fr3", "left", cube, pick={"ignore_substring": ["shelf"]})
     reference = Semantics.from_pick(task.pick)
-    assert reference.test_carry and reference.fall_back_to_last_tested
+    # the reference's forward test plans only the pre-grasp and the grasp (pick.py)
+    assert not reference.test_carry and reference.fall_back_to_last_tested
     assert not (reference.fixed_orientation_in_test or reference.pregrasp_along_fixed_axis)
     assert not (reference.check_collisions or reference.check_closing_forces)
     assert not reference.hold_after_list
     world = reference.planning_world("cube")
-    assert world.target == "cube" and world.check_target and world.hold_lift
+    # the target is out for the grasp, attached for the lift; only the planned arm counts
+    assert world.target == "cube" and not world.check_target and world.hold_lift
+    assert world.attach_target and not world.whole_robot
     # The reference planner never sees the table, physical or not (issue 16, item 1) ...
     assert not world.check_table
     # (the rule takes no physics setting: tests/test_planning_world.py checks a scene with the

@@ -16,6 +16,7 @@ from helpers import make_task, scene_planner, top_down_grasp, write_box
 from harness.config import PickConfig
 from harness.pick.semantics import REFERENCE_IGNORE_SUBSTRINGS, STRICT_TABLE_CLEARANCE, Semantics
 from harness.planning.planner import PickPlanner
+from harness.planning.world import ATTACH_OFFSET
 from harness.sim import Scene
 from harness.sim.masks import TABLE_BIT
 
@@ -31,7 +32,10 @@ def test_reference_leaves_the_table_out() -> None:
     world = Semantics.from_pick(PickConfig()).planning_world("cube")
     assert not world.check_table and world.table_clearance == 0.0
     assert world.ignore_substring == REFERENCE_IGNORE_SUBSTRINGS
-    assert world.target == "cube" and world.check_target
+    # the target is out of the world for the grasp and attached to the hand for the carry;
+    # only the planned arm counts (pick.py update_specific / attach_obj, the robot ignored)
+    assert world.target == "cube" and not world.check_target and world.attach_target
+    assert not world.whole_robot and world.rule == "reference"
 
 
 def test_reference_adds_the_picks_ignore_substring_to_the_defaults() -> None:
@@ -46,6 +50,19 @@ def test_strict_plans_around_the_table_and_every_object() -> None:
     world = Semantics.from_pick(pick).planning_world("cube")
     assert world.check_table and world.table_clearance == STRICT_TABLE_CLEARANCE
     assert world.ignore_substring == ()
+    assert world.check_target and not world.attach_target and world.whole_robot
+    assert world.rule == "strict"
+
+
+def test_robot_ignore_substring_replaces_the_default_list() -> None:
+    """A robot-level ignore_substring replaces the controllers' default (template_controller.py
+    __init__); the pick's own list adds to it. A list without "table" keeps the table in."""
+    pick = PickConfig(robot_ignore_substring=["material"], ignore_substring=["gso_box"])
+    world = Semantics.from_pick(pick).planning_world("cube")
+    assert world.ignore_substring == ("material", "gso_box")
+    assert world.check_table and world.table_clearance == 0.0
+    with_table = PickConfig(robot_ignore_substring=["material", "table"])
+    assert not Semantics.from_pick(with_table).planning_world("cube").check_table
 
 
 # --------------------------------------------------------------------------------------------
@@ -116,3 +133,53 @@ def test_checker_reference_ignores_table_and_scene_names_strict_avoids_them(
     planner.sync(strict)
     for name in ("table", "scene_box", "gso_box"):
         assert planner.checker.collides(q[name], "transport"), name
+
+
+def test_checker_robot_ignore_substring_replaces_the_defaults(physical_table) -> None:
+    """On the scene: the robot's list ["material"] replaces the defaults, so the table and the
+    ``scene_box`` (on the default list, not on the robot's) are obstacles again."""
+    _scene, planner, q = physical_table
+    replaced = Semantics.from_pick(PickConfig(robot_ignore_substring=["material"]))
+    planner.sync(replaced.planning_world("target"))
+    assert planner.checker.collides(q["table"], "transport")
+    assert planner.checker.collides(q["scene_box"], "transport")
+    planner.sync(Semantics.from_pick(PickConfig()).planning_world("target"))
+    assert not planner.checker.collides(q["table"], "transport")
+    assert not planner.checker.collides(q["scene_box"], "transport")
+
+
+def test_checker_target_out_for_the_grasp_and_attached_for_the_carry(physical_table) -> None:
+    """Reference: a palm pushed 3 cm into the target is no collision (the target is out of the
+    world, pick.py update_specific); strict: it is. After ``attach`` at the grasp, the target
+    rides in the hand 1 cm up (attach_obj): holding it where the gso_box stands is a carry
+    collision of the target with the box; detached, the same pose is free."""
+    scene, planner, _q = physical_table
+    rng = np.random.default_rng(0)
+    q_home = scene.active_q("left")
+    T_grasp = top_down_grasp(scene, "left")
+    q_grasp = planner.ik.solve(T_grasp, q_home, rng).q
+    T_press = T_grasp.copy()
+    T_press[:3, 3] += [0.0, 0.0, -0.03]
+    q_press = planner.ik.solve(T_press, q_home, rng).q
+    q_over_box = planner.ik.solve(top_down_grasp(scene, "left", "gso_box"), q_home, rng).q
+    reference = Semantics.from_pick(PickConfig()).planning_world("target")
+    strict = Semantics.from_pick(PickConfig(semantics="strict")).planning_world("target")
+    planner.sync(strict)
+    assert planner.checker.collides(q_press, "approach")
+    planner.sync(reference)
+    checker = planner.checker
+    assert not checker.collides(q_press, "approach")
+    assert not checker.collides(q_over_box, "transport")
+    target = scene.objects["target"]
+    z_lying = float(scene.data.qpos[target.qpos_adr + 2])
+    checker.attach(q_grasp)
+    assert not checker.collides(q_grasp, "carry")
+    z_held = float(checker.data.qpos[target.qpos_adr + 2])
+    assert z_held - z_lying == pytest.approx(ATTACH_OFFSET, abs=2e-4)
+    pairs = checker.contacts(q_over_box, "carry")
+    geom_object = scene.geom_object
+    names = scene.object_names
+    hit = {tuple(sorted(names[geom_object[g]] for g in pair)) for pair in pairs}
+    assert ("gso_box", "target") in hit, checker.describe(pairs)
+    checker.detach()
+    assert not checker.collides(q_over_box, "carry")

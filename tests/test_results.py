@@ -25,13 +25,14 @@ from harness.runs.store import (
 DOCUMENTED = {
     "str": "episode_id run point task robot arm object semantics test_mode timing filter_x_dir "
     "filter_y_dir filter_z_dir approach_filter facing_filter direction_to_obj filter_outcome "
-    "candidate_failures "
+    "candidate_failures planning_world "
     "failure_reason error_message harness_version mujoco_version",
     "int": "point_id seed episode_index n_total n_passed_filter n_feasible n_tested chosen_index "
     "sim_steps",
     "float": "pre_grasp_offset post_grasp_offset chosen_score approach_angle_deg ik_time_s "
     "plan_time_s traj_duration_s sim_time_s wall_time_s finger_force_left_n finger_force_right_n "
-    "lift_height_m slip_m max_joint_vel max_object_vel tcp_grasp_error_m object_friction",
+    "lift_height_m slip_m max_joint_vel max_object_vel tcp_grasp_error_m object_friction "
+    "speed_scale hold_rotation_rad",
     "bool": "success",
 }
 
@@ -78,7 +79,7 @@ def test_episode_row_and_error_row_share_one_identity() -> None:
     assert {k: produced[k] for k in identity} == {k: lost[k] for k in identity}
     assert produced["param.pick.approach_filter"] == '["downward", 140]'
     assert produced["episode_id"] == spec.resolved_id and produced["seed"] == 7
-    assert list(produced)[: len(SCHEMA) - 3] == list(SCHEMA)[:-3]  # executor columns unset
+    assert list(produced)[: len(SCHEMA) - 4] == list(SCHEMA)[:-4]  # executor/store columns unset
 
 
 def test_append_and_load_round_trip_with_types_and_nulls(tmp_path: Path) -> None:

@@ -117,8 +117,11 @@ def test_gripper_opens_to_nominal_width_and_closes(name: str, arm_name: str) -> 
     assert closed == pytest.approx(arm.closed_width, abs=2e-3), f"closed to {closed:.4f} m"
 
 
-def _hold_scene(robot: RobotModel, arm_name: str) -> tuple[mujoco.MjModel, mujoco.MjData, object]:
-    """The robot at home with a free cube centred on the arm's TCP, faces along the EE axes."""
+def _hold_scene(
+    robot: RobotModel, arm_name: str, size: float = CUBE_SIZE
+) -> tuple[mujoco.MjModel, mujoco.MjData, object]:
+    """The robot at home with a free cube of edge ``size`` centred on the arm's TCP, faces
+    along the EE axes."""
     model, data, addresses = _standalone(robot)
     a = addresses.arms[arm_name]
     tcp = data.xpos[a.tcp_body].copy()
@@ -131,7 +134,7 @@ def _hold_scene(robot: RobotModel, arm_name: str) -> tuple[mujoco.MjModel, mujoc
     cube.add_geom(
         name="cube_geom",
         type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[CUBE_SIZE / 2] * 3,
+        size=[size / 2] * 3,
         mass=CUBE_MASS,
         friction=[1.0, 0.005, 0.0001],
         condim=4,
@@ -173,6 +176,35 @@ def test_gripper_holds_cube_for_5_s(name: str, arm_name: str) -> None:
     slip = float(np.linalg.norm(_cube_in_tcp_frame(model, data, a) - start))
     assert slip < 5e-3, f"{name} {arm_name}: cube slipped {slip * 1e3:.2f} mm in 5 s"
     assert min(_finger_normal_forces(model, data, a, cube)) > 1.0
+
+
+def squeeze_per_pad(name: str, arm_name: str, width: float) -> tuple[float, float]:
+    """Close the gripper as the executor does (to the closed width, then the squeeze target)
+    on a cube of edge ``width``, gravity off, 0.5 s each: the two pads' normal forces (N)."""
+    robot = RobotModel.load(name)
+    arm = robot.arms[arm_name]
+    model, data, addresses = _hold_scene(robot, arm_name, width)
+    a = addresses.arms[arm_name]
+    model.opt.gravity[:] = 0.0
+    data.ctrl[a.gripper_ctrl] = arm.finger_closed_position
+    mujoco.mj_step(model, data, nstep=250)
+    data.ctrl[a.gripper_ctrl] = arm.finger_squeeze_position
+    mujoco.mj_step(model, data, nstep=250)
+    left, right = _finger_normal_forces(model, data, a, model.body("cube").id)
+    return left, right
+
+
+@pytest.mark.parametrize(("name", "arm_name"), list({n: (n, a) for n, a in ARMS}.values()))
+@pytest.mark.parametrize("width", [0.01, 0.04, 0.06])
+def test_force_grasp_squeezes_with_the_force_limit_at_every_width(
+    name: str, arm_name: str, width: float
+) -> None:
+    """A force-controlled grasp (robot.yaml ``grasp: force``) presses each pad with the
+    gripper's force_limit whatever the object's width (docs/robots.md, the squeeze table):
+    FR3 70 N (Franka Hand datasheet), Lift-2 and Split ALOHA 5 N (Menagerie +-10 N)."""
+    limit = RobotModel.load(name).arms[arm_name].gripper.force_limit
+    left, right = squeeze_per_pad(name, arm_name, width)
+    assert left == pytest.approx(limit, rel=0.03) and right == pytest.approx(limit, rel=0.03)
 
 
 def _finger_normal_forces(

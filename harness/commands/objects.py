@@ -17,6 +17,7 @@ import yaml
 
 from harness.commands.graspgen import summary
 from harness.errors import HarnessError, InputFileError
+from harness.files import safe_file_name
 from harness.objects.assets import (
     ObjectAsset,
     default_objects_dir,
@@ -133,9 +134,9 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
     from the file with ``harness grasps generate`` and the same seed gives the same bytes.
     """
     spec = default_object(name)
-    folder = out_root / name
+    folder = out_root / safe_file_name(name)
     folder.mkdir(parents=True, exist_ok=True)
-    mesh_file = folder / f"{name}.obj"
+    mesh_file = folder / safe_file_name(name, ".obj")
     mesh_file.write_text(obj_text(spec.build()), encoding="utf-8")
     mesh = load_mesh(mesh_file)
     result = generate_grasps(mesh, n=n, seed=seed)

@@ -16,6 +16,14 @@ def main(args: argparse.Namespace) -> int:
     from harness.episode import run_episode
     from harness.runs.replay import find_episode, row_differences
 
+    for flag, target in (("--record", args.record), ("--video", args.video)):
+        if target and not Path(target).parent.is_dir():
+            from harness.errors import HarnessError
+
+            raise HarnessError(
+                f"{flag} {target}: the folder {Path(target).parent} does not exist (create it "
+                "first; replay writes no folders outside a run)"
+            )
     console = make_console()
     run_dir = Path(args.run_dir)
     spec, stored = find_episode(run_dir, args.episode_id)

@@ -10,11 +10,32 @@ from typing import Any
 from rich.console import Console
 
 from harness.commands.console import make_console
-from harness.runs.limits import MAX_EPISODES, error_rows_line, too_many_errors
+from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
 
+def check_flags(args: argparse.Namespace) -> None:
+    """Flags that would be silently ignored are usage errors (one line, exit 2)."""
+    from harness.errors import HarnessError
+
+    if args.sweep and args.resume:
+        raise HarnessError(
+            f"give a sweep YAML or --resume RUN_DIR, not both: --resume runs "
+            f"{Path(args.resume) / 'sweep.yaml'} and would ignore {args.sweep}"
+        )
+    if not args.sweep and not args.resume:
+        raise HarnessError("give a sweep YAML or --resume RUN_DIR")
+    for flag, given in (("--force", args.force), ("--retry-errors", args.retry_errors)):
+        if given and not args.resume:
+            raise HarnessError(f"{flag} only applies with --resume RUN_DIR")
+    if args.resume and args.out:
+        raise HarnessError("--out does not apply with --resume (the run stays in RUN_DIR)")
+    if args.address and args.backend != "ray":
+        raise HarnessError(f"--address needs --backend ray (the backend is {args.backend})")
+
+
 def main(args: argparse.Namespace) -> int:
+    check_flags(args)
     console = make_console()
     if args.sweep:
         from harness.commands.validate import print_warnings, sweep_warning_lines
@@ -26,6 +47,7 @@ def main(args: argparse.Namespace) -> int:
         resume_dir=Path(args.resume) if args.resume else None,
         force=bool(getattr(args, "force", False)),
         max_episodes=args.max_episodes or MAX_EPISODES,
+        max_points=args.max_points or MAX_POINTS,
         retry_errors=args.retry_errors,
         out=Path(args.out) if args.out else None,
         backend=args.backend,

@@ -115,7 +115,7 @@ def deep_check(path: str, loaded: object) -> None:
         from harness.runs.limits import check_sweep_size
 
         tasks = load_sweep_tasks(loaded, Path(path))
-        check_sweep_size(loaded, len(tasks))
+        check_sweep_size(loaded, len(tasks), file=path)
         episodes = expand(loaded, Path(path), tasks, progress=True)
         check_tasks([e.task for e in episodes[:: loaded.episodes_per_point]])
 

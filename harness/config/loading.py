@@ -13,28 +13,33 @@ from harness.config.sweep import SweepConfig
 from harness.config.task import TaskConfig
 from harness.config.validation import validate_model
 from harness.config.yamlio import YamlDocument, parse_yaml
+from harness.files import MAX_CONFIG_BYTES, RefusedFileError, read_capped
 
-# Task, sweep and robot files are a few kB; a 60 MB YAML took minutes to parse with no output.
-MAX_YAML_BYTES = 4 * 1024 * 1024
+MAX_YAML_BYTES = MAX_CONFIG_BYTES
 
 
 def read_yaml(path: str | Path) -> YamlDocument:
     """Read and parse a YAML file; any I/O or syntax problem becomes a ConfigError."""
     path = Path(path)
+    return parse_text(read_text_file(path), path)
+
+
+def read_text_file(path: Path, max_bytes: int = MAX_YAML_BYTES) -> str:
+    """The UTF-8 text of a config file: a regular file read with a hard byte cap (a FIFO, a
+    device or a link to ``/dev/zero`` is refused at once); problems are ConfigErrors."""
     try:
-        size = path.stat().st_size
-        if size > MAX_YAML_BYTES:
-            raise ConfigError(
-                f"{size:,} bytes is too large for a task or sweep file (limit "
-                f"{MAX_YAML_BYTES:,}); is this the right file?",
-                file=path,
-            )
-        text = path.read_text(encoding="utf-8")
+        data = read_capped(path, max_bytes)
+        return data.decode("utf-8")
     except FileNotFoundError:
         raise ConfigError("file not found", file=path) from None
+    except RefusedFileError as exc:
+        if exc.too_large:
+            message = f"{exc}: too large for a task or sweep file; is this the right file?"
+        else:  # a FIFO or a device would block or never end: refused before any read
+            message = f"cannot read file: it {exc}"
+        raise ConfigError(message, file=path) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"cannot read file: {exc}", file=path) from None
-    return parse_text(text, path)
 
 
 def parse_text(text: str, path: str | Path | None = None) -> YamlDocument:

@@ -18,6 +18,13 @@ from harness.config.errors import KeyedValueError
 from harness.config.filters import AxisFilter, FilterSpec, reversed_band_message
 from harness.config.values import FiniteFloat, Probability, StrictModel
 
+# The reference's pace: its controller plays one planner waypoint per physics step
+# (template_controller.py ee_forward, ``cmd_idx += ds_ratio`` with ds_ratio 1), the planner
+# interpolates at 0.01 s (template_controller.py _init_motion_gen, ``interpolation_dt=0.01``)
+# and the physics steps at 1/30 s (robot and task configs): plans play at 0.01 x 30 = 0.3 of
+# their timed speed. cuRobo times its plans at the robot's limits (time_dilation_factor 1.0).
+REFERENCE_SPEED_SCALE = 0.3
+
 # The marker of a pick key that only the harness reads (InternDataEngine's Pick skill does not):
 # ``harness_only_keys`` lists them; ``harness tune`` leaves them out of its paste-ready block.
 HARNESS_ONLY: JsonDict = {"harness_only": True}
@@ -52,6 +59,13 @@ class PickConfig(StrictModel):
     return_to_pregrasp: bool = False
     lift_th: FiniteFloat = Field(default=0.0, ge=0.0, le=1.0)
     ignore_substring: list[str] = Field(default_factory=list)
+    robot_ignore_substring: list[str] | None = Field(
+        default=None,
+        json_schema_extra=HARNESS_ONLY,
+        description="The robot's planning-world ignore list (an InternData robot's "
+        "ignore_substring): under reference it REPLACES the controllers' default list "
+        "(template_controller.py __init__); None keeps the default.",
+    )
     test_mode: Literal["forward", "ik"] = "forward"
     t_eps: FiniteFloat = Field(default=1e-3, gt=0.0)
     o_eps: FiniteFloat = Field(default=5e-3, gt=0.0)
@@ -84,7 +98,14 @@ class PickConfig(StrictModel):
         "(weights 1/score) instead of plain score order.",
     )
     timing: Literal["toppra", "ruckig"] = Field(default="toppra", json_schema_extra=HARNESS_ONLY)
-    speed_scale: FiniteFloat = Field(default=1.0, gt=0.0, le=1.0, json_schema_extra=HARNESS_ONLY)
+    speed_scale: FiniteFloat = Field(
+        default=REFERENCE_SPEED_SCALE,
+        gt=0.0,
+        le=1.0,
+        json_schema_extra=HARNESS_ONLY,
+        description="Fraction of the joint limits the plans are timed at. Default: the "
+        "reference's pace, one 0.01 s planner waypoint per 1/30 s physics step.",
+    )
     validity: bool = Field(
         default=True,
         json_schema_extra=HARNESS_ONLY,
@@ -109,7 +130,15 @@ class PickConfig(StrictModel):
         default=0.005,
         json_schema_extra=HARNESS_ONLY,
         gt=0.0,
-        description="validity and strict: object slip allowed in the hold (m).",
+        description="validity and strict: object drift relative to the TCP allowed from the "
+        "closing to the end of the hold (m).",
+    )
+    max_slip_rotation: FiniteFloat = Field(
+        default=0.1,
+        json_schema_extra=HARNESS_ONLY,
+        gt=0.0,
+        description="validity and strict: object rotation relative to the TCP allowed from "
+        "the closing to the end of the hold (rad; chosen, no public source).",
     )
 
     @field_validator("validity", mode="before")

@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.errors import HarnessError
+from harness.files import MAX_CONFIG_BYTES, read_capped
 
 ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
 """Folder of the bundled robots: ``robots/<name>/robot.yaml``."""
@@ -54,8 +55,9 @@ def gripper_variant_names(name_or_path: str) -> list[str] | None:
     import yaml
 
     try:
-        data = yaml.safe_load(resolve_robot_yaml(name_or_path).read_text(encoding="utf-8"))
-    except (HarnessError, OSError, yaml.YAMLError):
+        text = read_capped(resolve_robot_yaml(name_or_path), MAX_CONFIG_BYTES).decode("utf-8")
+        data = yaml.safe_load(text)
+    except (HarnessError, OSError, ValueError, yaml.YAMLError):
         return None
     if not isinstance(data, dict):
         return None

@@ -85,6 +85,18 @@ def check_dotted_key(key: str) -> str:
     return key
 
 
+def _first_equal(earlier: list[Any], value: Any) -> int | None:
+    """Index of the first item of ``earlier`` equal to ``value`` (as the episode id sees it:
+    ``0.02`` and ``2.0e-2`` are one value), else None."""
+    for index, item in enumerate(earlier):
+        try:
+            if item == value and type(item) is type(value):
+                return index
+        except Exception:
+            continue
+    return None
+
+
 class SweepConfig(StrictModel):
     """Tasks x points x seeds. Points come from a grid over ``axes`` or ``random`` draws."""
 
@@ -116,6 +128,15 @@ class SweepConfig(StrictModel):
             check_dotted_key(key)
             if not values:
                 raise KeyedValueError((key,), f"axis {key!r} has no values")
+            for index, value in enumerate(values):
+                first = _first_equal(values[:index], value)
+                if first is not None:
+                    raise KeyedValueError(
+                        (key, index),
+                        f"axis {key!r}: value {value!r} (item {index}) equals item {first} "
+                        f"({values[first]!r}); both points would share episode ids and one "
+                        f"would be dropped, so list each value once",
+                    )
         return axes
 
     @field_validator("random_axes")

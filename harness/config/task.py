@@ -12,6 +12,10 @@ from harness.config.messages import suggest
 from harness.config.pick import PickConfig
 from harness.config.values import FiniteFloat, StrictModel, Vec3
 
+# Placements farther than this from the table-top centre are refused: Scene.unstable already
+# calls an object 10 m out sim_unstable, so such a placement can only fail (x: 1e300 ran).
+MAX_PLACEMENT_M = 10.0
+
 
 class Placement(StrictModel):
     """Uniform placement: position = centre + U(pos_range), yaw = U(yaw_range) in degrees.
@@ -27,6 +31,13 @@ class Placement(StrictModel):
     def _ordered(self) -> Placement:
         lo, hi = self.pos_range
         for axis, (a, b) in enumerate(zip(lo, hi, strict=True)):
+            if max(abs(a), abs(b)) > MAX_PLACEMENT_M:
+                raise KeyedValueError(
+                    "pos_range",
+                    f"pos_range axis {'xyz'[axis]}: {max(a, b, key=abs):g} m is more than "
+                    f"{MAX_PLACEMENT_M:g} m from the table centre (a scene object that far out "
+                    "is sim_unstable at once)",
+                )
             if a > b:
                 raise KeyedValueError(
                     "pos_range", f"pos_range axis {'xyz'[axis]}: min {a} must be <= max {b}"
@@ -113,12 +124,15 @@ class GripperChoice(StrictModel):
     pad_friction: FiniteFloat | None = Field(default=None, gt=0.0, le=10.0)
     kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
     kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
+    grasp: Literal["force", "position"] | None = Field(
+        default=None, description="force-controlled or position-controlled closing."
+    )
 
-    def overrides(self) -> dict[str, float]:
+    def overrides(self) -> dict[str, float | str]:
         """The grip physics values this task sets (robot.yaml keys)."""
         return {
             key: value
-            for key in ("force_limit", "pad_friction", "kp", "kv")
+            for key in ("force_limit", "pad_friction", "kp", "kv", "grasp")
             if (value := getattr(self, key)) is not None
         }
 

@@ -27,12 +27,19 @@ from harness.engines.signals import (
     PENETRATION,
     HoldWindow,
     object_in_tcp,
+    object_pose_in_tcp,
     object_speed,
     unstable_reason,
 )
 from harness.pick.executor_validity import judged_validity, stopped_validity
 from harness.pick.outcome import PickOutcome, ValidityMeasure
-from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, TUG_MAX_SLIP, tug_ladder
+from harness.pick.validity import (
+    TUG_DIRECTIONS,
+    TUG_LEVELS_G,
+    TUG_MAX_SLIP,
+    pose_drift,
+    tug_ladder,
+)
 from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
 
 # Tug rungs in the order a batched engine runs them: direction-major, levels ascending.
@@ -101,6 +108,7 @@ class _Judge:
                 out.tcp_grasp_error_m = _tcp_error(self.job, row)
                 out.contact_during_close = max(forces) > 0.0
                 out.finger_force_left_n, out.finger_force_right_n = forces
+                out.T_tcp_object_closed = object_pose_in_tcp(row)
                 if self.job.semantics.check_closing_forces and self.fail(
                     first_failure(closing_terms(self.pick, forces))
                 ):
@@ -136,7 +144,13 @@ class _Judge:
         end = steps[window.hold_end]
         reference = object_in_tcp(steps[window.rest_end])
         measure.ran = True
-        measure.hold_slip_m = float(np.linalg.norm(object_in_tcp(end) - reference))
+        closed = out.T_tcp_object_closed
+        if closed is not None:  # the drift from the closing to the end of the hold
+            drift = pose_drift(closed, object_pose_in_tcp(end))
+            measure.hold_slip_m, measure.hold_rotation_rad = drift
+        else:  # never closed: the hold alone
+            measure.hold_slip_m = float(np.linalg.norm(object_in_tcp(end) - reference))
+            measure.hold_rotation_rad = 0.0
         measure.finger_forces = _forces(end)
         measure.lift_height_m = float(end[OBJ_POS][2] - self.job.object_init_position[2])
         measure.object_speed = float(np.max(np.abs(end[OBJ_VEL])))

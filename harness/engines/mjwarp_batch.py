@@ -74,23 +74,40 @@ class DeviceModel:
             self.pen_radial = wp.array(pen.radial.astype(np.float32), dtype=wp.float32)
             self.pen_round = wp.array(pen.round.astype(np.float32), dtype=wp.float32)
             self.pen_offset = wp.array(pen.offset.astype(np.float32), dtype=wp.vec3)
-        self.table = wp.vec3(pen.table_top, float(pen.table_xy[0]), float(pen.table_xy[1]))
-        self.table_half = wp.vec2(float(pen.table_half_xy[0]), float(pen.table_half_xy[1]))
+        # The table geom sits in the world body: its model pose is its world pose (an unrotated
+        # box: its face normals are the world axes).
+        self.table = wp.vec3(*(float(v) for v in m.geom_pos[pen.table]))
+        self.table_half = wp.vec3(*(float(v) for v in m.geom_size[pen.table]))
+        self.pen_count = len(pen.geoms)
         self.obj_body = int(obj.body_id)
         self.obj_dof = int(obj.dof_adr)
         self.ee_body = int(handles.ee_body)
         self.tcp_body = int(handles.tcp_body)
         self.weight = float(m.body_subtreemass[obj.body_id]) * float(np.linalg.norm(m.opt.gravity))
 
-    def record(self, d: mjw.Data, step: wp.array, out: wp.array) -> None:
-        """Launch the signal kernels for the current state into ``out[:, step]``."""
+    def penetration_start(self, nworld: int) -> wp.array:
+        """Per world and geom, how deep it is in the slab at the start (filled by ``record``
+        with ``baseline``)."""
+        return wp.zeros((nworld, max(1, self.pen_count)), dtype=wp.float32, device=self.device)
+
+    def record(
+        self,
+        d: mjw.Data,
+        step: wp.array,
+        out: wp.array,
+        pen_initial: wp.array,
+        baseline: bool = False,
+    ) -> None:
+        """Launch the signal kernels for the current state into ``out[:, step]``; ``baseline``:
+        this state is the start the penetration is counted from (``TablePenetration.depth``'s
+        first call), its row's penetration is 0."""
         wp.launch(
             kernels.record, dim=d.nworld,
             inputs=[
                 d.qpos, d.qvel, d.xpos, d.xmat, d.geom_xpos, d.geom_xmat, self.robot_dof,
                 self.obj_body, self.obj_dof, self.ee_body, self.tcp_body, self.pen_geom,
                 self.pen_box, self.pen_radial, self.pen_round, self.pen_offset, self.table,
-                self.table_half, step, out,
+                self.table_half, pen_initial, int(baseline), step, out,
             ],
         )  # fmt: skip
         wp.launch(
@@ -183,7 +200,8 @@ class WorldBatch:
             self.timings.upload_s += time.perf_counter() - clock
             clock = time.perf_counter()
             _replay(device, lambda: mjw.step(dm.model, d), schedules[0].warmup_steps)
-            dm.record(d, zero, warm)
+            pen_initial = dm.penetration_start(n)
+            dm.record(d, zero, warm, pen_initial, baseline=True)
             chunk_sizes = schedules[0].chunk_sizes
 
             def control_step() -> None:
@@ -194,7 +212,7 @@ class WorldBatch:
                     )  # fmt: skip
                     for _ in range(size):
                         mjw.step(dm.model, d)
-                dm.record(d, step, out)
+                dm.record(d, step, out, pen_initial)
                 wp.launch(
                     kernels.save_state, dim=n,
                     inputs=[d.qpos, d.qvel, d.qacc_warmstart, first_row, slots, step, *saved],
@@ -271,7 +289,8 @@ class WorldBatch:
         _replay(dm.device, lambda: mjw.step(dm.model, td), rung_steps * substeps)
         zero = wp.zeros(1, dtype=wp.int32)
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
-        dm.record(td, zero, out)
+        # the rungs' penetration is not judged: each rung row measures its own start
+        dm.record(td, zero, out, dm.penetration_start(nt), baseline=True)
         rows = out.numpy()[:, 0]
         self.timings.tug_s += time.perf_counter() - clock
         self.timings.world_steps += nt * rung_steps * substeps

@@ -19,6 +19,7 @@ SIG_MAX_QVEL = 10
 SIG_NONFINITE = 11
 SIG_EE = 12
 SIG_TCP = 24
+SIG_OBJ_MAT = 36
 
 
 @wp.kernel
@@ -49,6 +50,37 @@ def _pose(out: wp.array3d(dtype=wp.float32), w: int, s: int, at: int, p: wp.vec3
             out[w, s, at + 3 + 3 * i + j] = R[i, j]
 
 
+@wp.func
+def slab_depth(
+    c: wp.vec3,
+    R: wp.mat33,
+    box: wp.vec3,
+    radial: wp.float32,
+    rounding: wp.float32,
+    offset: wp.vec3,
+    table: wp.vec3,
+    table_half: wp.vec3,
+) -> wp.float32:
+    """How deep one geom is inside the table slab (m, >= 0): the smallest overlap of the geom's
+    extent with the slab along the slab's three face normals (world x, y, z), 0 when one of
+    them separates them. The extent along world axis ``a`` is ``TablePenetration``'s
+    lowest-point formula on row ``a`` of the rotation. The CPU executor asks
+    ``mj_geomDistance`` (every separating axis, exact hull for meshes); this bound uses only
+    the slab's axes and a mesh's bounding box, so it is never below the CPU's depth and equals
+    it for a geom pressed through the top face inside the footprint (docs/engines.md)."""
+    depth = wp.float32(1.0e9)
+    for a in range(3):
+        r = wp.vec3(R[a, 0], R[a, 1], R[a, 2])
+        centre = c[a] + wp.dot(r, offset)
+        ca = wp.min(wp.abs(r[2]), 1.0)
+        extent = wp.abs(r[0]) * box[0] + wp.abs(r[1]) * box[1] + wp.abs(r[2]) * box[2]
+        extent = extent + radial * wp.sqrt(1.0 - ca * ca) + rounding
+        gap = wp.abs(centre - table[a])
+        overlap = extent + table_half[a] - gap
+        depth = wp.min(depth, overlap)
+    return wp.max(depth, 0.0)
+
+
 @wp.kernel
 def record(
     qpos: wp.array2d(dtype=wp.float32),
@@ -67,8 +99,10 @@ def record(
     pen_radial: wp.array(dtype=wp.float32),
     pen_round: wp.array(dtype=wp.float32),
     pen_offset: wp.array(dtype=wp.vec3),
-    table: wp.vec3,  # top z, centre x, centre y
-    table_half: wp.vec2,
+    table: wp.vec3,  # the slab's centre
+    table_half: wp.vec3,  # the slab's half sizes
+    pen_initial: wp.array2d(dtype=wp.float32),  # (world, geom): depth at the start
+    baseline: int,  # 1: this call measures the start (writes pen_initial, records 0)
     step: wp.array(dtype=wp.int32),
     out: wp.array3d(dtype=wp.float32),
 ):
@@ -98,24 +132,26 @@ def record(
             bad = wp.float32(1.0)
     out[w, s, SIG_MAX_QVEL] = fastest
     out[w, s, SIG_NONFINITE] = bad
-    # harness.pick.penetration.TablePenetration.depth, per world
-    lowest = wp.float32(1.0e9)
+    # harness.pick.penetration.TablePenetration.depth, per world, bounded by the separating
+    # axes of the slab's faces (see slab_depth)
+    deepest = wp.float32(0.0)
     for i in range(pen_geom.shape[0]):
         g = pen_geom[i]
-        c = geom_xpos[w, g]
-        R = geom_xmat[w, g]
-        over = wp.abs(c[0] - table[1]) <= table_half[0] and wp.abs(c[1] - table[2]) <= table_half[1]
-        if over:
-            z = wp.vec3(R[2, 0], R[2, 1], R[2, 2])
-            centre = c[2] + wp.dot(z, pen_offset[i])
-            cz = wp.min(wp.abs(z[2]), 1.0)
-            b = pen_box[i]
-            extent = wp.abs(z[0]) * b[0] + wp.abs(z[1]) * b[1] + wp.abs(z[2]) * b[2]
-            extent = extent + pen_radial[i] * wp.sqrt(1.0 - cz * cz) + pen_round[i]
-            lowest = wp.min(lowest, centre - extent)
-    out[w, s, SIG_PENETRATION] = wp.max(0.0, table[0] - lowest)
+        inside = slab_depth(
+            geom_xpos[w, g], geom_xmat[w, g], pen_box[i], pen_radial[i], pen_round[i],
+            pen_offset[i], table, table_half,
+        )  # fmt: skip
+        if baseline == 1:
+            pen_initial[w, i] = inside
+        else:
+            deepest = wp.max(deepest, inside - pen_initial[w, i])
+    out[w, s, SIG_PENETRATION] = deepest
     _pose(out, w, s, SIG_EE, xpos[w, ee_body], xmat[w, ee_body])
     _pose(out, w, s, SIG_TCP, xpos[w, tcp_body], xmat[w, tcp_body])
+    R_obj = xmat[w, obj_body]
+    for i in range(3):
+        for j in range(3):
+            out[w, s, SIG_OBJ_MAT + 3 * i + j] = R_obj[i, j]
 
 
 @wp.kernel

@@ -3,8 +3,10 @@
 One row of ``SIGNALS`` floats per world per control step, taken after the step's last physics
 chunk (where the CPU executor reads its inputs): the finger normal forces on the target object,
 the object's position and linear velocity, the robot's largest joint speed, the deepest robot
-geom below the table top (``harness.pick.penetration``'s measure), the largest |qvel| and a
-non-finite flag (the instability test), the end-effector and TCP poses.
+robot geom's depth inside the table slab beyond its depth at the start (the measure of
+``harness.pick.penetration``, bounded on the device by the slab's separating axes:
+``mjwarp_kernels.slab_depth``), the largest |qvel| and a non-finite flag (the instability
+test), the end-effector and TCP poses and the object's orientation.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ EE_POS = slice(12, 15)
 EE_MAT = slice(15, 24)
 TCP_POS = slice(24, 27)
 TCP_MAT = slice(27, 36)
-SIGNALS = 36
+OBJ_MAT = slice(36, 45)
+SIGNALS = 45
 
 
 def rest_steps(control_dt: float) -> int:
@@ -64,6 +67,15 @@ def object_in_tcp(row: np.ndarray) -> np.ndarray:
     """The object's position in the TCP frame."""
     R = row[TCP_MAT].reshape(3, 3)
     return R.T @ (row[OBJ_POS] - row[TCP_POS])
+
+
+def object_pose_in_tcp(row: np.ndarray) -> np.ndarray:
+    """The object's pose in the TCP frame (4 x 4; ``PickExecutor.object_pose_in_tcp``)."""
+    R_tcp = row[TCP_MAT].reshape(3, 3)
+    T = np.eye(4)
+    T[:3, :3] = R_tcp.T @ row[OBJ_MAT].reshape(3, 3)
+    T[:3, 3] = R_tcp.T @ (row[OBJ_POS] - row[TCP_POS])
+    return T
 
 
 def object_speed(row: np.ndarray) -> float:

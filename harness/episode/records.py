@@ -28,6 +28,8 @@ class SceneColumns:
     object_friction: float
     grip_force_limit_n: float
     gripper_variant: str
+    speed_scale: float  # the pace the plans are timed at (pick.speed_scale)
+    planning_world: str  # the planning-world rule (Semantics.planning_world)
 
 
 @dataclass(frozen=True)

@@ -144,8 +144,9 @@ def reset(
     result.scene = scene
     friction = scene.objects[task.target_object.name].asset.friction
     gripper = scene.robot.arm(task.arm).gripper  # a clear error for an unknown arm
-    records.append(SceneColumns(friction, gripper.force_limit, scene.robot.gripper_variant))
     semantics = Semantics.from_pick(task.pick)
+    columns = (friction, gripper.force_limit, scene.robot.gripper_variant)
+    records.append(SceneColumns(*columns, task.pick.speed_scale, semantics.name))
     planner = bundle.planner(task.arm)
     streams = EpisodeStreams(spec.seed)
     setup = Setup(spec, result, semantics, bundle, streams, evaluation, planner, records)

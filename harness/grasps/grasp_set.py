@@ -7,12 +7,14 @@ and depth signs and the rotations, and name the offending cell in the ``InputFil
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from harness.errors import InputFileError
+from harness.files import check_regular
 from harness.grasps.arrays import FloatArray, read_only
 
 GRASP_COLUMNS = 17
@@ -131,16 +133,54 @@ def _check_rotations(path: str, rotations: FloatArray) -> None:
         )
 
 
+# A grasp file holds ~10^3..10^5 rows; its header is checked against the file's size before
+# numpy allocates what the header claims (a header of 10^12 rows asked for 124 TiB).
+MAX_GRASP_BYTES = 1 << 30
+
+
+def check_npy_header(path: Path) -> None:
+    """Refuse a ``.npy`` whose header claims more data than the file holds (or than 1 GiB);
+    ``.npz`` archives pass through (``load_grasp_file`` refuses them with their own message)."""
+    size = check_regular(path, MAX_GRASP_BYTES)
+    with open(path, "rb") as handle:
+        if handle.read(6) != b"\x93NUMPY":
+            return
+        handle.seek(0)
+        version = np.lib.format.read_magic(handle)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
+        else:
+            shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
+        if dtype.hasobject:  # pickled objects: np.load refuses them (allow_pickle=False)
+            return
+        claimed = math.prod(shape) * dtype.itemsize
+        if claimed > size - handle.tell():
+            raise ValueError(
+                f"its header claims shape {shape} ({claimed:,} bytes) but the file holds "
+                f"{size - handle.tell():,} bytes of data"
+            )
+
+
+def read_grasp_array(path: str | Path) -> np.ndarray:
+    """The raw array of a grasp file, checked before reading (regular file, honest header,
+    no pickles); ``InputFileError`` naming the file otherwise. No row validation."""
+    path = Path(path)
+    try:
+        check_npy_header(path)
+        array = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise InputFileError(path, "grasp file not found") from None
+    except (OSError, ValueError, EOFError, MemoryError) as exc:
+        raise InputFileError(path, f"cannot read as a .npy array: {exc}") from None
+    if not isinstance(array, np.ndarray):  # an .npz archive
+        array.close()
+        raise InputFileError(path, "is an .npz archive; expected one N x 17 .npy array")
+    return array
+
+
 def load_grasp_file(path: str | Path) -> GraspSet:
     """Load and validate an N x 17 ``.npy`` grasp file (see :meth:`GraspSet.from_array`)."""
     path = Path(path)
     if not path.is_file():
         raise InputFileError(path, "grasp file not found")
-    try:
-        array = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise InputFileError(path, f"cannot read as a .npy array: {exc}") from None
-    if not isinstance(array, np.ndarray):  # an .npz archive
-        array.close()
-        raise InputFileError(path, "is an .npz archive; expected one N x 17 .npy array")
-    return GraspSet.from_array(array, path)
+    return GraspSet.from_array(read_grasp_array(path), path)

@@ -142,20 +142,17 @@ class TaskMapper(TaskResolver):
             raise self.translate(exc, origin) from None
 
     def pick_block(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
-        """The pick's block, with the robot's ``ignore_substring`` entries put first."""
+        """The pick's block, with the robot's ``ignore_substring`` as
+        ``robot_ignore_substring``: it replaces the controllers' default planning-world ignore
+        list (template_controller.py __init__), the pick's own list adds to it."""
         robot = pick.robot
         block = dict(pick.block)
         if "objects" not in block:
             raise self.error((*pick.path, "objects"), "a pick needs objects (the first is picked)")
         robot_ignore = robot.config.get("ignore_substring")
         if robot_ignore is not None:
-            own = block.get("ignore_substring") or []
-            if isinstance(robot_ignore, list) and isinstance(own, list):
-                block["ignore_substring"] = [
-                    *robot_ignore,
-                    *(s for s in own if s not in robot_ignore),
-                ]
-                origin[("pick", "ignore_substring")] = (*robot.path, "ignore_substring")
+            block["robot_ignore_substring"] = robot_ignore
+            origin[("pick", "robot_ignore_substring")] = (*robot.path, "ignore_substring")
         return block
 
     def table_contact(self, task: dict[str, Any], origin: dict[KeyPath, KeyPath]) -> bool:

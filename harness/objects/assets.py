@@ -23,6 +23,7 @@ import trimesh
 import yaml
 
 from harness.errors import InputFileError
+from harness.files import MAX_CONFIG_BYTES, read_capped
 from harness.objects.decomposition import (
     CoacdParams,
     Piece,
@@ -90,9 +91,11 @@ def _parse_object_info(path: Path, mtime_ns: int) -> dict[str, Any]:
     """Parse once per file version: episodes ask for it several times each (scene key, reset)."""
     del mtime_ns  # part of the cache key only
     try:
-        info = yaml.safe_load(path.read_text(encoding="utf-8"))
+        info = yaml.safe_load(read_capped(path, MAX_CONFIG_BYTES).decode("utf-8"))
     except yaml.YAMLError as exc:
         raise InputFileError(path, f"invalid YAML: {exc}") from exc
+    except (OSError, ValueError) as exc:  # a FIFO, a device, too large, not UTF-8
+        raise InputFileError(path, f"cannot read: {exc}") from None
     if not isinstance(info, dict):
         raise InputFileError(path, "expected a mapping")
     return info

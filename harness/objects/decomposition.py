@@ -21,6 +21,7 @@ import numpy as np
 import trimesh
 
 from harness.errors import InputFileError
+from harness.files import safe_file_name
 from harness.objects.coacd_process import CoacdTimeoutError, coacd_timeout_s, run_coacd_bounded
 
 LOG = logging.getLogger(__name__)
@@ -158,7 +159,7 @@ def collision_pieces(
     ``cache``, ``coacd`` (computed now and cached) or ``convex_hull`` (CoACD failed)."""
     if is_convex_solid(mesh):
         return [_hull_piece(mesh)], "convex"
-    path = cache_dir() / f"{key}.npz"
+    path = cache_dir() / safe_file_name(key, ".npz")
     cached = _load_pieces(path) if path.is_file() else None
     if cached:
         return cached, "cache"

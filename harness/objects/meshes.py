@@ -17,6 +17,7 @@ import numpy as np
 import trimesh
 
 from harness.errors import InputFileError
+from harness.files import RefusedFileError, check_regular
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 TRIMESH_SUFFIXES = (".obj", ".stl", ".glb", ".gltf", ".ply")
@@ -26,12 +27,55 @@ USD_OBJECT_PRIM = "/World/Aligned"
 # in CoACD for 580 s at 1.8 GB. Chosen, no public source: the InternData example meshes are
 # < 5 MB and a graspable object needs far fewer than the ~10^6 faces 64 MiB holds.
 MAX_MESH_BYTES = 64 * 1024 * 1024
+# A graspable object fits in this cube (after ``scale``); a mesh in the wrong units (mm read as
+# m) or with garbage coordinates (1e31 m) ran and counted as ordinary failures. Chosen, no
+# public source: the largest InternData example object is under 0.5 m, the table about 1.5 m.
+MAX_MESH_EXTENT_M = 10.0
+# Sublayers / references of a USD file are followed at most this deep (each checked first).
+MAX_USD_LAYER_DEPTH = 16
+
+
+def check_usd_layers(path: Path) -> None:
+    """Every layer a USD stage would open is a regular file under the size cap, checked
+    *before* usd-core opens it: a FIFO sublayer made ``Usd.Stage.Open`` wait forever."""
+    from pxr import Sdf
+
+    seen: set[str] = set()
+    pending = [(str(path.resolve()), 0)]
+    while pending:
+        layer_path, depth = pending.pop()
+        if layer_path in seen:
+            continue
+        seen.add(layer_path)
+        if depth > MAX_USD_LAYER_DEPTH:
+            raise InputFileError(path, f"USD layers nest deeper than {MAX_USD_LAYER_DEPTH}")
+        try:
+            check_regular(layer_path, MAX_MESH_BYTES)
+        except FileNotFoundError:
+            if depth == 0:
+                raise InputFileError(path, "mesh file not found") from None
+            continue  # usd-core reports a missing sublayer itself (a warning)
+        except (OSError, RefusedFileError) as exc:
+            raise InputFileError(path, f"USD layer {layer_path}: {exc}") from None
+        try:
+            layer = Sdf.Layer.OpenAsAnonymous(layer_path)
+        except Exception as exc:  # usd-core's parse errors (pxr.Tf.ErrorException)
+            detail = str(exc).strip().splitlines()[-1][:200]
+            raise InputFileError(path, f"cannot read USD layer {layer_path}: {detail}") from None
+        if layer is None:
+            continue
+        base = Path(layer_path).parent
+        for asset in layer.GetCompositionAssetDependencies():
+            if asset and "://" not in asset and not asset.startswith("@"):
+                child = Path(asset) if Path(asset).is_absolute() else base / asset
+                pending.append((str(child.resolve()), depth + 1))
 
 
 def _read_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Raw points and triangulated faces of the meshes under /World/Aligned (or the stage)."""
     from pxr import Gf, Usd, UsdGeom
 
+    check_usd_layers(path)
     try:
         stage = Usd.Stage.Open(str(path))
     except Exception as exc:
@@ -59,11 +103,20 @@ def _read_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
         if points is None or counts is None or indices is None or len(points) == 0:
             continue
         vertices = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        counts_arr = np.asarray(counts, dtype=np.int64)
+        if counts_arr.size and counts_arr.min() < 0:
+            raise InputFileError(path, f"{prim.GetPath()}: negative faceVertexCounts")
+        if int(counts_arr.sum()) != len(indices):
+            raise InputFileError(
+                path,
+                f"{prim.GetPath()}: faceVertexCounts sum to {int(counts_arr.sum())} but there "
+                f"are {len(indices)} faceVertexIndices",
+            )
         # USD matrices act on row vectors: p_root = p_mesh * M_mesh_world * M_world_root.
         to_root = np.asarray(xform_cache.GetLocalToWorldTransform(prim) * world_to_root)
         if not np.allclose(to_root, np.eye(4)):
             vertices = vertices @ to_root[:3, :3] + to_root[3, :3]
-        faces = triangulate(np.asarray(counts, dtype=np.int64), np.asarray(indices, np.int64))
+        faces = triangulate(counts_arr, np.asarray(indices, np.int64))
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
             raise InputFileError(path, f"{prim.GetPath()}: face vertex index out of range")
         if mesh.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded:
@@ -106,20 +159,20 @@ def read_mesh_arrays(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise InputFileError(
             path, f"unsupported mesh format {suffix or '(none)'!r}; use one of {SUPPORTED_SUFFIXES}"
         )
-    if not path.is_file():
-        raise InputFileError(path, "mesh file not found")
-    size = path.stat().st_size
+    try:
+        size = check_regular(path)
+    except FileNotFoundError:
+        raise InputFileError(path, "mesh file not found") from None
+    except RefusedFileError as exc:
+        raise InputFileError(path, f"mesh file {exc}") from None
+    except OSError as exc:
+        raise InputFileError(path, f"cannot open mesh file: {exc.strerror}") from exc
     if size > MAX_MESH_BYTES:
         raise InputFileError(
             path,
             f"mesh file is {size / 2**20:.0f} MiB, above the limit of {MAX_MESH_BYTES / 2**20:.0f} "
             "MiB; simplify it (fewer faces) before use",
         )
-    try:
-        with path.open("rb"):
-            pass
-    except OSError as exc:
-        raise InputFileError(path, f"cannot open mesh file: {exc.strerror}") from exc
     return _read_usd(path) if suffix in USD_SUFFIXES else _read_trimesh(path)
 
 
@@ -140,6 +193,13 @@ def load_mesh(path: str | Path, scale: tuple[float, float, float] | float = 1.0)
     scale_arr = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
     if not np.all(np.isfinite(scale_arr)) or np.any(scale_arr <= 0):
         raise InputFileError(path, f"scale must be positive and finite, got {scale_arr.tolist()}")
+    extent = float(np.abs(vertices * scale_arr).max())
+    if extent > MAX_MESH_EXTENT_M:
+        raise InputFileError(
+            path,
+            f"mesh reaches {extent:.3g} m from its origin (after scale), above "
+            f"{MAX_MESH_EXTENT_M:g} m for a graspable object; wrong units or a broken file?",
+        )
     mesh = trimesh.Trimesh(vertices=vertices * scale_arr, faces=faces, process=True)
     mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:

@@ -154,14 +154,15 @@ class PickExecutor:
             self.gripper_state = command.gripper
             d, h = self.data, self.handles
             current = float(d.ctrl[h.gripper_actuator])
-            goal = (
-                self.arm_spec.finger_open_position
-                if command.gripper == "open"
-                else self.arm_spec.finger_closed_position
-            )
-            if abs(goal - current) > 1e-6:
+            opening = command.gripper == "open"
+            spec = self.arm_spec
+            goal = spec.finger_open_position if opening else spec.finger_closed_position
+            # A force-controlled grasp ends below the closed width: the servo then presses with
+            # its force limit wherever the fingers stopped (GripperActuator.grasp).
+            final = goal if opening else spec.finger_squeeze_position
+            if abs(final - current) > 1e-6:
                 self.gripper_plan = self.servo.gripper_setpoints(
-                    current, goal, self.arm_spec.gripper.speed, self.pick.gripper_change_steps
+                    current, goal, final, spec.gripper.speed, self.pick.gripper_change_steps
                 )
                 self.gripper_row = 0
                 self._event(f"gripper {command.gripper}")
@@ -274,6 +275,7 @@ class PickExecutor:
             # The grasp as executed: the arm has had the whole closing window to settle.
             self.out.tcp_grasp_error_m = self._tcp_error()
             self.out.contact_during_close = max(forces) > 0.0
+            self.out.T_tcp_object_closed = self.object_pose_in_tcp()
             self.out.finger_force_left_n, self.out.finger_force_right_n = forces
             self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
             if self.semantics.check_closing_forces and self.judge(closing_terms(self.pick, forces)):
@@ -296,6 +298,7 @@ class PickExecutor:
         """Execute until the verdict, a failure, or the episode length limit."""
         out, d = self.out, self.data
         out.object_z_before = float(d.xpos[self.obj.body_id][2])
+        self.penetration.depth(d)  # the baseline: where the robot stands before it moves
         # The controller's last planned target starts as the EE pose (its reset).
         self.planned_target = self.scene.T_world_body(self.handles.ee_body)
         self._start_command(0)
@@ -403,3 +406,13 @@ class PickExecutor:
 
     def object_in_tcp(self) -> np.ndarray:
         return self._object_in_tcp()
+
+    def object_pose_in_tcp(self) -> np.ndarray:
+        """The object's pose in the TCP frame (4 x 4)."""
+        T_tcp = self.scene.T_world_body(self.handles.tcp_body)
+        return invert_T(T_tcp) @ self.scene.T_world_body(self.obj.body_id)
+
+    @property
+    def grasp_reference(self) -> np.ndarray | None:
+        """The object's pose in the TCP frame when the closing ended (None if it never did)."""
+        return self.out.T_tcp_object_closed

@@ -8,6 +8,7 @@ the phase measured into the row's ``ValidityResult`` with the one set of verdict
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from harness.config import PickConfig
@@ -56,7 +57,8 @@ def run_validity_phase(executor: PickExecutor, verdict_reached: bool) -> None:
     failed_name = out.validity.invalid_reason
     executor.event(
         f"validity: {failed_name or 'valid'}, robustness "
-        f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm"
+        f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm / "
+        f"{math.degrees(measure.hold_rotation_rad):.1f} deg"
     )
     if executor.semantics.hold_after_list:  # strict: this is the verdict
         out.slip_m, out.lift_height_m = measure.hold_slip_m, measure.lift_height_m

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from harness.failures import FailureReason
 from harness.pick.recorder import ExecutionTrace, ValidityTrace
 
@@ -26,7 +28,8 @@ class ValidityMeasure:
     lift_height_m: float = NAN  # object rise over obj_init_trans at the end of the hold (m)
     closing_forces: tuple[float, float] = (NAN, NAN)  # when the closing ended (N)
     finger_forces: tuple[float, float] = (NAN, NAN)  # at the end of the hold (N)
-    hold_slip_m: float = NAN
+    hold_slip_m: float = NAN  # object drift relative to the TCP, grasp closed -> hold end (m)
+    hold_rotation_rad: float = NAN  # the same drift's rotation (rad)
     robustness_g: float = NAN  # largest tug level survived in every direction (0: none)
     tug_message: str = ""  # the first rung that failed
     object_speed: float = NAN  # object speed at the end of the hold (m/s)
@@ -35,9 +38,10 @@ class ValidityMeasure:
 
     @property
     def min_finger_force_n(self) -> float:
-        """The weaker finger when the grasp closed and after the hold (NaN counts as 0)."""
-        forces = [*self.closing_forces, *self.finger_forces]
-        return min(0.0 if force != force else force for force in forces)
+        """The weaker finger after the hold (NaN counts as 0). Not when the closing window
+        ended: a slow gripper still closing then, which holds with both fingers through the
+        lift and the hold, has a two-finger grasp (the tug checks both fingers again)."""
+        return min(0.0 if force != force else force for force in self.finger_forces)
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,7 @@ class ValidityColumns:
     invalid_reason: str | None = None
     robustness_g: float | None = None
     hold_slip_m: float | None = None
+    hold_rotation_rad: float | None = None
     min_finger_force_n: float | None = None
 
 
@@ -86,6 +91,8 @@ class PickOutcome:
     object_z_before: float = float("nan")
     object_z_after: float = float("nan")
     contact_during_close: bool = False
+    # The object's pose in the TCP frame when the closing window ended (the slip reference).
+    T_tcp_object_closed: np.ndarray | None = None
     collisions: list[str] = field(default_factory=list)
     trace: ExecutionTrace | None = None
     # Deepest robot geom below the table top during the motion (m), measured geometrically.

@@ -1,17 +1,24 @@
-"""How deep the robot is inside the table top, measured geometrically (``TablePenetration``).
+"""How deep the robot is inside the table slab, measured from the geometry (``TablePenetration``).
 
 Robot-table contact may be off in the physics (the reference's ``neglect_collision_names:
 [table]``), so MuJoCo's contacts cannot say how far a finger went into the table. This module
-computes it from the geoms' poses and sizes instead: for every moving robot collision geom, the
-lowest point of the geom in world z, exactly for the primitives the robots use (sphere, capsule,
-cylinder, box) and from the geom's bounding box for anything else (mesh, ellipsoid); the depth is
-how far that point lies below the table's top face, counted only for geoms whose centre is above
-the table's footprint. One vectorised pass over ~30 geoms per control step (a few microseconds),
-where ``mj_geomDistance`` against the table would cost a collision test per geom.
+asks MuJoCo's own distance query instead (``mj_geomDistance``, which ignores the contact
+filters): the signed distance between each moving robot collision geom and the table's slab,
+negative inside it. Any geom counts, wherever its centre is: a finger pad whose centre is past
+the table's edge but whose corner is in the slab is inside it, and a lift carriage standing
+beside the slab, below the table top but not in the slab, is not.
 
-The lowest point of a geom with rotation ``R`` (world from geom) is its centre minus its extent
-along world z: ``sum_j |R[2, j]| h_j`` for a box of half sizes ``h``, ``|R[2, 2]| h + r`` for a
-capsule, ``|R[2, 2]| h + r sqrt(1 - R[2, 2]^2)`` for a cylinder, ``r`` for a sphere.
+The depth counted is how much deeper than at the start of the motion (the first ``depth``
+call) a geom is: a part that already stood in the slab before the pick moved anything (the
+Lift-2 carriage, held by the lift 4.1 mm into the slab's edge at the reference placement of
+this model) is a fact of the placement, not of the pick's motion; ``initial`` keeps it.
+
+To keep it cheap (a few microseconds per control step for ~30 geoms), the distance is asked
+only of geoms whose lowest point lies below the table top and whose bounding box overlaps the
+slab's footprint; the lowest point of a geom with rotation ``R`` (world from geom) is its centre
+minus its extent along world z: ``sum_j |R[2, j]| h_j`` for a box of half sizes ``h``,
+``|R[2, 2]| h + r`` for a capsule, ``|R[2, 2]| h + r sqrt(1 - R[2, 2]^2)`` for a cylinder, ``r``
+for a sphere (the geom's bounding box for anything else).
 """
 
 from __future__ import annotations
@@ -21,15 +28,21 @@ import numpy as np
 
 from harness.sim import TABLE_NAME, Scene
 
+# Distances beyond this are not asked for (m): only the inside of the slab matters.
+DISTANCE_MAX = 0.01
+
 
 class TablePenetration:
-    """The deepest point of any moving robot collision geom below the table top (m, >= 0)."""
+    """How deep any moving robot collision geom is inside the table slab (m, >= 0)."""
 
     def __init__(self, scene: Scene) -> None:
         m = scene.model
+        self.model = m
         collides = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
         self.geoms = np.flatnonzero(scene.robot_geom & ~scene.static_robot_geom & collides)
         table = m.geom(TABLE_NAME).id
+        self.table = table
+        self.initial: np.ndarray | None = None  # per geom: how deep it was at the start (m)
         # The table geom sits in the world body: its model pose is its world pose.
         self.table_top = float(m.geom_pos[table][2] + m.geom_size[table][2])
         self.table_xy = m.geom_pos[table][:2].copy()
@@ -55,7 +68,8 @@ class TablePenetration:
                 self.offset[i], self.box_half[i] = aabb[:3], aabb[3:]
 
     def depth(self, data: mujoco.MjData) -> float:
-        """Penetration depth now (m): 0 when every geom over the table is above its top."""
+        """Penetration depth now (m): how much deeper than at the first call the deepest robot
+        geom is inside the table slab (0 when none went deeper)."""
         if len(self.geoms) == 0:
             return 0.0
         pos = data.geom_xpos[self.geoms]
@@ -67,8 +81,18 @@ class TablePenetration:
             + self.radial * np.sqrt(1.0 - cos_z * cos_z)
             + self.round
         )
-        over = np.all(np.abs(pos[:, :2] - self.table_xy) <= self.table_half_xy, axis=1)
-        if not over.any():
-            return 0.0
-        lowest = float(np.min((centre_z - extent)[over]))
-        return max(0.0, self.table_top - lowest)
+        low = centre_z - extent < self.table_top
+        # Bounding radius in the horizontal plane: the geom can reach the slab's footprint.
+        reach = self.model.geom_rbound[self.geoms]
+        near = np.all(
+            np.abs(pos[:, :2] - self.table_xy) <= self.table_half_xy + reach[:, None], axis=1
+        )
+        inside = np.zeros(len(self.geoms))
+        for k in np.flatnonzero(low & near):
+            distance = mujoco.mj_geomDistance(
+                self.model, data, int(self.geoms[k]), self.table, DISTANCE_MAX, None
+            )
+            inside[k] = max(0.0, -distance)
+        if self.initial is None:
+            self.initial = inside
+        return float(np.max(inside - self.initial, initial=0.0))

@@ -21,19 +21,19 @@ from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_terms
 from harness.planning.world import PlanningWorld
+from harness.sim.composition import TABLE_NAME
 
-# A forward test plans the carry (lift, return) too, under both semantics, so a candidate whose
-# lift cannot be planned is skipped. The reference tests only the pre-grasp and the grasp, and
-# would execute that candidate and fail (is_feasible). False reproduces that: the carry is then
-# planned for the chosen candidate alone. Kept True for now: on the canonical cube the
-# reference rule fails 3 of 10 Split ALOHA right-arm seeds on lift poses out of the Piper's
-# reach, which the calibrated end-to-end test does not allow (docs/semantics.md).
-FORWARD_TEST_PLANS_CARRY = True
+# Under reference a forward test plans only the pre-grasp and the grasp (pick.py
+# simple_generate_manip_cmds: test_single_forward / test_single_ik on those two poses); the carry
+# (lift, return) is planned for the chosen candidate alone, and a failure there is plan_failed.
+# Strict tests the whole chain it executes, lift included.
 # Strict semantics plan the robot this far (m) from the table, so that servo tracking lag (the
 # small arms' wrists have kp 10) does not dip a finger into it during execution.
 STRICT_TABLE_CLEARANCE = 0.005
-# The reference workflow's planning-world ignore list (docs/reference-pick-skill.md section 8):
-# names containing any of these are never obstacles for its planner (the table among them).
+# The reference workflow's planning-world ignore list (docs/reference-pick-skill.md section 8;
+# template_controller.py _get_default_ignore_substring, simbox_dual_workflow.py
+# _initialize_controllers): names containing any of these are never obstacles for its planner
+# (the table among them). A robot's own ``ignore_substring`` replaces this list.
 REFERENCE_IGNORE_SUBSTRINGS = ("material", "Plane", "conveyor", "scene", "table")
 
 
@@ -74,15 +74,15 @@ class Semantics:
     def from_pick(cls, pick: PickConfig) -> Semantics:
         """The policy of ``pick.semantics`` (with the pick's own ignore list under reference)."""
         strict = pick.semantics == "strict"
+        ignored = reference_ignore_list(pick)
         return cls(
             name=pick.semantics,
-            table_in_planning=strict,
+            # reference: the table is out when the ignore list names it (the default does; a
+            # robot list that does not, e.g. ["material"], keeps it in)
+            table_in_planning=strict or not any(part in TABLE_NAME for part in ignored),
             table_clearance=STRICT_TABLE_CLEARANCE if strict else 0.0,
-            ignore_substring=()
-            if strict
-            # the pick's own list adds to the controllers' (each substring once)
-            else tuple(dict.fromkeys((*REFERENCE_IGNORE_SUBSTRINGS, *pick.ignore_substring))),
-            test_carry=strict or FORWARD_TEST_PLANS_CARRY,
+            ignore_substring=() if strict else ignored,
+            test_carry=strict,
             fixed_orientation_in_test=strict,
             pregrasp_along_fixed_axis=strict,
             fall_back_to_last_tested=not strict,
@@ -96,24 +96,31 @@ class Semantics:
     def planning_world(self, target: str) -> PlanningWorld:
         """What the planner treats as an obstacle while picking ``target``.
 
-        ``reference``: the world the reference's planner builds (docs/reference-pick-skill.md
-        section 8, quirk 21): its controllers leave every scene name containing one of
-        ``REFERENCE_IGNORE_SUBSTRINGS`` or the pick's ``ignore_substring`` out of planning, so
-        the table is never an obstacle, even where robot-table contact is physical
-        (``neglect_collision_names`` only sets the physics collision groups) -- the reference
-        plans fingers into a physical table, and so does this. ``strict``: everything physical
-        is an obstacle, the table with a clearance. Under both, the target object stays in the
-        world (fingers may touch it on the approach; the reference removes it while planning the
-        pre-grasp and the grasp, section 6 step 2, which lets a transport sweep through it and
-        knock it over in MuJoCo).
+        ``reference``: the world the reference's planner builds. Its controllers leave every
+        scene name containing one of its ignore list (``reference_ignore_list``) out, so the
+        table is never an obstacle, even where robot-table contact is physical
+        (``neglect_collision_names`` only sets the physics collision groups, quirk 21); the
+        robot's own name is on that list (template_controller.py __init__ appends it), so no
+        robot part is an obstacle and only the planned arm's self-collision model counts
+        (cuRobo's arm configs); the pick removes the target for the pre-grasp / grasp tests and
+        plans (pick.py simple_generate_manip_cmds: ``update_specific`` with the target's name
+        appended) and, after closing, attaches it to the hand for the lift (``attach_obj``,
+        spheres 1 cm up: template_controller.py attach_obj). A transport through the target
+        then knocks it over in MuJoCo as it would in PhysX. ``strict``: everything physical is
+        an obstacle, the table with a clearance, the target too (the fingers may touch it on the
+        approach), the whole robot, every robot-robot contact.
         """
+        reference = self.name == "reference"
         return PlanningWorld(
             target,
             check_table=self.table_in_planning,
-            check_target=True,
+            check_target=not reference,
             table_clearance=self.table_clearance,
             ignore_substring=self.ignore_substring,
             hold_lift=True,  # the reference plans the arm alone, the lift held at its home
+            attach_target=reference,
+            whole_robot=not reference,
+            rule=self.name,
         )
 
     def verdict_terms(self, pick: PickConfig, out: PickOutcome) -> tuple[VerdictTerm, ...]:
@@ -122,3 +129,16 @@ class Semantics:
         if self.hold_after_list:
             return strict_terms(pick, out)
         return reference_terms(pick, out)
+
+
+def reference_ignore_list(pick: PickConfig) -> tuple[str, ...]:
+    """The reference planner's ignore list for this pick: the robot's ``ignore_substring`` when
+    it has one, REPLACING the controllers' default (template_controller.py __init__), else
+    ``REFERENCE_IGNORE_SUBSTRINGS``; then the pick's own ``ignore_substring`` (pick.py adds it
+    to the controller's list). Each substring once."""
+    base = (
+        REFERENCE_IGNORE_SUBSTRINGS
+        if pick.robot_ignore_substring is None
+        else tuple(pick.robot_ignore_substring)
+    )
+    return tuple(dict.fromkeys((*base, *pick.ignore_substring)))

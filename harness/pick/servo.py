@@ -54,12 +54,16 @@ class ServoTiming:
         return ctrl.reshape(-1, len(self.chunk_sizes), q.shape[1])
 
     def gripper_setpoints(
-        self, start: float, goal: float, finger_speed: float, change_steps: int
+        self, start: float, goal: float, final: float, finger_speed: float, change_steps: int
     ) -> np.ndarray:
-        """(rows, chunks) gripper targets: a ramp at the robot's finger speed, sped up if needed
-        to finish within half of the closing window (``change_steps`` control steps)."""
+        """(rows, chunks) gripper targets: a ramp to ``goal`` at the robot's finger speed, sped
+        up if needed to finish within half of the closing window (``change_steps`` control
+        steps), then one control step at ``final`` (the squeeze target of a force-controlled
+        grasp, below the closed width: the servo then presses with its force limit wherever the
+        fingers stopped; ``goal`` otherwise)."""
         window = 0.5 * change_steps * self.control_dt
         speed = max(finger_speed, abs(goal - start) / max(window, 1e-3))
         trajectory = gripper_trajectory(start, goal, speed)
         q, _, _ = trajectory.sample_many(self.chunk_times(trajectory.duration))
-        return q[:, 0].reshape(-1, len(self.chunk_sizes))
+        rows = q[:, 0].reshape(-1, len(self.chunk_sizes))
+        return np.vstack([rows, np.full((1, len(self.chunk_sizes)), final)])

@@ -25,6 +25,7 @@ term, a test in tests/test_validity.py that makes it the first cause.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -174,20 +175,28 @@ TERMS: tuple[TermCfg, ...] = (
                 lambda pick, v: not (
                     _closes(pick) and not v.min_finger_force_n >= pick.min_finger_force
                 ),
-                lambda pick, v: f"finger forces {v.closing_forces[0]:.2f} / "
-                f"{v.closing_forces[1]:.2f} N after closing, {v.finger_forces[0]:.2f} / "
-                f"{v.finger_forces[1]:.2f} N after the hold: one below {pick.min_finger_force} N",
+                # min_finger_force_n is the weaker finger after the hold, not at the closing:
+                # a slow gripper may close during the lift (issue 22)
+                lambda pick, v: f"finger forces {v.finger_forces[0]:.2f} / "
+                f"{v.finger_forces[1]:.2f} N after the hold (after closing "
+                f"{v.closing_forces[0]:.2f} / {v.closing_forces[1]:.2f} N): one below "
+                f"{pick.min_finger_force} N",
             ),
         ),
     ),
     TermCfg(
-        "slipped_in_hold", "dropped", "hold_slip_m", ("hold_slip_m",), "max_slip",
+        "slipped_in_hold", "dropped", "hold_slip_m, hold_rotation_rad (closing to hold end)",
+        ("hold_slip_m", "hold_rotation_rad"), "max_slip, max_slip_rotation",
         ("validity",),
         (TermCheck(
             "validity",
-            lambda pick, v: v.hold_slip_m <= pick.max_slip,
-            lambda pick, v: f"the object slipped {v.hold_slip_m * 1e3:.1f} mm in the hold "
-            f"(bound {pick.max_slip * 1e3:.1f} mm)",
+            # a rotation not measured (NaN: the phase never closed on it) does not fail
+            lambda pick, v: v.hold_slip_m <= pick.max_slip
+            and not v.hold_rotation_rad > pick.max_slip_rotation,
+            lambda pick, v: f"the object slipped {v.hold_slip_m * 1e3:.1f} mm and turned "
+            f"{math.degrees(v.hold_rotation_rad):.1f} deg in the hand from the closing to the "
+            f"end of the hold (bounds {pick.max_slip * 1e3:.1f} mm, "
+            f"{math.degrees(pick.max_slip_rotation):.1f} deg)",
         ),),
     ),
     TermCfg(

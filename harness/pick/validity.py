@@ -8,8 +8,10 @@ phase), the episode goes on in the same simulation:
 1. finish: the rest of the planned motion plays out (commands pop within ``t_eps``, before the
    lift segment ends); the table penetration is tracked through it;
 2. rest: up to ``REST_WAIT_S`` for the object to come to rest (speed < ``REST_SPEED``);
-3. hold: ``hold_time`` s at the lifted pose; slip = motion of the object relative to the TCP;
-   then the lift and both finger forces are read;
+3. hold: ``hold_time`` s at the lifted pose; then the slip is the drift of the object's pose
+   relative to the TCP from the end of the closing window to the end of the hold (through the
+   lift and the hold), in translation (``hold_slip_m``, the object origin) and rotation
+   (``hold_rotation_rad``); then the lift and both finger forces are read;
 4. tug (when the object is lifted and the hold was stable): a force of k x g x mass on the
    object's centre of mass (``xfrc_applied``) for ``TUG_TIME_S``, along +x, -x, +y, -y, +z, -z
    (DexGraspNet's six gravity directions), k in 0.5, 1, 2, 4 (GraspDataGen's multiples of g x
@@ -123,6 +125,13 @@ class PhaseHost(Protocol):
 
     def object_in_tcp(self) -> np.ndarray: ...
 
+    def object_pose_in_tcp(self) -> np.ndarray: ...
+
+    @property
+    def grasp_reference(self) -> np.ndarray | None:
+        """The object's pose in the TCP frame when the closing ended."""
+        ...
+
     @property
     def time(self) -> float: ...
 
@@ -157,7 +166,13 @@ class ValidityPhase:
         d = scene.data
         arm = host.handles.name
         measure.ran = True
-        measure.hold_slip_m = float(np.linalg.norm(host.object_in_tcp() - reference))
+        closed = host.grasp_reference
+        measure.hold_slip_m, measure.hold_rotation_rad = pose_drift(
+            closed if closed is not None else np.eye(4), host.object_pose_in_tcp()
+        )
+        if closed is None:  # never closed: the hold alone
+            measure.hold_slip_m = float(np.linalg.norm(host.object_in_tcp() - reference))
+            measure.hold_rotation_rad = 0.0
         measure.finger_forces = scene.finger_forces(arm, host.obj.name)
         measure.lift_height_m = float(d.xpos[host.obj.body_id][2] - self.object_init_z)
         measure.object_speed = float(
@@ -219,6 +234,15 @@ class ValidityPhase:
         return min(forces) > 0.0
 
 
+def pose_drift(T_before: np.ndarray, T_after: np.ndarray) -> tuple[float, float]:
+    """How far a pose moved: (translation in m, rotation angle in rad) between two 4 x 4 poses
+    in the same frame."""
+    translation = float(np.linalg.norm(T_after[:3, 3] - T_before[:3, 3]))
+    R = T_before[:3, :3].T @ T_after[:3, :3]
+    cos = float(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))
+    return translation, math.acos(cos)
+
+
 def validity_columns(
     enabled: bool, penetration_m: float, result: ValidityResult | None
 ) -> ValidityColumns:
@@ -239,6 +263,7 @@ def validity_columns(
         invalid_reason=result.invalid_reason,
         robustness_g=measure.robustness_g,
         hold_slip_m=measure.hold_slip_m,
+        hold_rotation_rad=measure.hold_rotation_rad,
         min_finger_force_n=measure.min_finger_force_n,
     )
 

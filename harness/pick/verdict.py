@@ -12,8 +12,9 @@ pipeline order, so the first cause wins). Which terms apply is the semantics' ca
 - validity (``validity_terms``, after the reference verdict, measured by
   ``harness.pick.validity``): no robot geom more than 2 mm inside the table top during the
   motion; the object lifted more than ``lift_th``; both fingers carry >= ``min_finger_force`` N
-  when the closing ends and after the hold; slip (object motion relative to the TCP) under
-  ``max_slip`` over a ``hold_time`` s hold; the tug survived at 0.5 g in every direction. A
+  after the hold (not when the closing ends: a slow gripper may close during the lift); the
+  object's drift relative to the TCP from the closing to the end of a ``hold_time`` s hold under
+  ``max_slip`` and ``max_slip_rotation``; the tug survived at 0.5 g in every direction. A
   term's name is the row's ``invalid_reason``.
 - ``strict``: both fingers carry >= ``min_finger_force`` N when the closing ends (the same
   ``one_finger`` check, early); then no robot collision with the environment during the motion,

@@ -20,16 +20,18 @@ from harness.planning.timing import (
 from harness.sim import Scene
 
 TOPPRA_GRIDPOINTS = 30
-# The Cartesian segments near the object (approach, lift, retreat) run at this fraction of the
-# joint limits: time-optimal at full limits, the small arms' soft servos (kp 80, wrists 10)
-# overshoot the grasp by up to a centimetre.
+# The Cartesian segments near the object (approach, lift, retreat) run at most at this fraction
+# of the joint limits: time-optimal at full limits, the small arms' soft servos (kp 80, wrists
+# 10) overshoot the grasp by up to a centimetre. At the reference's pace (speed_scale 0.3) every
+# segment runs at 0.3, as the reference plays all of its plans at that pace.
 CARTESIAN_SPEED_SCALE = 0.5
 
 
 def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict[str, Trajectory]:
     """Timed segments of a chain plan. ``pick.timing`` times the joint-space transport; the
     Cartesian approach, lift and retreat always use TOPP-RA through their dense IK waypoints
-    (offline Ruckig would stop at every waypoint), at ``CARTESIAN_SPEED_SCALE``."""
+    (offline Ruckig would stop at every waypoint), at ``speed_scale`` capped at
+    ``CARTESIAN_SPEED_SCALE``."""
     robot = scene.robot
     names = scene.arms[arm].active_names
     limits = TimingLimits(
@@ -49,7 +51,7 @@ def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict
             waypoints,
             limits.velocity,
             limits.acceleration,
-            limits.speed_scale * CARTESIAN_SPEED_SCALE,
+            min(limits.speed_scale, CARTESIAN_SPEED_SCALE),
             gridpoints=TOPPRA_GRIDPOINTS,
             joint_names=names,
             label=label,

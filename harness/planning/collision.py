@@ -11,13 +11,16 @@ contacts. What counts as a collision depends on the phase of the motion:
 - ``approach`` (pre-grasp -> grasp): the same, except the picking arm's fingers may touch the
   target object (a palm pressing on it would stop the hand short of the grasp);
 - ``carry`` (lift and return, the object in the hand): the same, except nothing of the robot
-  is checked against the target object.
+  is checked against the target object; where the world attaches it (``attach``, the
+  reference's ``attach_obj``), the target rides in the hand and is checked against the rest of
+  the world.
 
 What the planning world holds is set per episode (``sync``, a ``PlanningWorld`` that
 ``harness.pick.semantics.Semantics.planning_world`` decides): the table (out under reference
-semantics, as the reference's default ignore list leaves it out, quirk 21; in under strict) and
-the target object (always in; the reference removes it while planning the pre-grasp and the
-grasp, docs/reference-pick-skill.md section 6).
+semantics, as the reference's default ignore list leaves it out, quirk 21; in under strict),
+the target object (out under reference for the transport and the approach, as its pick removes
+it with ``update_specific``; attached to the hand for the carry: ``attach``), and the robot
+(under reference only the planned arm counts, against the environment and itself).
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from harness.planning.world import PlanningWorld
+from harness.planning.world import ATTACH_OFFSET, PlanningWorld
 from harness.sim.masks import TABLE_BIT, refresh_body_masks
 from harness.sim.scene import Scene
 
@@ -45,7 +48,11 @@ class CollisionChecker:
         self.handles = scene.arms[arm]
         m = self.model
         self.robot = scene.robot_geom.copy()
-        self.moving = scene.robot_geom & ~scene.static_robot_geom
+        self.moving_all = scene.robot_geom & ~scene.static_robot_geom
+        self.moving = self.moving_all
+        # The planned arm's geoms (its base body's subtree): its self-collision model.
+        self.arm_geom = scene.geom_arm == list(scene.arms).index(arm)
+        self.robot_pairs_all = True
         self.finger = self.handles.finger_geom_side >= 0
         self.geom_object = scene.geom_object
         self.geom_body = m.geom_bodyid.copy()
@@ -56,6 +63,10 @@ class CollisionChecker:
         self.ignored_geom = np.zeros(m.ngeom, dtype=bool)  # geoms of ignored objects
         self.allowed: set[tuple[int, int]] = set()
         self.checks = 0
+        self.attach_target = False
+        self.target_qpos_adr = -1
+        self.target_qpos0 = np.zeros(7)
+        self.T_ee_target: np.ndarray | None = None  # the attached target in the EE frame
 
     def sync(self, world: PlanningWorld) -> None:
         """Copy the scene's current state (robot root, all joints, objects) into the checker and
@@ -84,11 +95,18 @@ class CollisionChecker:
         refresh_body_masks(self.model)
         self.check_table = world.check_table
         self.check_target = world.check_target
+        self.attach_target = world.attach_target
+        self.T_ee_target = None
+        self.robot_pairs_all = world.whole_robot
+        self.moving = self.moving_all if world.whole_robot else self.moving_all & self.arm_geom
         src, dst = self.scene.data, self.data
         dst.qpos[:] = src.qpos
         dst.mocap_pos[:] = src.mocap_pos
         dst.mocap_quat[:] = src.mocap_quat
         self.target_index = self.scene.object_names.index(world.target)
+        target = self.scene.objects[world.target]
+        self.target_qpos_adr = target.qpos_adr
+        self.target_qpos0 = src.qpos[target.qpos_adr : target.qpos_adr + 7].copy()
         ignored = [
             index
             for index, name in enumerate(self.scene.object_names)
@@ -99,6 +117,48 @@ class CollisionChecker:
         q_now = src.qpos[self.handles.active_qpos].copy()
         self.allowed = set(self.contacts(q_now, "transport"))
 
+    def attach(self, q_grasp: np.ndarray) -> None:
+        """Attach the target to the hand at the grasp configuration ``q_grasp`` for the carry
+        (``PlanningWorld.attach_target``): its pose in the EE frame, taken as if it lay
+        ``ATTACH_OFFSET`` higher along the arm base's z (the reference's ``attach_obj``)."""
+        if not self.attach_target:
+            return
+        m, d = self.model, self.data
+        d.qpos[self.target_qpos_adr : self.target_qpos_adr + 7] = self.target_qpos0
+        d.qpos[self.handles.active_qpos] = q_grasp
+        mujoco.mj_kinematics(m, d)
+        T_world_ee = _body_T(d, self.handles.ee_body)
+        base_z = d.xmat[self.handles.base_body].reshape(3, 3)[:, 2]
+        T_world_ee[:3, 3] -= ATTACH_OFFSET * base_z  # offset^-1 * T_world_ee
+        T_world_target = _body_T(
+            d, self.scene.objects[self.scene.object_names[self.target_index]].body_id
+        )
+        self.T_ee_target = np.linalg.inv(T_world_ee) @ T_world_target
+
+    def detach(self) -> None:
+        """The target lies where it was synced (the transport and approach planning world)."""
+        self.T_ee_target = None
+
+    def _place_target(self, carried: bool) -> None:
+        """Put the target where this query sees it: in the hand for an attached carry (the EE
+        pose must be current in ``data``), else where it was synced."""
+        d = self.data
+        adr = self.target_qpos_adr
+        if adr < 0:
+            return
+        if carried and self.T_ee_target is not None:
+            T = _body_T(d, self.handles.ee_body) @ self.T_ee_target
+            body = self.scene.objects[self.scene.object_names[self.target_index]].body_id
+            # The free joint's qpos is its body's pose when the body has no offset frame.
+            T_body_joint = np.linalg.inv(_body_T(d, body)) @ _qpos_T(d.qpos[adr : adr + 7])
+            T = T @ T_body_joint
+            d.qpos[adr : adr + 3] = T[:3, 3]
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, T[:3, :3].reshape(-1))
+            d.qpos[adr + 3 : adr + 7] = quat
+        else:
+            d.qpos[adr : adr + 7] = self.target_qpos0
+
     def contacts(
         self, q_active: np.ndarray, phase: Phase, tolerance: float | None = None
     ) -> list[tuple[int, int]]:
@@ -106,6 +166,11 @@ class CollisionChecker:
         ``tolerance`` (default: the checker's planning tolerance)."""
         m, d = self.model, self.data
         d.qpos[self.handles.active_qpos] = q_active
+        carried = phase == "carry" and self.attach_target and self.T_ee_target is not None
+        if self.target_qpos_adr >= 0 and self.attach_target:
+            if carried:
+                mujoco.mj_kinematics(m, d)
+            self._place_target(carried)
         mujoco.mj_kinematics(m, d)
         mujoco.mj_collision(m, d)
         self.checks += 1
@@ -135,8 +200,16 @@ class CollisionChecker:
             )
             env_hit &= ~on_target
         env_hit &= ~(self.ignored_geom[g1] | self.ignored_geom[g2])
-        robot_pair = robot[g1] & robot[g2]
+        if not self.robot_pairs_all:  # the planned arm's self-collision model only
+            robot_pair = self.arm_geom[g1] & self.arm_geom[g2]
+        else:
+            robot_pair = robot[g1] & robot[g2]
         hits = deep & (env_hit | robot_pair)
+        if carried:  # the attached target against the environment (not the robot)
+            target1 = obj[g1] == self.target_index
+            target2 = obj[g2] == self.target_index
+            outside = ~robot & ~self.ignored_geom & (obj != self.target_index)
+            hits |= deep & ((target1 & outside[g2]) | (target2 & outside[g1]))
         out = []
         for i in np.flatnonzero(hits):
             a, b = int(g1[i]), int(g2[i])
@@ -164,6 +237,23 @@ class CollisionChecker:
             f"{m.body(int(m.geom_bodyid[a])).name}/{m.body(int(m.geom_bodyid[b])).name}"
             for a, b in pairs
         )
+
+
+def _body_T(data: mujoco.MjData, body: int) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = data.xmat[body].reshape(3, 3)
+    T[:3, 3] = data.xpos[body]
+    return T
+
+
+def _qpos_T(qpos: np.ndarray) -> np.ndarray:
+    """A free joint's 7 qpos values (position, wxyz) as a 4x4 transform."""
+    T = np.eye(4)
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(qpos[3:7], dtype=float))
+    T[:3, :3] = mat.reshape(3, 3)
+    T[:3, 3] = qpos[:3]
+    return T
 
 
 def _van_der_corput_order(n: int) -> list[int]:

@@ -13,9 +13,9 @@ Feasibility of one candidate (``test_mode``, docs/reference-pick-skill.md sectio
   pre-grasp (direct interpolation first, RRT-Connect within a sample budget otherwise), the
   straight Cartesian approach to the grasp, and the lift (and the return to the pre-grasp when
   asked). The plan found is the one executed. The reference plans the pre-grasp and the grasp,
-  each from the current state, and never the lift; the episode can test without the carry and
-  plan it (``plan_carry``) for the chosen candidate alone
-  (``harness.pick.semantics.FORWARD_TEST_PLANS_CARRY``, docs/semantics.md).
+  each from the current state, and never the lift: under ``semantics: reference`` the test
+  leaves the carry out and it is planned (``plan_carry``) for the chosen candidate alone
+  (``Semantics.test_carry``, docs/semantics.md).
 
 Selection: ``reference`` semantics take the first feasible candidate in order, else proceed
 with the last one tested; ``strict`` semantics stop with ``no_feasible_candidate``.
@@ -283,6 +283,15 @@ class PickPlanner:
         ``T_world_lift`` (if any) and, with ``return_to_pregrasp``, the line back to the
         pre-grasp the transport reached. Returns (the extended plan, "", "") or (None, stage,
         why) with stage ``lift`` or ``return``. Deterministic (no random restarts)."""
+        self.checker.attach(plan.approach[-1])  # the target in the hand (when the world says)
+        try:
+            return self._carry(plan, T_world_lift, return_to_pregrasp)
+        finally:
+            self.checker.detach()
+
+    def _carry(
+        self, plan: ChainPlan, T_world_lift: np.ndarray | None, return_to_pregrasp: bool
+    ) -> tuple[ChainPlan | None, str, str]:
         lift = None
         retreat = None
         q_end = plan.approach[-1]

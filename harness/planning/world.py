@@ -19,6 +19,14 @@ class PlanningWorld:
     approach). ``table_clearance`` (m): coming closer than this to the table is a collision.
     ``ignore_substring``: other objects whose name contains one of these are left out.
     ``hold_lift``: a lift joint stays at its current value for every IK solve and path.
+    ``attach_target``: once the grasp is reached, the carry (lift, return) moves the target
+    with the end effector, ``ATTACH_OFFSET`` higher than it lies (the reference's
+    ``attach_obj``), and checks it against the rest of the planning world.
+    ``whole_robot``: every robot part is in the planning world (other arm, lift carriage,
+    base) and every robot-robot contact counts; False keeps only the planned arm: its parts
+    against the environment and against each other (the reference leaves the robot out of
+    its world and checks the arm's own self-collision model).
+    ``rule``: the name of the rule that built this world (the row's ``planning_world``).
     """
 
     target: str
@@ -27,3 +35,13 @@ class PlanningWorld:
     table_clearance: float = 0.0
     ignore_substring: tuple[str, ...] = ()
     hold_lift: bool = False
+    attach_target: bool = False
+    whole_robot: bool = True
+    rule: str = ""
+
+
+# The reference attaches the grasped object to the planner's robot model 1 cm above where it
+# lies (template_controller.py attach_obj: cuRobo ``attach_objects_to_robot`` with
+# ``world_objects_pose_offset`` (0, 0, 0.01) in the planning frame), so the lifted object does
+# not start in contact with the surface it stood on.
+ATTACH_OFFSET = 0.01

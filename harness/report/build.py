@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.files import write_atomic
+from harness.files import refuse_planted_links, write_atomic
 from harness.report import failure_groups
 from harness.report.episode_sections import (
     errors_table,
@@ -51,6 +51,22 @@ SUMMARY_NAME = "summary.csv"
 
 
 BEST_NAME = "best.csv"
+# Everything ``build_report`` writes (with ``export``, the episode tables too; with ``videos``,
+# replays that log to MuJoCo's log), and the run's recording.
+REPORT_OUTPUTS = (
+    "MUJOCO_LOG.TXT",
+    "recording.rrd",
+    SUMMARY_NAME,
+    BEST_NAME,
+    "plots",
+    "videos",
+    "report.md",
+    "report.html",
+    "episodes.csv",
+    "episodes.parquet",
+    ".episodes.csv.tmp",
+    ".episodes.parquet.tmp",
+)
 
 
 @dataclass(frozen=True)
@@ -99,6 +115,7 @@ def build_report(
     work per clip).
     """
     run_dir = Path(run_dir)
+    refuse_planted_links(run_dir, REPORT_OUTPUTS)  # a write must never follow a planted link
     frame = load_episodes(run_dir)
     if export and (run_dir / JSONL_NAME).is_file():
         ResultStore(run_dir).export()

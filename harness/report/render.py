@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.markdown import markdown_table
+from harness.markdown import markdown_table, markdown_text
 from harness.report.sections import Table, overview
 from harness.report.videos import Clip
 
@@ -36,21 +36,23 @@ def render_markdown(
     plots: dict[str, Path],
     clips: Sequence[Clip] = (),
 ) -> str:
-    lines = [f"# pick-harness report: {run_dir.name}", ""]
-    lines += [f"- **{key}**: {value}" for key, value in overview(run_dir, frame)]
+    lines = [f"# pick-harness report: {markdown_text(run_dir.name)}", ""]
+    lines += [f"- **{key}**: {markdown_text(value)}" for key, value in overview(run_dir, frame)]
     lines.append("")
     for table in tables:
-        lines += [f"## {table.title}", ""]
+        lines += [f"## {markdown_text(table.title)}", ""]
         if table.note:
-            lines += [table.note, ""]
+            lines += [markdown_text(table.note), ""]
         lines += markdown_table(table.header, _markdown_rows(table))
         lines.append("")
     if clips:
         lines += ["## Videos (one success and one failure per robot arm, replayed)", ""]
         for clip in clips:
-            head = f"{clip.robot} {clip.arm} {clip.object}, {clip.outcome}: {clip.episode_id}"
+            head = markdown_text(
+                f"{clip.robot} {clip.arm} {clip.object}, {clip.outcome}: {clip.episode_id}"
+            )
             body = f"[{clip.path}]({clip.path})" if clip.path else "no video"
-            note = f" ({clip.note})" if clip.note else ""
+            note = f" ({markdown_text(clip.note)})" if clip.note else ""
             lines.append(f"- {head} (seed {clip.seed}): {body}{note}")
         lines.append("")
     if plots:

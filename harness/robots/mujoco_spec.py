@@ -185,7 +185,8 @@ def _add_gripper(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
         driven,
         arm.gripper.kp,
         arm.gripper.kv,
-        (arm.finger_closed_position, arm.finger_open_position),
+        # down to the squeeze target: a force-controlled grasp drives past the closed width
+        (arm.finger_squeeze_position, arm.finger_open_position),
     )
     # Finger 1's servo squeezes against finger 2 held by the coupling: each pad presses with
     # half the servo force, so the grasp force limit is half the servo's force range.

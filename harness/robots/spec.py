@@ -63,10 +63,25 @@ class GripperActuator(_Strict):
     pad_friction: Positive = Field(
         default=1.0, description="Sliding friction of the finger collision geoms (pads)."
     )
+    grasp: Literal["force", "position"] = Field(
+        default="force",
+        description="force: closing drives the fingers until each pad presses with "
+        "force_limit, whatever the object's width (a force-controlled grasp: Franka Hand "
+        "grasp(), the Piper and ARX SDKs' effort-limited close); position: the servo's "
+        "target is the closed width, so it presses kp * w / 4 per pad on an object of width w.",
+    )
+
+    def squeeze_position(self, closed_position: float) -> float:
+        """The servo target (per-finger opening, m) that closing ends at: the closed position,
+        or under ``force`` below it by enough that the servo saturates at its force range
+        (2 x force_limit) wherever the fingers stop, plus 1 mm."""
+        if self.grasp == "position":
+            return closed_position
+        return closed_position - 2.0 * self.force_limit / self.kp - 1e-3
 
 
 GRIPPER_FIELDS = ("kp", "kv", "force_limit", "damping", "armature", "frictionloss", "speed",
-                  "pad_friction")  # fmt: skip
+                  "pad_friction", "grasp")  # fmt: skip
 
 
 class GripperVariant(_Strict):
@@ -83,6 +98,7 @@ class GripperVariant(_Strict):
     frictionloss: NonNegative | None = None
     speed: Positive | None = None
     pad_friction: Positive | None = None
+    grasp: Literal["force", "position"] | None = None
 
 
 class ArmSpec(_Strict):
@@ -131,6 +147,11 @@ class ArmSpec(_Strict):
     def finger_closed_position(self) -> float:
         """Per-finger joint value of the closed gripper (m)."""
         return self.closed_width / 2.0
+
+    @property
+    def finger_squeeze_position(self) -> float:
+        """The gripper servo's target when closing ends (``GripperActuator.squeeze_position``)."""
+        return self.gripper.squeeze_position(self.finger_closed_position)
 
 
 class LiftSpec(_Strict):

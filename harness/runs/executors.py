@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
+from harness.files import WRITE_TIMEOUT_S
 from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.worker import error_row, execute
 
@@ -33,12 +35,6 @@ OnResult = Callable[[dict[str, Any]], None]
 # A worker that dies mid-episode (segfault, OOM kill) gets its episode run again this many
 # times before the episode is stored as an ``error`` row.
 CRASH_RETRIES = 1
-# Ray (2.60) cannot be held to loopback: ray.init turns 127.0.0.1 into the node's address
-# (services.resolve_ip_for_localhost) and its gRPC servers listen on every interface.
-RAY_NETWORK_NOTE = (
-    "note: a local Ray listens on all interfaces (gcs_server, raylet, its workers; Ray's token "
-    "authentication guards them); on an untrusted network use --backend process (no ports)"
-)
 
 
 @dataclass
@@ -73,16 +69,20 @@ def run_serial(
 
 def _worker_main(conn: Connection, run_dir: str, record: str, share: bool) -> None:
     """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     while True:
         try:
             episode = conn.recv()
-        except EOFError:
+        except (EOFError, OSError):  # the parent is gone: nothing to report to
             return
         if episode is None:
             return
-        conn.send(execute(episode, run_dir, record, share))
+        row = execute(episode, run_dir, record, share)
+        try:
+            conn.send(row)
+        except (BrokenPipeError, OSError):  # the parent was killed mid-episode
+            return
 
 
 @dataclass
@@ -91,6 +91,14 @@ class _Worker:
     conn: Connection
     episode: EpisodeSpec | None = None
     group: list[EpisodeSpec] = field(default_factory=list)  # the rest of its share group
+    deadline: float = math.inf  # monotonic time past which the worker is killed
+
+
+# A worker still busy this long after its episode's ``limits.wall_time_s`` is killed and the
+# episode stored as ``timeout`` (the episode's own checks and alarm end it at the limit; this
+# is the backstop for code that neither checks nor lets the alarm in, e.g. a long C call). The
+# grace covers the recording write after the episode (bounded by files.WRITE_TIMEOUT_S).
+KILL_GRACE_S = WRITE_TIMEOUT_S + 30.0
 
 
 @contextlib.contextmanager
@@ -175,9 +183,45 @@ class _ProcessPool:
             episode = worker.group.pop() if worker.group else None
         worker.episode = episode
         if episode is None:
+            worker.deadline = math.inf
             return False
+        # A shared episode that must be recorded runs twice (the second time for its trace),
+        # each run under the limit.
+        runs = 2 if self.share and (episode.record or self.record == "failures") else 1
+        limit = runs * episode.task.limits.wall_time_s
+        worker.deadline = time.monotonic() + limit + KILL_GRACE_S
         worker.conn.send(episode)
         return True
+
+    def next_deadline(self) -> float | None:
+        """Seconds until the first busy worker's kill deadline (None: no busy worker)."""
+        deadlines = [w.deadline for w in self.workers if w.episode is not None]
+        return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+
+    def kill_overdue(self) -> None:
+        """Kill each worker past its episode's deadline; the episode is a ``timeout`` row and
+        the rest of its share group goes to the next free worker (nothing else is lost)."""
+        now = time.monotonic()
+        overdue = [w for w in self.workers if w.episode is not None and now > w.deadline]
+        for worker in overdue:
+            if worker.conn.poll():  # its row arrived meanwhile: collected on the next turn
+                continue
+            episode = worker.episode
+            assert episode is not None
+            worker.process.kill()
+            worker.process.join(timeout=5)
+            self.workers.remove(worker)
+            self.requeued.extend(reversed(worker.group))
+            limit = episode.task.limits.wall_time_s
+            row = error_row(
+                episode,
+                f"wall-clock limit of {limit:g} s reached: the worker was still busy "
+                f"{KILL_GRACE_S:g} s after it and was killed",
+            )
+            row["failure_reason"] = "timeout"
+            self.on_result(row)
+            self.stats.finished += 1
+            self.start()
 
     def collect(self, worker: _Worker, ready: list[Any]) -> None:
         """Take a busy worker's row if it sent one, or replace it if it died."""
@@ -253,9 +297,12 @@ def run_process_pool(
             pool.start()
         while any(w.episode is not None for w in pool.workers):
             busy = [w for w in pool.workers if w.episode is not None]
-            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
+            handles = [w.conn for w in busy] + [w.process.sentinel for w in busy]
+            ready = wait(handles, timeout=pool.next_deadline())
             for worker in busy:
-                pool.collect(worker, ready)
+                if worker in pool.workers:
+                    pool.collect(worker, ready)
+            pool.kill_overdue()
     except KeyboardInterrupt:
         stats.interrupted = True
     finally:
@@ -277,8 +324,8 @@ def run_ray(
     restarted and its episode run again ``CRASH_RETRIES`` times (Ray's ``max_task_retries``)
     before it becomes an error row. Share groups are submitted back to back; a free actor takes
     the next episode, so a group may spread over actors (each shares what it holds). A locally
-    started Ray cannot be bound to loopback (docs/reliability.md, "Network"): it is started
-    without the dashboard, and the process backend is the one that opens no port."""
+    started Ray listens on 127.0.0.1 only, without the dashboard, and a watchdog ends it if
+    this process dies (``harness.runs.ray_local``; docs/reliability.md, "Network")."""
     try:
         import ray
     except ImportError as exc:  # pragma: no cover - depends on the extra
@@ -288,13 +335,28 @@ def run_ray(
             "the ray backend needs the 'ray' extra: pip install 'pick-harness[ray]'"
         ) from exc
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        if address:
-            ray.init(address=address, log_to_driver=False)
-        else:
-            print(RAY_NETWORK_NOTE, file=sys.stderr)
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    with contextlib.ExitStack() as stack:
+        if not ray.is_initialized():
+            if address:
+                ray.init(address=address, log_to_driver=False)
+                stack.callback(ray.shutdown)
+            else:  # on 127.0.0.1 only, and gone with this process (harness.runs.ray_local)
+                from harness.runs.ray_local import local_ray
+
+                stack.enter_context(local_ray(workers))
+        return _run_on_ray(ray, episodes, run_dir, record, on_result, workers, share)
+
+
+def _run_on_ray(
+    ray: Any,
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    workers: int,
+    share: bool,
+) -> RunStats:
+    """The episodes on actors of an initialised Ray (see ``run_ray``)."""
 
     @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:
@@ -332,9 +394,6 @@ def run_ray(
         stats.interrupted = True
         for ref in in_flight:
             ray.cancel(ref, force=True)
-    finally:
-        if started_here:
-            ray.shutdown()
     stats.wall_time_s = time.perf_counter() - start
     return stats
 

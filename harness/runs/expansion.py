@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import itertools
+import json
 import sys
 import time
 from pathlib import Path
@@ -123,7 +124,8 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
             for values in itertools.product(*(sweep.axes[k] for k in keys))
         ]
     rng = np.random.default_rng(np.random.SeedSequence([sweep.seed, 0x5EED]))
-    points = []
+    points: list[dict[str, Any]] = []
+    seen: set[str] = set()
     for _ in range(sweep.points):
         point: dict[str, Any] = {}
         for key, axis in sweep.random_axes.items():
@@ -132,7 +134,16 @@ def sweep_points(sweep: SweepConfig) -> list[dict[str, Any]]:
             else:
                 assert axis.low is not None and axis.high is not None  # RandomAxis: one form
                 point[key] = float(rng.uniform(axis.low, axis.high))
-        points.append(point)
+        identity = json.dumps(point, sort_keys=True, default=str)  # as the episode id sees it
+        if identity not in seen:  # a repeated draw would share episode ids: run it once
+            seen.add(identity)
+            points.append(point)
+    if len(points) < sweep.points:
+        print(
+            f"note: sweep {sweep.name!r}: {sweep.points} random draws gave {len(points)} "
+            f"distinct points (random_axes with choices repeat); each distinct point runs once",
+            file=sys.stderr,
+        )
     return points
 
 
@@ -256,6 +267,13 @@ def expand(
                     )
                 )
     report.done()
+    ids = {e.resolved_id for e in episodes}
+    if len(ids) != len(episodes):  # a row per id: a repeated id would silently drop rows
+        raise ConfigError(
+            f"{len(episodes) - len(ids)} episode(s) repeat another's id (identical points)",
+            file=sweep_path,
+            key="axes",
+        )
     if sweep.record.startswith("sample:"):
         chosen = select_samples(episodes, int(sweep.record.split(":")[1]))
         episodes = [dataclasses.replace(e, record=e.resolved_id in chosen) for e in episodes]

@@ -26,11 +26,14 @@ from harness.runs.safety import (
     record_sweep_hash,
     refuse_symlinks,
     safe_file_name,
+    sweep_hash,
+    with_hash_header,
 )
 from harness.runs.store import CSV_NAME, JSONL_NAME, PARQUET_NAME, ResultStore
 from harness.runs.worker import DISK_FULL_PREFIX, recording_disk_full
 
 SWEEP_YAML = "sweep.yaml"
+LOG_NAME = "MUJOCO_LOG.TXT"  # harness.sim.mujoco_log.LOG_NAME (not imported: loads MuJoCo)
 # Everything a run writes at its top level: a planted symlink among them is refused. The report's
 # and the recording's names are spelled here (importing them would load matplotlib and rerun).
 RUN_OUTPUTS = (
@@ -46,6 +49,9 @@ RUN_OUTPUTS = (
     "episodes",
     "plots",
     "videos",
+    "audit",
+    "tune",
+    LOG_NAME,
 )
 
 
@@ -65,6 +71,7 @@ class RunDir:
         self.path = path
         self.store = ResultStore(path)
         self.lock = RunLock(path)
+        self.config_sha256: str | None = None  # stored in every row this process appends
 
     @staticmethod
     def default_path(name: str) -> Path:
@@ -79,8 +86,13 @@ class RunDir:
         if not run.sweep_yaml.is_file():
             raise ConfigError("not a run directory (no sweep.yaml)", file=path)
         refuse_symlinks(path, RUN_OUTPUTS)
-        check_sweep_hash(path, run.sweep_yaml, force)
         run.lock.acquire()
+        try:
+            hashes = (str(row.get("config_sha256") or "") for row in run.store.rows())
+            run.config_sha256 = check_sweep_hash(path, run.sweep_yaml, force, hashes)
+        except BaseException:
+            run.lock.release()
+            raise
         return run
 
     @property
@@ -94,15 +106,21 @@ class RunDir:
     def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
         """Write ``sweep.yaml`` and lock the directory for this process; a directory that
         already holds a run raises ``taken``, one with symlinked outputs is refused."""
+        if self.path.exists() and not self.path.is_dir():
+            raise ConfigError(
+                "is not a directory (a run directory is a folder; give a new or empty one)",
+                file=self.path,
+            )
         if self.path.exists():
             refuse_symlinks(self.path, RUN_OUTPUTS)
         self.lock.acquire()
         if self.sweep_yaml.exists():
             self.lock.release()
             raise ConfigError(taken, file=self.path)
-        text = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
-        self.sweep_yaml.write_text(text, encoding="utf-8")
+        body = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
+        self.sweep_yaml.write_text(with_hash_header(body), encoding="utf-8")
         record_sweep_hash(self.path, self.sweep_yaml)
+        self.config_sha256 = sweep_hash(self.sweep_yaml)
 
     def write_notes(self, notes: list[str]) -> Path:
         """The InternDataEngine mapping notes (skipped skills, ignored keys, approximations)."""
@@ -116,6 +134,8 @@ class RunDir:
     def append(self, row: dict[str, Any]) -> None:
         """Store one episode's row (crash-safe). A full disk (writing the row, or the row's
         recording) stops the run with ``DiskFullError`` once every row that fits is stored."""
+        if self.config_sha256 is not None:
+            row = {**row, "config_sha256": self.config_sha256}
         try:
             self.store.append(row)
         except OSError as exc:

@@ -12,27 +12,17 @@ from __future__ import annotations
 import fcntl
 import hashlib
 import os
-import re
 from collections.abc import Iterable
 from pathlib import Path
 from typing import IO
 
 from harness.config import ConfigError
+from harness.files import planted_link, safe_file_name
+
+__all__ = ["RunLock", "inside", "refuse_symlinks", "safe_file_name"]
 
 LOCK_NAME = ".lock"
 HASH_NAME = ".sweep.sha256"
-_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
-MAX_NAME = 120
-
-
-def safe_file_name(name: str, suffix: str = "") -> str:
-    """A file name made from ``name`` that cannot leave its folder (no ``/``, ``..`` or control
-    characters); a short hash of the original keeps distinct names distinct."""
-    slug = _UNSAFE.sub("_", name).strip("._") or "unnamed"
-    if slug != name or len(slug) > MAX_NAME:
-        digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:10]
-        slug = f"{slug[:MAX_NAME]}-{digest}"
-    return slug + suffix
 
 
 def inside(run_dir: Path, path: Path) -> Path:
@@ -45,37 +35,84 @@ def inside(run_dir: Path, path: Path) -> Path:
 
 
 def refuse_symlinks(run_dir: Path, outputs: Iterable[str]) -> None:
-    """A run directory whose ``outputs`` (top-level names a run writes) include a symlink is
-    refused (a write would follow it)."""
-    if run_dir.is_symlink():
+    """A run directory whose ``outputs`` (top-level names a run writes, and the files inside
+    those that are folders) include a symlink is refused (a write would follow it)."""
+    link = planted_link(run_dir, (*outputs, LOCK_NAME, HASH_NAME))
+    if link == run_dir:
         raise ConfigError("the run directory is a symlink; give its real path", file=run_dir)
-    for name in (*outputs, LOCK_NAME, HASH_NAME):
-        if (run_dir / name).is_symlink():
-            raise ConfigError(
-                f"{name} in the run directory is a symlink; remove it (a run never follows one)",
-                file=run_dir,
-            )
+    if link is not None:
+        raise ConfigError(
+            f"{link.relative_to(run_dir)} in the run directory is a symlink; remove it (a run "
+            "never follows one)",
+            file=run_dir,
+        )
+
+
+HEADER_PREFIX = "# config_sha256: "
+
+
+def with_hash_header(body: str) -> str:
+    """``sweep.yaml`` text: a comment line with the sha256 of the body, then the body. The hash
+    travels with the file (``cp run/*`` drops ``.sweep.sha256``), so an edit is detectable."""
+    return f"{HEADER_PREFIX}{body_hash(body)}\n{body}"
+
+
+def body_hash(body: str) -> str:
+    return hashlib.sha256(body.encode("utf-8")).hexdigest()
+
+
+def split_header(text: str) -> tuple[str | None, str]:
+    """(the hash the header line records, or None, the body)."""
+    if text.startswith(HEADER_PREFIX):
+        first, _, body = text.partition("\n")
+        return first.removeprefix(HEADER_PREFIX).strip(), body
+    return None, text
 
 
 def sweep_hash(sweep_yaml: Path) -> str:
-    return hashlib.sha256(sweep_yaml.read_bytes()).hexdigest()
+    """The configuration hash of a run's ``sweep.yaml``: its body's sha256 (header excluded)."""
+    return body_hash(split_header(sweep_yaml.read_text(encoding="utf-8"))[1])
 
 
 def record_sweep_hash(run_dir: Path, sweep_yaml: Path) -> None:
     (run_dir / HASH_NAME).write_text(sweep_hash(sweep_yaml) + "\n", encoding="utf-8")
 
 
-def check_sweep_hash(run_dir: Path, sweep_yaml: Path, force: bool) -> None:
-    """``--resume`` of an edited ``sweep.yaml`` is refused unless ``force``."""
-    stored = run_dir / HASH_NAME
-    if force or not stored.is_file():
-        return
-    if stored.read_text(encoding="utf-8").strip() != sweep_hash(sweep_yaml):
+EDITED = (
+    "resuming would mix two configurations in one table (start a new run, or pass --force to "
+    "resume anyway)"
+)
+
+
+def check_sweep_hash(
+    run_dir: Path, sweep_yaml: Path, force: bool, row_hashes: Iterable[str] = ()
+) -> str:
+    """The configuration hash of ``sweep.yaml``; ``--resume`` of an edited one is refused
+    unless ``force``. Three witnesses, any one suffices: the header line of ``sweep.yaml``, the
+    ``.sweep.sha256`` file and the ``config_sha256`` of every stored row."""
+    header, body = split_header(sweep_yaml.read_text(encoding="utf-8"))
+    current = body_hash(body)
+    if force:
+        return current
+    if header is not None and header != current:
         raise ConfigError(
-            "sweep.yaml changed since the run was created; resuming would mix two "
-            "configurations in one table (start a new run, or pass --force to resume anyway)",
+            f"sweep.yaml changed since the run was created (its config_sha256 header line "
+            f"differs from its body); {EDITED}",
             file=sweep_yaml,
         )
+    stored = run_dir / HASH_NAME
+    if stored.is_file() and stored.read_text(encoding="utf-8").strip() != current:
+        raise ConfigError(
+            f"sweep.yaml changed since the run was created; {EDITED}", file=sweep_yaml
+        )
+    others = {h for h in row_hashes if h and h != current}
+    if others:
+        raise ConfigError(
+            f"sweep.yaml changed since the run was created: stored rows have config_sha256 "
+            f"{sorted(others)[0][:12]}..., sweep.yaml now {current[:12]}...; {EDITED}",
+            file=sweep_yaml,
+        )
+    return current
 
 
 class RunLock:

@@ -19,7 +19,7 @@ from typing import Any
 from harness.config import ConfigError, SweepConfig, load_sweep
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
-from harness.runs.limits import MAX_EPISODES, check_sweep_size
+from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
 from harness.runs.preflight import check_tasks
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
@@ -69,12 +69,14 @@ def run_sweep(
     retry_errors: bool = False,
     share: bool | None = None,
     engine: str = "mujoco",
+    max_points: int | None = MAX_POINTS,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
-    ``max_episodes`` refuses larger sweeps before expanding them; ``retry_errors`` runs the
+    ``max_episodes`` / ``max_points`` refuse larger sweeps before expanding them (``None``
+    points: no limit, for the generated grids of ``harness tune``); ``retry_errors`` runs the
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
     differ only in selection keys; the rows are the same either way); ``engine`` executes the
@@ -91,7 +93,7 @@ def run_sweep(
             sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
-        check_sweep_size(sweep, len(tasks), max_episodes)
+        check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)
         episodes = expand(sweep, source, tasks, progress=progress)
         check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:

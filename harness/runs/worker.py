@@ -108,6 +108,19 @@ def recording_disk_full(row: dict[str, Any]) -> bool:
 
 FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"
 FAULT_ONCE_ENV = "PICK_HARNESS_INJECT_SEGFAULT_ONCE"
+HANG_ENV = "PICK_HARNESS_INJECT_HANG"
+
+
+def _inject_hang(episode_id_: str) -> None:
+    """Fault injection for the pool's per-episode kill: when ``PICK_HARNESS_INJECT_HANG`` names
+    this episode id, hang with SIGALRM blocked, as a long C call that never returns would."""
+    if episode_id_ not in os.environ.get(HANG_ENV, "").split(","):
+        return
+    import signal
+
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})
+    while True:
+        time.sleep(3600)
 
 
 def _inject_fault(episode_id_: str) -> None:
@@ -116,6 +129,7 @@ def _inject_fault(episode_id_: str) -> None:
     Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list);
     with ``PICK_HARNESS_INJECT_SEGFAULT_ONCE=DIR`` only on its first attempt (a marker in DIR).
     """
+    _inject_hang(episode_id_)
     targets = os.environ.get(FAULT_ENV, "")
     if not targets or episode_id_ not in targets.split(","):
         return

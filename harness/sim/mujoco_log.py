@@ -11,6 +11,8 @@ from pathlib import Path
 
 import mujoco
 
+from harness.files import refuse_planted_links
+
 LOG_NAME = "MUJOCO_LOG.TXT"
 
 
@@ -18,6 +20,7 @@ def log_mujoco_to(run_dir: Path) -> Path:
     """Send this process's MuJoCo log to ``run_dir/MUJOCO_LOG.TXT``; returns that path."""
     path = Path(run_dir).resolve() / LOG_NAME
     path.parent.mkdir(parents=True, exist_ok=True)  # MuJoCo does not create folders
+    refuse_planted_links(path.parent, [LOG_NAME])  # MuJoCo would append to a link's target
     config = mujoco.MjLogConfig.get()
     if config.logfile != str(path):
         config.logfile = str(path)

@@ -32,8 +32,9 @@ import pandas as pd
 
 from harness.config import TaskConfig, apply_overrides
 from harness.errors import HarnessError
+from harness.files import safe_child
 from harness.grasps.ee_poses import ee_poses_for_pick
-from harness.grasps.grasp_set import load_grasp_file
+from harness.grasps.grasp_set import load_grasp_file, read_grasp_array
 from harness.objects.assets import find_grasp_file, resolve_mesh
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import load_episodes
@@ -124,7 +125,7 @@ def audit_table(executed: pd.DataFrame, min_trials: int) -> pd.DataFrame:
     for key, group in executed.groupby(["object", "grasp_file", "grasp_row"]):
         obj, path, grasp = cast(tuple[Any, ...], key)
         if path not in widths:
-            widths[str(path)] = np.load(str(path))[:, 1]
+            widths[str(path)] = read_grasp_array(str(path))[:, 1]
         width = float(widths[str(path)][int(grasp)])
         successes = int(column(group, "success").sum())
         flagged = successes == 0 and len(group) >= min_trials
@@ -153,11 +154,11 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
     flagged = frame_of(table[column(table, "flagged")])
     for key, group in flagged.groupby(["object", "grasp_file"]):
         obj, path = cast(tuple[Any, ...], key)
-        data = np.load(str(path))
+        data = read_grasp_array(str(path))
         keep = np.ones(len(data), dtype=bool)
         keep[column(group, "grasp_row").to_numpy(np.int64)] = False
         out_dir.mkdir(parents=True, exist_ok=True)
-        target = out_dir / f"{obj}_cleaned.npy"
+        target = safe_child(out_dir, str(obj), "cleaned", suffix=".npy")
         np.save(target, data[keep])
         cleaned[str(path)] = target
     return cleaned

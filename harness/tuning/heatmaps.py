@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.patches import Rectangle
 
+from harness.files import safe_child
 from harness.report.frames import column, frame_of, series_rows
 from harness.tuning.analysis import filter_label
 
@@ -99,5 +100,9 @@ def write_heatmaps(
         title = f"{robot} {arm} arm, {obj}: {objective} success (n = {n} per cell)"
         best = (str(choice["approach"]), str(choice["facing"]))
         current = (str(choice["current_approach"]), str(choice["current_facing"]))
-        paths.append(heatmap(group, title, best, current, out_dir / f"{robot}_{arm}_{obj}.png"))
+        paths.append(
+            heatmap(
+                group, title, best, current, safe_child(out_dir, robot, arm, obj, suffix=".png")
+            )
+        )
     return paths

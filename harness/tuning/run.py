@@ -80,6 +80,7 @@ def tune(
             backend=backend,
             progress=progress,
             engine=engine,
+            max_points=None,  # the tune grid is generated and bounded by --step / --bands
         )
     finish_run(outcome.run_dir)
     if outcome.stats.interrupted:

@@ -13,6 +13,7 @@ import sys
 from types import ModuleType
 
 from harness.config.robot_registry import ROBOTS_DIR, available_robots
+from harness.files import safe_file_name
 from harness.robots.generator.collisions import collision_pairs
 from harness.robots.generator.shapes import Robot
 from harness.robots.generator.urdf_text import urdf_text
@@ -50,7 +51,7 @@ def write_robot(name: str, collisions: bool = True) -> None:
     """Write the URDF (and, unless told not to, collisions.json) of one robot folder."""
     robot = build_robot(name)
     folder = ROBOTS_DIR / name
-    urdf = folder / f"{name}.urdf"
+    urdf = folder / safe_file_name(name, ".urdf")  # a robot folder name is already a safe name
     urdf.write_text(urdf_text(robot))
     print(f"{name}: {len(robot.links)} links, {len(robot.joints)} joints")
     if not collisions:

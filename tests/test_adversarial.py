@@ -1,0 +1,645 @@
+"""Hostile and broken inputs, table-driven (issue 26): every input is refused with one line
+naming the file and the key and a non-zero exit, or it runs and stores rows without ``error``;
+nothing is written outside the run directory, no planted link is followed, nothing runs past
+its limits.
+
+Each case builds its input in ``tmp_path/work`` next to a ``victim`` file, runs the real CLI
+(in-process: ``harness.cli.main``, or a child process where the case needs one) and checks the
+three rules. The counts the issue asks for (tracebacks, hangs, exit 0 on broken input, outside
+writes, followed links, dropped rows) are each one of these assertions.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+
+from harness import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+FR3 = ROOT / "tasks" / "pick" / "fr3.yaml"
+CUBE_OBJ = ROOT / "tasks" / "objects" / "cube" / "cube.obj"
+CUBE_GRASPS = ROOT / "tasks" / "objects" / "cube" / "grasps.npy"
+VICTIM_TEXT = "precious"
+CASE_LIMIT_S = 60.0  # any case past this has hung (validate cases take well under a second)
+
+
+def task_data(**object_changes: object) -> dict:
+    data = yaml.safe_load(FR3.read_text(encoding="utf-8"))
+    data["objects"][0].update({"mesh": str(CUBE_OBJ), "grasps": str(CUBE_GRASPS)})
+    data["objects"][0].update(object_changes)
+    return data
+
+
+def write_yaml(path: Path, data: object) -> Path:
+    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def sweep_data(**changes: object) -> dict:
+    return {
+        "name": "adv",
+        "tasks": [str(FR3)],
+        "episodes_per_point": 1,
+        "record": "none",
+        **changes,
+    }
+
+
+# -- input builders: each returns the argv (after ``harness``) for its work folder ------------
+
+
+def fifo_task(work: Path) -> list[str]:
+    os.mkfifo(work / "t.yaml")
+    return ["validate", str(work / "t.yaml")]
+
+
+def dev_zero_task(work: Path) -> list[str]:
+    (work / "t.yaml").symlink_to("/dev/zero")
+    return ["validate", str(work / "t.yaml")]
+
+
+def fifo_sweep(work: Path) -> list[str]:
+    os.mkfifo(work / "s.yaml")
+    return ["sweep", str(work / "s.yaml"), "--out", str(work / "run")]
+
+
+def usd_file(work: Path, counts: str, indices: str, points: str, sub: str | None) -> Path:
+    layer = "" if sub is None else f"(\n    subLayers = [@./{sub}@]\n)\n"
+    text = (
+        f'#usda 1.0\n{layer}def Xform "World" {{\n  def Xform "Aligned" {{\n'
+        f'    def Mesh "m" {{\n      point3f[] points = [{points}]\n'
+        f"      int[] faceVertexCounts = [{counts}]\n      int[] faceVertexIndices = [{indices}]\n"
+        "    }\n  }\n}\n"
+    )
+    path = work / "m.usda"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+TETRA = "(0,0,0),(0.05,0,0),(0,0.05,0),(0,0,0.05)"
+TETRA_FACES = "0,2,1, 0,1,3, 0,3,2, 1,2,3"
+
+
+def usd_task(work: Path, **usd: str | None) -> list[str]:
+    args = {"counts": "3,3,3,3", "indices": TETRA_FACES, "points": TETRA, "sub": None, **usd}
+    mesh = usd_file(work, **args)  # type: ignore[arg-type]
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+
+
+def usd_fifo_sublayer(work: Path) -> list[str]:
+    os.mkfifo(work / "sub.usda")
+    return usd_task(work, sub="sub.usda")
+
+
+def huge_mesh(work: Path) -> list[str]:
+    mesh = work / "far.obj"
+    mesh.write_text(
+        "v 0 0 0\nv 1e31 0 0\nv 0 1e31 0\nv 0 0 1e31\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+
+
+def lying_npy(work: Path) -> list[str]:
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000, 17), }"
+    header = header.ljust(118) + "\n"
+    path = work / "g.npy"
+    path.write_bytes(b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode())
+    return ["validate", str(write_yaml(work / "t.yaml", task_data(grasps=str(path))))]
+
+
+def task_with(**changes: object) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        return ["validate", str(write_yaml(work / "t.yaml", task_data(**changes)))]
+
+    return build
+
+
+def sweep_with(**changes: object) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        return ["validate", str(write_yaml(work / "s.yaml", sweep_data(**changes)))]
+
+    return build
+
+
+INTERNDATA_HEAD = "tasks:\n  - robots: []\n    skills: []\n"
+
+
+def interndata(body: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        (work / "i.yaml").write_text(INTERNDATA_HEAD + body, encoding="utf-8")
+        return ["validate", str(work / "i.yaml")]
+
+    return build
+
+
+STRING_BOMB = "x:\n  l0: ab\n" + "".join(
+    f"  l{i}: '${{x.l{i - 1}}}${{x.l{i - 1}}}'\n" for i in range(1, 35)
+)
+LIST_BOMB = "x:\n  l0: [a, b]\n" + "".join(
+    f"  l{i}: ['${{x.l{i - 1}}}', '${{x.l{i - 1}}}']\n" for i in range(1, 41)
+)
+DEEP_CHAIN = "x:\n" + "".join(f"  a{i}: '${{x.a{i + 1}}}'\n" for i in range(3000)) + "  a3000: e\n"
+
+
+def flags(*argv: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        sweep = write_yaml(work / "s.yaml", sweep_data())
+        return [a.replace("SWEEP", str(sweep)).replace("WORK", str(work)) for a in argv]
+
+    return build
+
+
+def out_is(target: str) -> Callable[[Path], list[str]]:
+    def build(work: Path) -> list[str]:
+        (work / "file").write_text("x", encoding="utf-8")
+        out = target.replace("WORK", str(work))
+        return ["run", str(FR3), "--episodes", "1", "--record", "none", "--out", out]
+
+    return build
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    build: Callable[[Path], list[str]]
+    message: str  # the refusal line contains this (the file is checked separately)
+    names_file: bool = True  # the line names a file of the work folder
+
+
+CASES = [
+    Case("fifo task", fifo_task, "is a FIFO"),
+    Case("dev/zero link", dev_zero_task, "is a device"),
+    Case("fifo sweep", fifo_sweep, "is a FIFO"),
+    Case("usd fifo sublayer", usd_fifo_sublayer, "is a FIFO"),
+    Case("usd negative counts", lambda w: usd_task(w, counts="3,-3,3,3"), "negative"),
+    Case("usd counts mismatch", lambda w: usd_task(w, counts="3,3,3"), "faceVertexCounts sum"),
+    Case("mesh 1e31 m", huge_mesh, "above 10 m"),
+    Case("npy header 1e12 rows", lying_npy, "header claims"),
+    Case("mass true", task_with(mass=True), "objects[0].mass"),
+    Case(
+        "placement x 1e300",
+        task_with(placement={"pos_range": [[0, 0, 0], [1e300, 0, 0]]}),
+        "objects[0].placement.pos_range",
+    ),
+    Case(
+        "placement z 1e6",
+        task_with(placement={"pos_range": [[0, 0, 1e6], [0, 0, 1e6]]}),
+        "objects[0].placement.pos_range",
+    ),
+    Case(
+        "duplicate grid value",
+        sweep_with(axes={"pick.lift_th": [0.02, 2.0e-2]}),
+        "axes.pick.lift_th[1]",
+    ),
+    Case(
+        "100x100 grid",
+        sweep_with(
+            axes={
+                "pick.lift_th": [0.01 + 0.001 * i for i in range(100)],
+                "pick.t_eps": [0.001 + 0.0001 * i for i in range(100)],
+            }
+        ),
+        "--max-points",
+    ),
+    Case("interpolation string bomb", interndata(STRING_BOMB), "longer than"),
+    Case("interpolation list bomb", interndata(LIST_BOMB), "more than 200,000 nodes"),
+    Case("interpolation chain 3000", interndata(DEEP_CHAIN), "nest more than"),
+    Case("run --episodes 100001", flags("run", str(FR3), "--episodes", "100001"), "100001", False),
+    Case(
+        "--episodes-per-point 100001",
+        flags("sweep", "SWEEP", "--episodes-per-point", "100001"),
+        "100001",
+        False,
+    ),
+    Case(
+        "tune --episodes 100001", flags("tune", str(FR3), "--episodes", "100001"), "100001", False
+    ),
+    Case(
+        "inspect --seed -1",
+        flags("grasps", "inspect", str(CUBE_GRASPS), "--robot", "fr3", "--seed", "-1"),
+        "-1",
+        False,
+    ),
+    Case(
+        "generate --seed -1",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "--seed", "-1"),
+        "-1",
+        False,
+    ),
+    Case(
+        "generate -n 1e9",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "-n", "1000000000"),
+        "1000000000",
+        False,
+    ),
+    Case("sweep S --resume R", flags("sweep", "SWEEP", "--resume", "WORK"), "not both", False),
+    Case("--force alone", flags("sweep", "SWEEP", "--force"), "--force only applies", False),
+    Case(
+        "--retry-errors alone",
+        flags("sweep", "SWEEP", "--retry-errors"),
+        "--retry-errors only applies",
+        False,
+    ),
+    Case(
+        "--address without ray",
+        flags("sweep", "SWEEP", "--address", "127.0.0.1:6379"),
+        "--address needs --backend ray",
+        False,
+    ),
+    Case("--out an existing file", out_is("WORK/file"), "not a directory"),
+    Case("--out /dev/null", out_is("/dev/null"), "not a directory", False),
+    Case(
+        "replay --record into a missing folder",
+        flags("replay", "WORK/norun", "x", "--record", "WORK/missing/dir/x.rrd"),
+        "does not exist",
+    ),
+]
+
+
+def snapshot(root: Path) -> dict[str, float]:
+    """Every path under ``root`` (links not followed) and its mtime."""
+    out = {}
+    for dirpath, dirnames, filenames in os.walk(root):
+        for name in dirnames + filenames:
+            path = Path(dirpath) / name
+            with contextlib.suppress(OSError):
+                out[str(path)] = path.lstat().st_mtime
+    return out
+
+
+def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """``harness ARGV`` in this process: (exit code, stderr). Argparse's usage errors exit 2."""
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        code = cli.main(argv)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    return code, capsys.readouterr().err
+
+
+def assert_one_line_refusal(code: int, err: str, case: Case, work: Path) -> None:
+    assert code != 0, f"{case.name}: exit 0 on broken input"
+    assert "Traceback" not in err, f"{case.name}: traceback\n{err}"
+    errors = [line for line in err.splitlines() if re.search(r"(^|: )error: ", line)]
+    assert len(errors) == 1, f"{case.name}: expected one error line, got\n{err}"
+    assert case.message in errors[0], f"{case.name}: {errors[0]!r}"
+    if case.names_file:
+        assert str(work) in errors[0] or Path(errors[0].split()[1]).name in os.listdir(work), (
+            f"{case.name}: the line does not name the file: {errors[0]!r}"
+        )
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.name for case in CASES])
+def test_adversarial_input_is_one_line_refusal(
+    case: Case, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    work = tmp_path / "work"
+    work.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    argv = case.build(work)
+    before = snapshot(tmp_path)
+    start = time.monotonic()
+    code, err = run_cli(argv, capsys)
+    assert time.monotonic() - start < CASE_LIMIT_S, f"{case.name}: ran past its limit"
+    assert_one_line_refusal(code, err, case, work)
+    after = snapshot(tmp_path)
+    outside = [p for p in after if p not in before and not p.startswith(str(work))]
+    assert not outside, f"{case.name}: wrote outside its folder: {outside}"
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+
+
+# -- run-level cases: one finished run with a hostile task and object name ---------------------
+
+HOSTILE_TASK = "<script>alert(1)</script>"
+HOSTILE_OBJECT = "../../../../escape"
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``harness run`` of two episodes of a task named ``<script>...`` whose object is named
+    ``../../../../escape`` (both must stay inert)."""
+    folder = tmp_path_factory.mktemp("finished")
+    data = task_data(name=HOSTILE_OBJECT)
+    data["name"] = HOSTILE_TASK
+    task = write_yaml(folder / "t.yaml", data)
+    run_dir = folder / "run"
+    code = cli.main(
+        ["run", str(task), "--episodes", "2", "--record", "none", "--out", str(run_dir)]
+    )
+    assert code == 0
+    return run_dir
+
+
+def copy_run(run_dir: Path, where: Path) -> Path:
+    import shutil
+
+    return Path(shutil.copytree(run_dir, where / "run", symlinks=True))
+
+
+def test_report_md_escapes_html_from_a_task_name(finished_run: Path) -> None:
+    text = (finished_run / "report.md").read_text(encoding="utf-8")
+    assert "<script" not in text
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in text
+    assert not (finished_run.parent.parent / "escape").exists()
+
+
+@pytest.mark.parametrize("planted", ["plots/success.png", "plots", "MUJOCO_LOG.TXT"])
+def test_report_refuses_planted_links(
+    planted: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 2: ``report`` overwrote a linked plots/success.png and wrote into the
+    target of a ``plots`` link."""
+    run_dir = copy_run(finished_run, tmp_path)
+    victim = tmp_path / "victim.png"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    target_dir = tmp_path / "elsewhere"
+    target_dir.mkdir()
+    path = run_dir / planted
+    if path.is_dir():
+        import shutil
+
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+    path.symlink_to(target_dir if planted == "plots" else victim)
+    code, err = run_cli(["report", str(run_dir)], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert "symlink" in err and planted in err, err
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+    assert not list(target_dir.iterdir())
+
+
+def test_a_planted_mujoco_log_link_is_refused_before_a_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "MUJOCO_LOG.TXT").symlink_to(victim)
+    code, err = run_cli(
+        ["run", str(FR3), "--episodes", "1", "--record", "none", "--out", str(run_dir)], capsys
+    )
+    assert code == 2 and "MUJOCO_LOG.TXT in the run directory is a symlink" in err
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+    assert not (run_dir / "episodes.jsonl").exists()
+
+
+@pytest.mark.parametrize("witness", ["header", "rows"])
+def test_resume_of_a_copied_run_refuses_an_edited_sweep(
+    witness: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 3: ``cp -r run/*`` drops ``.sweep.sha256``; an edited sweep.yaml then
+    resumed under new physics. The header line and the rows' ``config_sha256`` still tell."""
+    run_dir = copy_run(finished_run, tmp_path)
+    (run_dir / ".sweep.sha256").unlink()
+    sweep_yaml = run_dir / "sweep.yaml"
+    text = sweep_yaml.read_text(encoding="utf-8")
+    assert text.startswith("# config_sha256: ")
+    edited = text.replace("friction: 1.0", "friction: 0.5", 1)
+    assert edited != text
+    if witness == "rows":  # the header line removed too: only the rows remember
+        edited = edited.split("\n", 1)[1]
+    sweep_yaml.write_text(edited, encoding="utf-8")
+    rows_before = (run_dir / "episodes.jsonl").read_text(encoding="utf-8")
+    code, err = run_cli(["sweep", "--resume", str(run_dir), "--no-progress"], capsys)
+    assert code == 2 and "changed since the run was created" in err, err
+    assert (run_dir / "episodes.jsonl").read_text(encoding="utf-8") == rows_before
+
+
+def test_random_choices_run_each_distinct_point_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 4: 30 draws over choices ran 30 episodes and kept 15 rows, exit 0."""
+    from harness.config import load_sweep
+    from harness.runs.expansion import expand
+
+    path = write_yaml(
+        tmp_path / "s.yaml",
+        sweep_data(
+            mode="random", points=30, random_axes={"pick.lift_th": {"choices": [0.02, 0.03]}}
+        ),
+    )
+    episodes = expand(load_sweep(path), path)
+    assert len(episodes) == 2 == len({e.resolved_id for e in episodes})
+    assert "30 random draws gave 2 distinct points" in capsys.readouterr().err
+
+
+def test_stdout_on_a_full_disk_is_one_line(tmp_path: Path) -> None:
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "harness.cli", "validate", str(FR3)],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            timeout=120,
+            check=False,
+        )
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr
+    assert result.stderr.strip().splitlines() == ["error: stdout/stderr: no space left on device"]
+
+
+def _read_only_mount(path: Path) -> bool:
+    path.mkdir()
+    ok = (
+        subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=16m", "tmpfs", str(path)],
+            capture_output=True,
+            check=False,
+        ).returncode
+        == 0
+    )
+    return ok
+
+
+@pytest.mark.parametrize("command", ["report", "resume", "fresh"])
+def test_a_read_only_run_directory_is_one_line(
+    command: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 26 class 7: ``--resume``, ``report`` and a fresh sweep into a read-only folder
+    were tracebacks. Root ignores permission bits, so the folder is a read-only tmpfs."""
+    mount = tmp_path / "ro"
+    if os.geteuid() == 0:
+        if not _read_only_mount(mount):
+            pytest.skip("cannot mount a tmpfs here")
+        copy_run(finished_run, mount)
+        subprocess.run(["mount", "-o", "remount,ro", str(mount)], check=True)
+    else:
+        mount.mkdir()
+        copy_run(finished_run, mount)
+        for folder in (mount, mount / "run"):
+            folder.chmod(0o555)
+    try:
+        run_dir = mount / "run"
+        sweep = write_yaml(tmp_path / "s.yaml", sweep_data())
+        argv = {
+            "report": ["report", str(run_dir)],
+            "resume": ["sweep", "--resume", str(run_dir), "--no-progress"],
+            "fresh": ["sweep", str(sweep), "--out", str(mount / "new"), "--no-progress"],
+        }[command]
+        code, err = run_cli(argv, capsys)
+        assert code == 2 and "Traceback" not in err
+        lines = [line for line in err.splitlines() if line.startswith("error: ")]
+        assert len(lines) == 1, err
+        reason = lines[0].lower()
+        assert "read-only file system" in reason or "permission denied" in reason, err
+    finally:
+        if os.geteuid() == 0:
+            subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_audit_files_of_a_hostile_object_name_stay_in_the_audit_folder(tmp_path: Path) -> None:
+    """Issue 26 class 1: ``objects[0].name: ../../../../x`` wrote ``x_cleaned.npy`` seven
+    levels above the audit folder."""
+    import pandas as pd
+
+    from harness.tuning.audit import write_cleaned
+
+    out_dir = tmp_path / "a" / "b" / "c" / "audit"
+    table = pd.DataFrame(
+        [
+            {
+                "object": HOSTILE_OBJECT,
+                "grasp_file": str(CUBE_GRASPS),
+                "grasp_row": 0,
+                "flagged": True,
+            }
+        ]
+    )
+    written = write_cleaned(table, out_dir)
+    (path,) = written.values()
+    assert path.parent == out_dir and path.is_file()
+    assert not (tmp_path / "escape_cleaned.npy").exists()
+
+
+# Output paths built from a name with an f-string, ``with_name`` or ``joinpath``: each must go
+# through harness.files.safe_file_name / safe_child. The allowed ones read (never write) a
+# fixed or derived name.
+NAME_PATH = re.compile(r"""(/\s*f["'][^"']*\{)|with_name\(f|joinpath\(f|Path\(f["']""")
+ALLOWED = {
+    "harness/objects/assets.py": "reads <mesh stem>_grasps.npy beside a mesh",
+    "harness/benchmarks/sharing.py": "reads tasks/pick/<robot>.yaml of a fixed robot list",
+    "harness/benchmarks/episodes.py": "reads tasks/pick/<name>.yaml of a fixed list",
+    "harness/runs/store.py": "the temp file .<fixed export name>.tmp",
+}
+
+
+def test_every_output_path_from_a_name_goes_through_the_safe_name_function() -> None:
+    offenders = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        relative = str(path.relative_to(ROOT))
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if NAME_PATH.search(line) and relative not in ALLOWED:
+                offenders.append(f"{relative}:{number}: {line.strip()}")
+    assert not offenders, "paths built from names outside safe_file_name:\n" + "\n".join(offenders)
+
+
+# -- limits ------------------------------------------------------------------------------------
+
+
+def test_a_long_settle_is_interrupted_at_the_deadline() -> None:
+    """Issue 26 class 6: one mj_step call of 200k steps could not be interrupted (a 4 s limit
+    gave a 32 s episode). Scene.step now checks the deadline between chunks."""
+    from harness.config import PhysicsConfig
+    from harness.errors import EpisodeTimeoutError
+    from harness.sim.budget import episode_budget
+    from harness.sim.scene import Scene
+
+    scene = Scene.build("fr3", [], PhysicsConfig())
+    start = time.perf_counter()
+    with pytest.raises(EpisodeTimeoutError, match="wall-clock limit"), episode_budget(0.3, 10**9):
+        signal.setitimer(signal.ITIMER_REAL, 0)  # the alarm is off: only the step checks count
+        scene.step(10**8)
+    assert time.perf_counter() - start < 3.0
+
+
+@pytest.mark.slow
+def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 26 class 6: the pool had no per-episode kill. One episode hangs in a way neither
+    the deadline check nor SIGALRM reaches (SIGALRM blocked, sleeping); its worker is killed
+    past limit + grace, its row is ``timeout`` and the other episodes' rows are all there."""
+    from harness.config import load_sweep
+    from harness.runs import executors
+    from harness.runs.expansion import expand
+    from harness.runs.sweep import run_sweep
+    from harness.runs.worker import HANG_ENV
+
+    monkeypatch.setattr(executors, "KILL_GRACE_S", 2.0)
+    sweep = write_yaml(
+        tmp_path / "s.yaml",
+        sweep_data(episodes_per_point=3, axes={"limits.wall_time_s": [60.0]}),
+    )
+    episodes = expand(load_sweep(sweep), sweep)
+    victim = episodes[1].resolved_id
+    monkeypatch.setenv(HANG_ENV, victim)
+    start = time.monotonic()
+    outcome = run_sweep(sweep, out=tmp_path / "run", backend="process", workers=1, progress=False)
+    assert time.monotonic() - start < 400  # the victim is killed at 62 s, not never
+    rows = {row["episode_id"]: row for row in _jsonl(outcome.run_dir)}
+    assert sorted(rows) == sorted(e.resolved_id for e in episodes)
+    assert rows[victim]["failure_reason"] == "timeout"
+    assert "was killed" in rows[victim]["error_message"]
+    others = [row for key, row in rows.items() if key != victim]
+    assert all(row["failure_reason"] not in ("error", "timeout") for row in others), others
+
+
+def _jsonl(run_dir: Path) -> list[dict]:
+    import json
+
+    lines = (run_dir / "episodes.jsonl").read_text(encoding="utf-8").splitlines()
+    return [json.loads(line) for line in lines if line.strip()]
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_sweep_like_ctrl_c(tmp_path: Path) -> None:
+    """Issue 26 class 9: SIGTERM killed the driver at once; orphaned workers printed BrokenPipe
+    tracebacks. Now it stops like Ctrl-C: exit 130, finished rows kept, no traceback."""
+    sweep = write_yaml(tmp_path / "s.yaml", sweep_data(episodes_per_point=200))
+    run_dir = tmp_path / "run"
+    driver = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "harness.cli",
+            "sweep",
+            str(sweep),
+            "--out",
+            str(run_dir),
+            "--workers",
+            "1",
+            "--no-progress",
+        ],
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    jsonl = run_dir / "episodes.jsonl"
+    end = time.monotonic() + 180
+    while time.monotonic() < end and not (jsonl.is_file() and jsonl.stat().st_size):
+        time.sleep(0.2)
+    driver.send_signal(signal.SIGTERM)
+    _, err = driver.communicate(timeout=120)
+    assert driver.returncode == 130, err
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+    time.sleep(1.0)  # an orphaned worker would write its traceback now
+    assert 1 <= len(_jsonl(run_dir)) < 200
