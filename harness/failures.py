@@ -22,8 +22,14 @@ FailureReason = Literal[
     "velocity_invalid",
     "sim_unstable",
     "timeout",
+    "not_runnable",
     "error",
 ]
+
+# Rows that are no pick outcome and stay out of every rate: a pick that cannot run on its own
+# (``TaskConfig.not_runnable``: it takes an object an earlier skill holds) and crashed or
+# misconfigured episodes.
+UNRATED_REASONS: tuple[str, ...] = ("not_runnable", "error")
 
 # The failure causes alone (without the success value ""), in the same order.
 FAILURE_REASONS: tuple[str, ...] = tuple(reason for reason in get_args(FailureReason) if reason)

@@ -181,7 +181,15 @@ class EpisodeRow:
         default=math.nan,
         metadata=_doc(
             "sliding friction of the target's contacts with the pads and the table (the "
-            "object's friction, object.yaml default applied; docs/config.md, Friction)"
+            "object's friction: the task's, else its USD physics material's, else object.yaml "
+            "or 1.0; docs/config.md, Friction)"
+        ),
+    )
+    object_mass_kg: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "mass of the picked object (kg): the task's, else its USD's physics:mass "
+            "(0.5 on the reference objects), else object.yaml or 0.1"
         ),
     )
     # Verdict

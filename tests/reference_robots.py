@@ -71,8 +71,24 @@ INTERNDATA_CONFIG_FILES = {
 ARM_NAMES = {"fr3": ["left"], "lift2": ["left", "right"], "split_aloha": ["left", "right"]}
 EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6"}
 
-# Left minus right arm base y (m) of the two-armed robots: Cobot Magic fixture, Lift-2 URDF.
-ARM_SPACING = {"lift2": 0.50, "split_aloha": 0.594}
+# Arm bases in the robot's root frame as the reference has them (issue 22): x, y from its
+# LeRobot converters (policy/lmdb2lerobotv21/lmdb2lerobot_{split_aloha,lift2}_a1.py lines
+# 382-385, armbase_to_robot_pose); heights: the Cobot Magic fixture's 0.782 (split_aloha) and
+# lift2.urdf at the lift home 0.46 (0.27 + 0.46 + 0.0245); robots/<name>/build.py says why the
+# converters' z is not used.
+REFERENCE_ARM_BASES = {
+    "split_aloha": {
+        "left": (0.3684792, 0.30600064, 0.782),
+        "right": (0.36847978, -0.30599953, 0.782),
+    },
+    "lift2": {
+        "left": (0.163030156, 0.248420062, 0.7545),
+        "right": (0.163030139, -0.248420087, 0.7545),
+    },
+}
+
+# Left minus right arm base y (m) of the two-armed robots: the converters' (above), as built.
+ARM_SPACING = {"lift2": 2 * 0.24842, "split_aloha": 2 * 0.306}
 
 # Jaw opening (m): the reference's gripper_max_width (Split ALOHA: its piper100; the SDK's
 # 0.07 is the sdk070 variant).

@@ -126,6 +126,11 @@ def test_canonical_file_runs_end_to_end(
 ) -> None:
     path = task_file(examples_dir, name)
     out = tmp_path / "run"
+    robot, arm = CANONICAL[name]
+    # The bottle's USD authors 0.5 kg (the row says so); the small arms' claims below are about
+    # reach, so they pick it at 0.1 kg: whether their grippers hold 0.5 kg is a grip question
+    # (docs/robots.md, Grippers).
+    mass = [] if robot == "fr3" else ["--set", "object.mass=0.1"]
     code, stdout = run_cli(
         capsys,
         "run",
@@ -139,10 +144,11 @@ def test_canonical_file_runs_end_to_end(
         "none",
         "--out",
         str(out),
+        *mass,
     )
     assert code == 0, stdout
     rows = pd.read_csv(out / "episodes.csv")
-    robot, arm = CANONICAL[name]
+    assert set(rows["object_mass_kg"]) == ({0.5} if robot == "fr3" else {0.1})
     check_rows(rows, {path.stem: (robot, arm)}, EPISODES)
     successes = int(rows["success"].sum())
     assert f"success {successes}/{EPISODES} = " in stdout
@@ -153,16 +159,23 @@ def test_canonical_file_runs_end_to_end(
         # The file's whole object region is within the FR3's reach (docs/robots.md: 25/25).
         assert successes >= EPISODES - 1
         return
-    # The small arms (Piper, R5a) pick what is in reach; the file's object region reaches
-    # 0.70-0.78 m from their bases (docs/robots.md, Reach), beyond their top-down reach: every
-    # failure is a reach failure (no IK solution at the pre-grasp, or along the lift line), and
-    # the objects they fail on are farther on average. (The margin depends on which grasps the
-    # draw picks: 0.06-0.12 m over these 10 seeds under the old and the per-purpose streams.)
+    # The small arms (Piper, R5a) pick what is in reach: every failure is a reach failure (no IK
+    # solution at the pre-grasp, or along the lift line).
     assert successes >= 1
     failed = rows.loc[~rows["success"]]
     assert (failed["failure_reason"] == "plan_failed").all(), failed["failure_reason"].tolist()
     reach = failed["error_message"].str.match(r"^(ik_pregrasp|ik_grasp|lift|approach): ")
     assert reach.all(), failed["error_message"].tolist()
+    if robot == "split_aloha":
+        # With the arm bases where the reference's converter puts them (13.8 cm closer to the
+        # table than the Cobot Magic fixture; docs/robots.md, Reach: 23/25 cells, 14 before)
+        # most of the file's region is in reach: 7/10 over these seeds (2/10 before).
+        assert successes >= 6
+        return
+    # The Lift-2's far row (up to 0.69 m from its arm bases) is beyond the R5a's top-down
+    # reach: the objects it fails on are farther on average. (The margin depends on which
+    # grasps the draw picks: 0.06-0.12 m over these 10 seeds under the old and the per-purpose
+    # streams.)
     distances = object_distances(path, bottle, rows)
     succeeded = rows["success"].to_numpy()
     assert distances[~succeeded].mean() > distances[succeeded].mean() + 0.04, distances

@@ -413,3 +413,24 @@ def test_valid_rate_gap_and_objective(fixture_run: Path, tmp_path: Path) -> None
     assert {"valid_rate", "valid_ci_low", "valid_ci_high"} <= set(pd.read_csv(paths.summary_csv))
     plain = summarize(load_episodes(fixture_run))
     assert plain["valid_rate"].isna().all() and (plain["n_judged"] == 0).all()
+
+
+def test_report_of_a_sweep_whose_only_axis_is_the_object_mesh(
+    fixture_run: Path, tmp_path: Path
+) -> None:
+    """object.mesh varies (one value per object) but is no setting: the best table has no such
+    column, and the report must not look it up (it raised KeyError 'param.object.mesh')."""
+
+    def edit(frame: pd.DataFrame) -> pd.DataFrame:
+        frame = frame.drop(columns=["param.pick.pre_grasp_offset", "param.pick.approach_filter"])
+        frame = frame[frame["point_id"] != 2].copy()
+        frame["object"] = ["cube" if p == 0 else "banana" for p in frame["point_id"]]
+        frame["param.object.mesh"] = frame["object"]
+        frame["point"] = [json.dumps({"object.mesh": o}) for o in frame["object"]]
+        return frame
+
+    run = modified_run(fixture_run, tmp_path / "mesh-only", edit)
+    paths = build_report(run)
+    markdown = paths.report_md.read_text(encoding="utf-8")
+    assert "| fr3 | left | banana | default |" in markdown
+    assert "| fr3 | left | cube | default |" in markdown

@@ -32,7 +32,7 @@ DOCUMENTED = {
     "float": "pre_grasp_offset post_grasp_offset chosen_score approach_angle_deg ik_time_s "
     "plan_time_s traj_duration_s sim_time_s wall_time_s finger_force_left_n finger_force_right_n "
     "lift_height_m slip_m max_joint_vel max_object_vel tcp_grasp_error_m object_friction "
-    "speed_scale hold_rotation_rad",
+    "speed_scale hold_rotation_rad object_mass_kg",
     "bool": "success",
 }
 

@@ -26,6 +26,7 @@ from reference_robots import (
     LINK_MASSES,
     OPEN_WIDTHS,
     PLACEMENTS,
+    REFERENCE_ARM_BASES,
     REFERENCE_CONVENTIONS,
     REFERENCE_ROBOTS,
     TCP_FRAME_OFFSET,
@@ -209,6 +210,20 @@ def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
         assert left[1] - right[1] == pytest.approx(spacing, abs=1e-9)
 
 
+def test_arm_bases_sit_where_the_reference_puts_them(robot: RobotModel) -> None:
+    """x, y from the reference's LeRobot converters; heights: see tests/reference_robots.py."""
+    expected_bases = pinned(REFERENCE_ARM_BASES, robot.name)
+    model = build_robot_spec(robot).compile()
+    data = mujoco.MjData(model)
+    set_configuration(model, data, robot_addresses(model, robot), robot.home_configuration())
+    mujoco.mj_kinematics(model, data)
+    root = data.body(robot.root_frame)
+    for arm_name, expected in expected_bases.items():
+        base = data.body(robot.arms[arm_name].base_frame)
+        in_root = root.xmat.reshape(3, 3).T @ (base.xpos - root.xpos)
+        np.testing.assert_allclose(in_root, expected, atol=5e-6)
+
+
 def test_fingers_travel_along_the_grasp_closing_axis(robot: RobotModel) -> None:
     """The EE axis R_ee_graspnet maps g_y (closing) onto is the axis the fingers slide along,
     the approach (g_x) runs from the EE through the pad midpoint, at random configurations."""
@@ -359,7 +374,8 @@ def test_robots_list_and_show(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["robots", "show", "lift2"]) == 0
     out = capsys.readouterr().out
     assert "lift lift_joint: range 0.0-0.46 m, home 0.46" in out
-    assert "right arm base at [0.249, -0.646, 0.032]" in out
+    # root y -0.80 + 0.163 (the reference converter)
+    assert "right arm base at [0.248, -0.637, 0.032]" in out
     assert main(["robots", "show", "ur5"]) == 2
     assert f"available robots: {AVAILABLE_ROBOTS_TEXT}" in capsys.readouterr().err
 

@@ -42,7 +42,8 @@ def test_build_composes_robot_table_object(fr3_scene: tuple[Scene, TaskConfig]) 
     assert m.opt.impratio == pytest.approx(10.0)
     assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, TABLE_NAME) >= 0
     obj = scene.objects["target"]
-    assert m.body_mass[obj.body_id] == pytest.approx(task.objects[0].mass)
+    assert task.objects[0].mass is None  # an OBJ mesh authors no mass: the default 0.1 kg
+    assert m.body_mass[obj.body_id] == pytest.approx(0.1) == obj.asset.mass
     assert m.body_mocapid[scene.root_body] == 0  # the robot root is the (only) mocap body
     assert set(scene.arms) == {"left"}
     assert len(scene.arms["left"].active_names) == 7

@@ -139,3 +139,31 @@ def test_swapping_the_mesh_renames_the_target_object():
     assert [t.target_object.name for t in tasks] == ["cube", "banana", "mug"]
     assert [t.pick.objects for t in tasks] == [["cube"], ["banana"], ["mug"]]
     assert tasks[2].objects[0].mesh == "/data/meshes/mug.obj"
+
+
+def test_object_keys_mean_the_picked_object_not_the_first() -> None:
+    """object.* in --set and sweep axes is the picked object (pick.objects[0]), wherever it is
+    in the scene's object list; objects.0.* stays the first object."""
+    from harness.config import TaskConfig
+    from harness.config.overrides import apply_overrides
+
+    scene = {
+        **TASK,
+        "objects": [{"name": "cube", "mesh": "cube"}, {"name": "banana", "mesh": "banana"}],
+        "pick": {"objects": ["banana"]},
+    }
+    task = TaskConfig.model_validate(scene)
+    changed = apply_overrides(task, {"object.mass": 0.5, "object.friction": 0.7})
+    assert [(o.name, o.mass, o.friction) for o in changed.objects] == [
+        ("cube", None, None),  # not given: the asset's (object.yaml) values apply
+        ("banana", 0.5, 0.7),
+    ]
+    first = apply_overrides(task, {"objects.0.mass": 0.3})
+    assert [o.mass for o in first.objects] == [0.3, None]
+
+    sweep = make_sweep(tasks=[scene], axes={"object.mesh": ["banana", "mug"]}, episodes_per_point=1)
+    tasks = [e.task for e in expand(sweep, None)]
+    assert [t.target_object.name for t in tasks] == ["banana", "mug"]
+    assert [[o.name for o in t.objects] for t in tasks] == [["cube", "banana"], ["cube", "mug"]]
+    assert [t.target_object.mesh for t in tasks] == ["banana", "mug"]
+    assert [t.objects[0].mesh for t in tasks] == ["cube", "cube"]

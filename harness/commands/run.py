@@ -36,6 +36,7 @@ from harness.config import (
     warning_lines,
 )
 from harness.errors import HarnessError
+from harness.failures import UNRATED_REASONS
 
 if TYPE_CHECKING:
     from harness.interndata import InternDataPick
@@ -222,7 +223,7 @@ def rate_line(rows: list[dict[str, Any]]) -> str:
     """``success k/n = r% (95% Wilson ...); valid v/m = ...``: error rows are in neither rate."""
     from harness.report.stats import wilson_interval  # scipy: imported only when there is a result
 
-    rated = [row for row in rows if row.get("failure_reason") != "error"]
+    rated = [row for row in rows if row.get("failure_reason") not in UNRATED_REASONS]
     parts = []
     judged = [row for row in rated if row.get("valid") or row.get("invalid_reason")]
     for name, hits, n in (

@@ -109,7 +109,7 @@ def deep_check(path: str, loaded: object) -> None:
     from harness.runs.preflight import check_task, check_tasks
 
     if isinstance(loaded, TaskConfig):
-        check_task(loaded)
+        print_warnings(check_task(loaded))
     elif isinstance(loaded, SweepConfig):
         from harness.runs.expansion import expand, load_sweep_tasks
         from harness.runs.limits import check_sweep_size

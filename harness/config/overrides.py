@@ -15,8 +15,9 @@ from harness.config.validation import error_from_validation
 
 def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
     """Set ``pick.filter_z_dir`` / ``objects.0.mass`` / ``object.friction`` /
-    ``robot.gripper.force_limit`` in a nested dict (a task's ``model_dump``)."""
-    parts = canonical_key(key).split(".")
+    ``robot.gripper.force_limit`` in a nested dict (a task's ``model_dump``). ``object.`` is
+    the picked object (``pick.objects[0]``), wherever it is in ``objects``."""
+    parts = canonical_key(key, target_index(data)).split(".")
     node: Any = data
     for index, part in enumerate(parts[:-1]):
         nxt = parts[index + 1]
@@ -31,6 +32,17 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
         node[int(last)] = value
     else:
         node[last] = value
+
+
+def target_index(data: dict[str, Any]) -> int:
+    """Index in ``data["objects"]`` of the picked object (``pick.objects[0]``; the first object
+    when the pick names none), in a task's ``model_dump``."""
+    objects = data.get("objects") or []
+    wanted = (data.get("pick") or {}).get("objects") or []
+    names = [obj.get("name") for obj in objects if isinstance(obj, dict)]
+    if wanted and wanted[0] in names:
+        return names.index(wanted[0])
+    return 0
 
 
 def parse_set_value(text: str) -> Any:

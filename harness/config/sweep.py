@@ -37,12 +37,13 @@ TASK_KEYS = frozenset(TaskConfig.model_fields)
 ROBOT_KEYS = ("name", "gripper")
 
 
-def canonical_key(key: str) -> str:
-    """The key in a task's ``model_dump``: ``object.`` is ``objects.0.``, ``robot.gripper.`` is
-    ``gripper.`` and ``robot.name`` is ``robot`` (a file's ``robot: {name, gripper}``)."""
+def canonical_key(key: str, target_index: int = 0) -> str:
+    """The key in a task's ``model_dump``: ``object.`` is ``objects.<target_index>.`` (the
+    picked object, ``pick.objects[0]``), ``robot.gripper.`` is ``gripper.`` and ``robot.name``
+    is ``robot`` (a file's ``robot: {name, gripper}``)."""
     parts = key.split(".")
     if parts[0] == "object":
-        parts = ["objects", "0", *parts[1:]]
+        parts = ["objects", str(target_index), *parts[1:]]
     elif parts[0] == "robot" and len(parts) > 1:
         parts = ["robot"] if parts[1:] == ["name"] else parts[1:]
     return ".".join(parts)

@@ -56,10 +56,35 @@ class ObjectConfig(StrictModel):
     mesh: str = Field(min_length=1, description="Mesh path (relative to the YAML) or object name.")
     grasps: str | None = Field(default=None, description="Grasp file; default by naming rule.")
     scale: tuple[FiniteFloat, FiniteFloat, FiniteFloat] = (1.0, 1.0, 1.0)
-    mass: FiniteFloat = Field(default=0.1, gt=0.0, le=100.0)
-    friction: FiniteFloat = Field(default=1.0, gt=0.0, le=10.0)
+    mass: FiniteFloat | None = Field(
+        default=None,
+        gt=0.0,
+        le=100.0,
+        description="kg. Default: the USD's physics:mass (UsdPhysics.MassAPI; 0.5 on every "
+        "reference object), else 0.1 (chosen).",
+    )
+    friction: FiniteFloat | None = Field(
+        default=None,
+        gt=0.0,
+        le=10.0,
+        description="Default: the static friction of the USD's bound physics material (1.0 on "
+        "every reference object), else 1.0 (MuJoCo's default).",
+    )
+    fixed: bool = Field(
+        default=False,
+        description="A fixture: a static body placed like the others that collides and never "
+        "moves (the reference's GeometryObject, e.g. a bin). The picked object cannot be one.",
+    )
     placement: Placement | None = Field(
         default=None, description="Default: the robot arm's object region from robot.yaml."
+    )
+    min_distance: FiniteFloat | None = Field(
+        default=None,
+        ge=0.0,
+        le=1.0,
+        description="Placed at least this far (m, between bounding circles in xy) from every "
+        "object placed before it, redrawing up to 100 times (the reference's distractors "
+        "min_object_distance). Default: placed independently.",
     )
     orientations: list[Vec3] | None = Field(
         default=None,
@@ -186,6 +211,12 @@ class TaskConfig(StrictModel):
         default=1.0 / 30.0, gt=0.0, le=0.5, description="Control step (s); the reference's 1/30."
     )
     source: str | None = Field(default=None, description="File this task was loaded from.")
+    not_runnable: str | None = Field(
+        default=None,
+        description="Why this pick cannot run on its own: set by the InternData mapper for a "
+        "pick whose object an earlier skill of the file handles (a handover's second pick "
+        "takes it from the other gripper). Its episodes are 'not_runnable' rows, in no rate.",
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -203,6 +234,13 @@ class TaskConfig(StrictModel):
                 )
         if self.pick.objects is None:
             self.pick = self.pick.model_copy(update={"objects": [names[0]]})
+        if self.pick.objects and self.pick.objects[0] in names:
+            index = names.index(self.pick.objects[0])
+            if self.objects[index].fixed:
+                raise KeyedValueError(
+                    ("objects", index, "fixed"),
+                    f"object {names[index]!r} is picked, so it cannot be a fixed fixture",
+                )
         for index, name in enumerate(self.pick.objects or []):
             if name not in names:
                 raise KeyedValueError(

@@ -170,6 +170,8 @@ def _run(
 ) -> None:
     """Reset, candidates, feasibility, then the chosen candidate's execution: each stage takes
     what ``evaluation`` already knows, adds what it computes, and appends its row records."""
+    if spec.task.not_runnable:
+        raise EpisodeStopError("not_runnable", spec.task.not_runnable)
     setup = reset(spec, scene_cache, result, evaluation, records)
     try:
         planning = candidates(setup)

@@ -26,6 +26,7 @@ class SceneColumns:
     """The reset stage: facts of the scene the episode runs in."""
 
     object_friction: float
+    object_mass_kg: float
     grip_force_limit_n: float
     gripper_variant: str
     speed_scale: float  # the pace the plans are timed at (pick.speed_scale)

@@ -142,10 +142,10 @@ def reset(
     bundle = get_scene(task, scene_cache)
     scene = bundle.scene
     result.scene = scene
-    friction = scene.objects[task.target_object.name].asset.friction
+    target = scene.objects[task.target_object.name].asset
     gripper = scene.robot.arm(task.arm).gripper  # a clear error for an unknown arm
     semantics = Semantics.from_pick(task.pick)
-    columns = (friction, gripper.force_limit, scene.robot.gripper_variant)
+    columns = (target.friction, target.mass, gripper.force_limit, scene.robot.gripper_variant)
     records.append(SceneColumns(*columns, task.pick.speed_scale, semantics.name))
     planner = bundle.planner(task.arm)
     streams = EpisodeStreams(spec.seed)

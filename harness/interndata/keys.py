@@ -11,7 +11,15 @@ REGION_SAMPLER = "A_on_B_region_sampler"
 TABLE_NAME = "table"
 
 # Keys of a task entry, with what happens to them (docs/interndata.md has the full table).
-TASK_KEYS_MAPPED = ("robots", "objects", "regions", "skills", "data", "neglect_collision_names")
+TASK_KEYS_MAPPED = (
+    "robots",
+    "objects",
+    "regions",
+    "skills",
+    "data",
+    "neglect_collision_names",
+    "distractors",
+)
 TASK_KEYS_IGNORED: dict[str, str] = {
     "name": "the harness names tasks after the file",
     "asset_root": "replaced by the asset_root argument (--asset-root) when one is given",
@@ -22,7 +30,6 @@ TASK_KEYS_IGNORED: dict[str, str] = {
     "arena_file": "arena (table, room) assets; the harness uses its own table",
     "env_map": "rendering (lighting)",
     "cameras": "rendering (cameras)",
-    "distractors": "visual distractors; not simulated",
     "random_region_list": "not used by the single-pick tasks",
 }
 ROBOT_KEYS_IGNORED: dict[str, str] = {

@@ -17,6 +17,7 @@ from harness.config.task import TaskConfig
 from harness.config.validation import describe_validation_error
 from harness.config.yamlio import KeyPath
 from harness.errors import InputFileError
+from harness.interndata.distractors import distractor_objects
 from harness.interndata.keys import (
     OBJECT_KEYS_IGNORED,
     TABLE_NAME,
@@ -101,6 +102,8 @@ class TaskMapper(TaskResolver):
                 self.check_grasp_file(obj, Path(config["mesh"]), block, pick.path)
             if config is not None:
                 object_configs.append(config)
+        if task.get("distractors"):
+            object_configs.extend(self.distractors(task["distractors"], objects))
 
         yaw = self.robot_yaw(robot)
         robot_placement = None
@@ -132,6 +135,9 @@ class TaskMapper(TaskResolver):
             "pick": block,
             "source": self.where.file,
         }
+        if pick.not_runnable:
+            data["not_runnable"] = pick.not_runnable
+            self.note(f"not runnable in isolation: {pick.not_runnable}")
         if max_steps is not None:
             data["max_episode_length"] = max_steps
         else:
@@ -140,6 +146,25 @@ class TaskMapper(TaskResolver):
             return TaskConfig.model_validate(data)
         except ValidationError as exc:
             raise self.translate(exc, origin) from None
+
+    def distractors(self, block: Any, objects: dict[str, ObjectEntry]) -> list[dict[str, Any]]:
+        """The ``distractors`` block's rigid objects (``harness.interndata.distractors``)."""
+        path = (*self.path, "distractors")
+        self.mapping(block, path, "distractors")
+        pos_range = block.get("pos_range")
+        if not (isinstance(pos_range, list) and len(pos_range) == 2):
+            raise self.error((*path, "pos_range"), "expected [[x_min, y_min], [x_max, y_max]]")
+        for row in pos_range:
+            width = 3 if isinstance(row, list) and len(row) == 3 else 2
+            self.numbers(row, (*path, "pos_range"), width)
+        own = {
+            Path(str(obj.config.get("path", ""))).parts[-3]
+            for obj in objects.values()
+            if len(Path(str(obj.config.get("path", ""))).parts) >= 3
+        }
+        return distractor_objects(
+            block, self.asset_base(), own, self.where.file, self.note, self.key(path)
+        )
 
     def pick_block(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
         """The pick's block, with the robot's ``ignore_substring`` as
@@ -202,10 +227,12 @@ class TaskMapper(TaskResolver):
         for key in obj.config:
             if key in OBJECT_KEYS_IGNORED:
                 self.note(f"ignored {self.key((*obj.path, key))}: {OBJECT_KEYS_IGNORED[key]}")
-        if obj.config.get("target_class", "RigidObject") != "RigidObject":
+        target_class = obj.config.get("target_class", "RigidObject")
+        fixed = target_class == "GeometryObject"  # static in the reference (geometry_object.py)
+        if target_class not in ("RigidObject", "GeometryObject"):
             self.note(
                 f"{self.key((*obj.path, 'target_class'))}: "
-                f"{obj.config.get('target_class')} simulated as a free rigid body"
+                f"{target_class} simulated as a free rigid body"
             )
         orientations, category, free_yaw = self.orientations(obj, mesh)
         index = len(done)
@@ -221,6 +248,12 @@ class TaskMapper(TaskResolver):
         }
         if category:
             config["category"] = category
+        if fixed:
+            config["fixed"] = True
+            origin[(*base, "fixed")] = (*obj.path, "target_class")
+        if "mass" in obj.config:  # the reference passes it to its RigidPrim (rigid_object.py:43)
+            config["mass"] = obj.config["mass"]
+            origin[(*base, "mass")] = (*obj.path, "mass")
         if substitute_scale is not None:
             config["scale"] = substitute_scale
         elif obj.name in self.substitutes:

@@ -17,6 +17,7 @@ from harness.config.errors import ConfigError
 from harness.config.messages import suggest
 from harness.config.yamlio import KeyPath, format_key_path
 from harness.interndata.categories import CATEGORY_ORIENTATIONS
+from harness.interndata.dependencies import SkillRef, not_runnable_reason, skill_target
 from harness.interndata.errors import Located
 from harness.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
 from harness.interndata.orientations import (
@@ -61,6 +62,7 @@ class PickSkill:
     stage: int
     phase: int
     skill_index: int
+    not_runnable: str | None = None  # harness.interndata.dependencies
 
 
 class TaskResolver:
@@ -341,6 +343,7 @@ class TaskResolver:
         if "skills" not in task:
             raise self.error(path, "required key is missing")
         picks: list[PickSkill] = []
+        refs: list[SkillRef] = []
         skipped: dict[str, int] = {}
         for stage, stage_block in enumerate(self.sequence(task["skills"], path, "skills")):
             spath = (*path, stage)
@@ -369,6 +372,12 @@ class TaskResolver:
                             kpath = (*apath, k)
                             skill = self.mapping(skill, kpath, "a skill")
                             name = skill.get("name")
+                            refs.append(
+                                SkillRef(
+                                    *(stage, robot.name, phase, str(arm), k),
+                                    *(self.key(kpath), str(name), skill_target(skill)),
+                                )
+                            )
                             if name == "pick":
                                 picks.append(PickSkill(skill, kpath, robot, arm, stage, phase, k))
                                 continue
@@ -387,6 +396,8 @@ class TaskResolver:
                                 f"skipped {self.key(kpath)}: skill {name!r} (pick-harness runs "
                                 "pick skills only; each pick starts from the initial scene)"
                             )
+        for pick, ref in zip(picks, [r for r in refs if r.name == "pick"], strict=True):
+            pick.not_runnable = not_runnable_reason(ref, refs)
         for name, count in skipped.items():
             log.warning(
                 "%s: skipping %d %r skill(s); pick-harness runs pick skills only",

@@ -33,8 +33,11 @@ from harness.objects.decomposition import (
 )
 from harness.objects.mass import mass_properties
 from harness.objects.meshes import load_mesh
+from harness.objects.usd_physics import read_usd_physics
 
 DEFAULT_NPY_NAME = "Aligned_grasp_sparse.npy"
+DEFAULT_MASS = 0.1  # kg, chosen (no public source) for meshes that author none
+DEFAULT_FRICTION = 1.0  # MuJoCo's default sliding friction
 
 
 # --------------------------------------------------------------------------------------------
@@ -151,12 +154,20 @@ class ObjectAsset:
         scale: tuple[float, float, float] | float = (1.0, 1.0, 1.0),
         grasps: str | Path | None = None,
         npy_name: str = DEFAULT_NPY_NAME,
-        mass: float = 0.1,
-        friction: float = 1.0,
+        mass: float | None = None,
+        friction: float | None = None,
         coacd_params: CoacdParams | None = None,
     ) -> ObjectAsset:
-        """Load and validate a mesh, its collision pieces (cached) and locate its grasp file."""
+        """Load and validate a mesh, its collision pieces (cached) and locate its grasp file.
+
+        ``mass`` / ``friction`` None: what the USD authors (``harness.objects.usd_physics``),
+        else ``DEFAULT_MASS`` / ``DEFAULT_FRICTION``.
+        """
         path = Path(mesh_path)
+        if mass is None or friction is None:
+            authored = read_usd_physics(path)
+            mass = (authored.mass or DEFAULT_MASS) if mass is None else mass
+            friction = (authored.friction or DEFAULT_FRICTION) if friction is None else friction
         sx, sy, sz = (float(s) for s in np.broadcast_to(np.asarray(scale, dtype=float), (3,)))
         scale3 = (sx, sy, sz)
         if not (np.isfinite(mass) and mass > 0):

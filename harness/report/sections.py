@@ -111,7 +111,9 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
     params = setting_params(summary) or varying_params(summary)
     tables: list[Table] = [
         _overall_table(summary),
-        _best_table(best, params),
+        # best carries the swept settings only; an axis that only picks the object
+        # (object.mesh) is in params (it varies) but is no setting, so it is not in best
+        _best_table(best, [name for name in params if name in best.columns]),
         _points_table(summary, params),
     ]
     if "n_judged" in summary and column(summary, "n_judged").to_numpy().sum() > 0:

@@ -14,7 +14,7 @@ from typing import Any, cast
 import pandas as pd
 
 from harness.errors import HarnessError
-from harness.failures import FAILURE_REASONS
+from harness.failures import FAILURE_REASONS, UNRATED_REASONS
 from harness.report.frames import column, frame_of, series_of
 from harness.report.stats import wilson_interval
 from harness.row import KEY_COLUMNS, ROBUSTNESS_LEVELS_G, VALIDITY_REASONS, param_columns
@@ -64,8 +64,10 @@ def error_mask(frame: pd.DataFrame) -> pd.Series:
 
 
 def rated(frame: pd.DataFrame) -> pd.DataFrame:
-    """The episodes that count in rates: every row but the ``error`` rows."""
-    return frame_of(frame.loc[~error_mask(frame)])
+    """The episodes that count in rates: every row but the ``error`` and ``not_runnable`` rows
+    (``harness.failures.UNRATED_REASONS``)."""
+    reasons = column(frame, "failure_reason").fillna("").astype(str)
+    return frame_of(frame.loc[~reasons.isin(UNRATED_REASONS)])
 
 
 def fallback_mask(frame: pd.DataFrame) -> pd.Series:
@@ -142,7 +144,9 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
     """One row per (task, robot, arm, object, point): counts, rate, Wilson bounds, failures.
 
     ``error`` rows (a crashed worker, bad input) are not pick outcomes: they are left out of
-    ``n``, the rates and the failure counts and counted in ``errors``. ``fallback`` counts the
+    ``n``, the rates and the failure counts and counted in ``errors``. ``not_runnable`` rows (a
+    pick that depends on earlier skills) are left out the same way, not counted as errors.
+    ``fallback`` counts the
     rated episodes whose candidates came from the reference fallback (the filter kept nothing).
     """
     params = param_columns(frame.columns)
@@ -150,6 +154,7 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
     frame = frame.assign(
         _reason=frame["failure_reason"].where(frame["failure_reason"] != "", "unknown"),
         _error=error_mask(frame),
+        _unrated=column(frame, "failure_reason").fillna("").astype(str).isin(UNRATED_REASONS),
         _fallback=fallback_mask(frame),
     )
     rows: list[dict[str, Any]] = []
@@ -158,7 +163,7 @@ def summarize(frame: pd.DataFrame) -> pd.DataFrame:
         row["point_id"] = int(column(everything, "point_id").min())
         for name in params:
             row[name] = everything[name].iloc[0]
-        group = frame_of(everything.loc[~column(everything, "_error")])
+        group = frame_of(everything.loc[~column(everything, "_unrated")])
         row["errors"] = int(column(everything, "_error").sum())  # never in a rate
         row["fallback"] = int(column(group, "_fallback").sum())
         row["n"] = len(group)

@@ -182,15 +182,20 @@ def filter_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
 def object_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     """Swapping the target object's mesh also renames the object after the mesh.
 
-    A sweep axis ``object.mesh: [cube, banana]`` then reports ``object = banana`` in its rows
-    (and ``pick.objects`` follows), unless the point names the object itself.
+    A sweep axis ``object.mesh: [cube, banana]`` (``object.`` is the picked object, wherever it
+    is in ``objects``) then reports ``object = banana`` in its rows (and ``pick.objects``
+    follows), unless the point names the object itself. ``objects.0.mesh`` does the same only
+    when ``objects[0]`` is the picked object.
     """
-    mesh_keys = ("object.mesh", "objects.0.mesh")
-    mesh = next((point[k] for k in mesh_keys if k in point), None)
-    if mesh is None or any(k in point for k in ("object.name", "objects.0.name")):
-        return {}
     target = task.target_object
-    if task.objects[0].name != target.name:
+    index = next(i for i, obj in enumerate(task.objects) if obj.name == target.name)
+    if "object.mesh" in point:
+        mesh = point["object.mesh"]
+    elif "objects.0.mesh" in point and index == 0:
+        mesh = point["objects.0.mesh"]
+    else:
+        return {}
+    if any(k in point for k in ("object.name", f"objects.{index}.name")):
         return {}
     name = Path(str(mesh)).stem if Path(str(mesh)).suffix else str(mesh)
     if name == target.name:
@@ -198,7 +203,7 @@ def object_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     if name in {obj.name for obj in task.objects}:
         raise ConfigError(f"object mesh {mesh!r} would rename the target to an existing name")
     picked = [name if n == target.name else n for n in (task.pick.objects or [target.name])]
-    return {"objects.0.name": name, "pick.objects": picked}
+    return {f"objects.{index}.name": name, "pick.objects": picked}
 
 
 def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:

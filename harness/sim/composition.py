@@ -75,7 +75,7 @@ def compose(
             grasps = str(base / grasps)  # relative to the task file
         asset = ObjectAsset.load(mesh_path, obj.scale, grasps, mass=obj.mass, friction=obj.friction)
         assets[obj.name] = asset
-        object_geoms.extend(_add_object(spec, obj.name, asset))
+        object_geoms.extend(_add_object(spec, obj.name, asset, obj.fixed))
     add_object_contact_pairs(spec, object_geoms, finger_pad_geoms(spec, robot_model), TABLE_NAME)
     try:
         model = spec.compile()
@@ -130,11 +130,16 @@ def _make_root_mocap(spec: mujoco.MjSpec, robot: RobotModel) -> str:
     return robot.root_frame
 
 
-def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset) -> list[str]:
+def _add_object(spec: mujoco.MjSpec, name: str, asset: ObjectAsset, fixed: bool) -> list[str]:
     """A free body with one mesh geom per convex piece and the asset's mass properties; returns
-    the names of its geoms."""
+    the names of its geoms. A fixture (``fixed``) is a mocap body instead: static, placed per
+    episode through ``data.mocap_pos`` like the robot root, as the reference's GeometryObject
+    (an Isaac GeometryPrim: collision, no rigid body; core/objects/geometry_object.py)."""
     body = spec.worldbody.add_body(name=name)
-    body.add_freejoint(name=f"{name}_free")
+    if fixed:
+        body.mocap = True
+    else:
+        body.add_freejoint(name=f"{name}_free")
     body.mass = asset.mass
     body.ipos = np.asarray(asset.center_of_mass, dtype=float)
     inertia = np.asarray(asset.inertia, dtype=float)
@@ -174,7 +179,8 @@ def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
     info = load_object_info(name)
     update: dict[str, object] = {}
     for key in ("mass", "friction", "orientations", "category"):
-        if key not in obj.model_fields_set and info.get(key) is not None:
+        # None is "not given" (a task that went through model_dump lists every key as set)
+        if getattr(obj, key) is None and info.get(key) is not None:
             update[key] = info[key]
     if not update:
         return obj
@@ -196,6 +202,6 @@ def scene_key(task: TaskConfig) -> str:
         grasps = obj.grasps
         if grasps and not Path(grasps).is_absolute():
             grasps = str((base / grasps).resolve()) if (base / grasps).exists() else grasps
-        objects.append([obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction])
+        objects.append([obj.name, mesh, grasps, list(obj.scale), obj.mass, obj.friction, obj.fixed])
     robot = [task.robot, task.gripper.model_dump(mode="json")]
     return json.dumps([robot, objects, task.physics.model_dump(mode="json")], sort_keys=True)

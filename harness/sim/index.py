@@ -29,9 +29,14 @@ class SceneObject:
     config: ObjectConfig
     asset: ObjectAsset
     body_id: int
-    qpos_adr: int  # 7 values: position, wxyz quaternion
-    dof_adr: int  # 6 values: linear (world), angular (local)
+    qpos_adr: int  # 7 values: position, wxyz quaternion (-1: a fixture)
+    dof_adr: int  # 6 values: linear (world), angular (local) (-1: a fixture)
     geom_ids: np.ndarray
+    mocap_id: int = -1  # a fixture's mocap index (static body), -1 for a free object
+
+    @property
+    def fixed(self) -> bool:
+        return self.mocap_id >= 0
 
 
 @dataclass(frozen=True)
@@ -106,14 +111,16 @@ def index_objects(
         jid = int(model.body_jntadr[bid])
         geoms = np.flatnonzero(model.geom_bodyid == bid)
         geom_object[geoms] = index
+        mocap = int(model.body_mocapid[bid])
         scene_objects[obj.name] = SceneObject(
             name=obj.name,
             config=obj,
             asset=assets[obj.name],
             body_id=bid,
-            qpos_adr=int(model.jnt_qposadr[jid]),
-            dof_adr=int(model.jnt_dofadr[jid]),
+            qpos_adr=int(model.jnt_qposadr[jid]) if jid >= 0 else -1,
+            dof_adr=int(model.jnt_dofadr[jid]) if jid >= 0 else -1,
             geom_ids=geoms,
+            mocap_id=mocap,
         )
     return scene_objects, geom_object
 

@@ -72,6 +72,8 @@ class SceneQueries:
     def object_velocity(self, name: str) -> np.ndarray:
         """Linear (world, m/s) and angular velocity of an object, (6,)."""
         obj = self.objects[name]
+        if obj.fixed:
+            return np.zeros(6)
         return self.data.qvel[obj.dof_adr : obj.dof_adr + 6].copy()
 
     def active_q(self, arm: str) -> np.ndarray:

@@ -59,6 +59,9 @@ MAX_SANE_SPEED = 1e3  # rad/s or m/s; anything faster is a diverged integration
 MAX_FALL_M = 2.0
 MAX_REACH_M = 10.0
 DROP_CLEARANCE = 0.001  # objects start this far above the table (the reference's 1 mm)
+# Draws of an object with min_distance before it keeps the last one (chosen; the reference
+# tries 1000 polygon placements, core/utils/visual_distractor.py find_polygon_placement).
+MAX_PLACEMENT_DRAWS = 100
 
 
 def yaw_quat(yaw_rad: float) -> np.ndarray:
@@ -214,24 +217,37 @@ class Scene(SceneQueries):
         T_world_objects: dict[str, np.ndarray] = {}
         choice: int | None = None
         configs = {config.name: with_object_defaults(config) for config in task.objects}
+        footprints: list[tuple[np.ndarray, float]] = []  # (xy, radius) of the objects placed
         for obj in self.objects.values():
             # The task's placement and orientations (the scene may have been built for another
             # task with the same objects), falling back to the scene's own.
             config = configs.get(obj.name, obj.config)
             region = config.placement or arm.object_region
-            pos, yaw = sample_placement(region, rng)
-            R_base = np.eye(3)
-            if config.orientations:
-                index = int(rng.integers(len(config.orientations)))
-                R_base = euler_xyz_deg_to_matrix(config.orientations[index])
-                if obj.name == task.target_object.name:
-                    choice = index
-            R = quat_to_matrix(yaw_quat(yaw)) @ R_base
+            for _attempt in range(MAX_PLACEMENT_DRAWS if config.min_distance is not None else 1):
+                pos, yaw = sample_placement(region, rng)
+                R_base = np.eye(3)
+                if config.orientations:
+                    index = int(rng.integers(len(config.orientations)))
+                    R_base = euler_xyz_deg_to_matrix(config.orientations[index])
+                    if obj.name == task.target_object.name:
+                        choice = index
+                R = quat_to_matrix(yaw_quat(yaw)) @ R_base
+                radius = float(np.max(np.linalg.norm((obj.asset.vertices @ R.T)[:, :2], axis=1)))
+                if config.min_distance is None or all(
+                    np.linalg.norm(pos[:2] - xy) - radius - r >= config.min_distance
+                    for xy, r in footprints
+                ):
+                    break
+            footprints.append((pos[:2].copy(), radius))
             lowest = float(np.min(obj.asset.vertices @ R[2, :]))
             pos = pos.copy()
             pos[2] += -lowest + DROP_CLEARANCE
-            d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
-            d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
+            if obj.fixed:
+                d.mocap_pos[obj.mocap_id] = pos
+                d.mocap_quat[obj.mocap_id] = matrix_to_quat(R)
+            else:
+                d.qpos[obj.qpos_adr : obj.qpos_adr + 3] = pos
+                d.qpos[obj.qpos_adr + 3 : obj.qpos_adr + 7] = matrix_to_quat(R)
             T_world_objects[obj.name] = make_T(R, pos)
 
         home = self.home_configuration(task, rng)
@@ -324,6 +340,8 @@ class Scene(SceneQueries):
         top or beyond ``MAX_REACH_M`` of its centre (a tunnelled or launched object, not a
         pick that merely missed)."""
         for name, obj in self.objects.items():
+            if obj.fixed:  # a fixture stays where it was placed (beside the table, maybe low)
+                continue
             x, y, z = (float(v) for v in self.data.qpos[obj.qpos_adr : obj.qpos_adr + 3])
             if z < -MAX_FALL_M:
                 return f"object {name!r} fell {-z:.3g} m below the table top: it left the scene"

@@ -114,7 +114,17 @@ def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) 
 
 LIFT_XYZ = (0.094118, 0.0010067, 0.27)  # lift joint on the base (lift2.urdf, description 1)
 LIFT_RANGE = (0.0, 0.46)
-LIFT_ARM_MOUNT = (0.059949, 0.25, 0.0245)  # arm bases on the carriage
+# Arm bases on the carriage. lift2.urdf puts them at carriage + (0.059949, +-0.25, 0.0245),
+# i.e. root + (0.154067, 0.25 + 0.0010067, ...). The reference's LeRobot converter
+# policy/lmdb2lerobotv21/lmdb2lerobot_lift2_a1.py (lines 382-385) has fl/base_link at robot +
+# (0.163030156, 0.248420062, 0.694000185) and fr/base_link at (0.163030139, -0.248420087, ...):
+# 9 mm further forward and symmetric about the root. x and y follow the reference. Its z,
+# 0.694, is what lift2.urdf gives at a lift of 0.40 (0.27 + 0.40 + 0.0245 = 0.6945), not at
+# the lift home 0.46 that the reference holds (robots_lift2.yaml lift_home), so the height
+# stays lift2.urdf's.
+LIFT_ARM_X = 0.163030 - LIFT_XYZ[0]
+LIFT_ARM_Y = 0.24842  # each side of the root's x axis (reference converter)
+LIFT_ARM_Z = 0.0245
 
 
 def build() -> Robot:
@@ -124,7 +134,8 @@ def build() -> Robot:
 ARX Lift-2: a base with a prismatic lift carrying two ARX R5a arms 0.50 m apart, facing +x.
 Base/lift/mounting: fiveages-sim robot-descriptions-arx lift2.urdf (base 21 kg, lift joint at
 base + (0.094118, 0.0010067, 0.27), range 0-0.46 m, 0.15 m/s, 400 N; carriage 14.2 kg; arm bases
-at carriage + (0.059949, +-0.25, 0.0245)). The reference holds the lift at 0.46, the top of this
+at root + (0.16303, +-0.24842) as the reference's LeRobot converter has them, 0.0245 above the
+carriage as in lift2.urdf). The reference holds the lift at 0.46, the top of this
 range. Arms: R5a.urdf chain and ranges (J1 upper 2.168 is a typo, written as 2.618), arx5-sdk
 velocity and torque limits. Gripper: fingers at link6 + (0.08657, +-0.0249, -0.00024) sliding
 along +-y, 0-0.044 each (0.088 total), Menagerie arx_l5 collision boxes as pads. TCP at link6 + 0.125 x (reference tcp_offset).
@@ -159,8 +170,7 @@ Root 'base' = the chassis origin on the floor.
         400.0,
         0.15,
     )
-    mx, my, mz = LIFT_ARM_MOUNT
-    add_r5a(robot, "left_", "lift_link", (mx, my, mz))
-    add_r5a(robot, "right_", "lift_link", (mx, -my, mz))
+    add_r5a(robot, "left_", "lift_link", (LIFT_ARM_X, LIFT_ARM_Y - ly, LIFT_ARM_Z))
+    add_r5a(robot, "right_", "lift_link", (LIFT_ARM_X, -LIFT_ARM_Y - ly, LIFT_ARM_Z))
     del lx, ly, lz
     return robot

@@ -136,7 +136,17 @@ def _add_piper_gripper(robot: Robot, p: str) -> None:
     robot.joint(p + "tcp_joint", "fixed", p + "link6", p + "tcp", (0, 0, PIPER_TCP))
 
 
-SPLIT_ARM_MOUNT = (0.2305, 0.297, 0.782)  # Cobot Magic fl_base_link w.r.t. the footprint
+# Arm bases w.r.t. the root (the robot prim the reference places and plans from): x and y are
+# the reference's own, from its LeRobot converter policy/lmdb2lerobotv21/lmdb2lerobot_split_aloha_a1.py
+# (lines 382-385: fl/arm_base at robot + (0.3684792, 0.30600064, 0.65270409), fr/arm_base at
+# (0.36847978, -0.30599953, 0.65270409)). The robot frame there is the robot prim whose pose is
+# T_world_base (core/robots/template_robot.py line 195: the robot's local pose) and whose origin
+# xy the region sampler sets (core/utils/region_sampler.py lines 33-39), so x and y carry over
+# as they are. Height: the converter's z is above that prim's origin, whose height above the
+# robot's lowest point (which the sampler stands on the floor) is in the robot USD, not public;
+# for the Lift-2 the same converter's z is not the simulated arm height either (robots/lift2/
+# build.py, LIFT_ARM_Z). So the height stays the Cobot Magic cuRobo fixture's 0.782.
+SPLIT_ARM_MOUNT = (0.3684795, 0.306, 0.782)
 
 
 def build() -> Robot:
@@ -146,8 +156,9 @@ def build() -> Robot:
 Split ALOHA: two AgileX Piper arms side by side facing +x on a mobile base (primitive geometry).
 Arm chain: piper_no_gripper_description.urdf (newer chain, piper_ros@ac41fcb), SDK limits; the
 URDF's J1 upper limit 2.168 is a typo and is written as 2.618 here. Velocity/effort are the URDF
-placeholders. Arm bases at footprint + (0.2305, +-0.297, 0.782): the Cobot Magic cuRobo
-fixture (0.59 m apart, 0.78 m high; yaw 0.02 dropped). Gripper: two prismatic fingers, 0-0.05
+placeholders. Arm bases at footprint + (0.3685, +-0.306, 0.782): x, y from the reference's
+LeRobot converter (lmdb2lerobot_split_aloha_a1.py), height from the Cobot Magic cuRobo fixture
+(0.78 m high). Gripper: two prismatic fingers, 0-0.05
 each (the reference's piper100 jaw 0.10; the SDK's 0.07 is a robot.yaml variant), Menagerie
 agilex_piper collision boxes as pads. link6 is the SDK link6 turned +90 deg about z (fingers along x);
 link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
@@ -163,7 +174,8 @@ link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
         ],  # wheels
         box((0.17, 0.2, 0.5), (0.04, 0.04, 0.48)),  # posts
         box((0.17, -0.2, 0.5), (0.04, 0.04, 0.48)),
-        box((ax, 0, az - 0.021), (0.12, 0.70, 0.042)),  # arm crossbar, top at the arm bases
+        # arm crossbar from the posts to the arm bases, its top at the arm bases
+        box(((0.11 + ax + 0.06) / 2, 0, az - 0.021), (ax + 0.06 - 0.11, 0.72, 0.042)),
         box((-0.15, 0, 0.75), (0.04, 0.04, 0.98)),  # camera mast
         box((-0.12, 0, 1.26), (0.05, 0.12, 0.04)),  # head camera
     ]
