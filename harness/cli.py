@@ -116,6 +116,7 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument(
         "--record", type=_record_policy, default="failures", help="none|failures|all|sample:N"
     )
+    _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -166,6 +167,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
+    _add_engine(p)
     _add_objective(p)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -187,6 +189,16 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
         default=default,
         help="replay one success and one failure per robot arm and embed their MP4s in "
         "report.html (a few seconds each)",
+    )
+
+
+def _add_engine(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--engine",
+        choices=["mujoco", "mjwarp"],
+        default="mujoco",
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
+        "worlds on a GPU, Warp's CPU device without one)",
     )
 
 
@@ -264,6 +276,7 @@ def _add_tune(sub: Subparsers) -> None:
         default="valid",
         help="decide by the validity verdict (default) or the reference success",
     )
+    _add_engine(p)
     p.set_defaults(func=_handler("tune", "main"))
 
 
@@ -386,7 +399,8 @@ def _add_bench(sub: Subparsers) -> None:
         "--only",
         nargs="+",
         metavar="SECTION",
-        help="run only these sections: grasps ik timing episodes graspgen sweeps",
+        help="run only these sections: grasps ik timing episodes graspgen sweeps sharing, "
+        "engines (mjwarp vs mujoco; only when named)",
     )
     p.set_defaults(func=_handler("bench", "main"))
 

@@ -44,9 +44,7 @@ def test_reference_pace_is_the_default_and_keeps_joint_speeds_sane(cache: dict) 
     assert fast["max_joint_vel"] > 0.9 * slowest_limit  # at full speed: at the limit
 
 
-@pytest.mark.parametrize(
-    ("task_file", "force", "seed"), [("fr3", 70.0, 2), ("lift2_left", 5.0, 1)]
-)
+@pytest.mark.parametrize(("task_file", "force", "seed"), [("fr3", 70.0, 2), ("lift2_left", 5.0, 1)])
 def test_force_controlled_grasp_reaches_its_force_limit_on_a_cube(
     cache: dict, task_file: str, force: float, seed: int
 ) -> None:

@@ -14,6 +14,7 @@ note of the mapping (ignored keys, approximations), in ``RUN_DIR/skipped.txt``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 import sys
 import time
@@ -141,7 +142,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         record=args.record,
     )
-    episodes = expand(sweep, None)
+    episodes = [dataclasses.replace(e, engine=args.engine) for e in expand(sweep, None)]
     from harness.runs.preflight import check_tasks
 
     check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])

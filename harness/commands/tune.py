@@ -30,6 +30,7 @@ def main(args: argparse.Namespace) -> int:
             block=args.block,
             max_seeds=args.max_seeds,
             budget=args.budget,
+            engine=args.engine,
         )
         result = tune(
             [Path(f) for f in args.files],

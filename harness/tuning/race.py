@@ -95,6 +95,7 @@ class RaceRunner:
         max_seeds: int,
         *,
         objective: str,
+        engine: str = "mujoco",
         backend: str,
         workers: int,
         may_run: bool,
@@ -111,6 +112,7 @@ class RaceRunner:
             workers,
             may_run,
         )
+        self.engine = engine
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -145,6 +147,7 @@ class RaceRunner:
             episode_index=index,
             seed=episode_seed(self.sweep.seed, index),
             run=self.sweep.name,
+            engine=self.engine,
         )
 
     def round(self, units: list[Unit], block: int, log: RaceLog) -> bool:

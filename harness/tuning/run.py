@@ -57,6 +57,7 @@ class TuneOptions:
     max_seeds: int = 100  # fresh seeds per unit at most (max_seeds / block looks)
     budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
     alpha: float = 0.05
+    engine: str = "mujoco"  # the execution engine of every screening and race episode
     sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
 
 
@@ -102,7 +103,12 @@ def tune(
     screen = out / SCREEN_DIR
     if (screen / "sweep.yaml").is_file():
         outcome = run_sweep(
-            resume_dir=screen, workers=workers, backend=backend, progress=progress, max_points=None
+            resume_dir=screen,
+            workers=workers,
+            backend=backend,
+            progress=progress,
+            engine=options.engine,
+            max_points=None,
         )
     else:
         with tempfile.TemporaryDirectory(prefix="harness-tune-") as folder:
@@ -114,6 +120,7 @@ def tune(
                 workers=workers,
                 backend=backend,
                 progress=progress,
+                engine=options.engine,
                 max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
     finish_run(outcome.run_dir)
@@ -193,6 +200,7 @@ def decide(
         list(tasks.values()),
         options.max_seeds,
         objective=options.objective,
+        engine=options.engine,
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
