@@ -30,7 +30,8 @@ def tests(session: nox.Session) -> None:
 @nox.session(python=PYTHON)
 def demo(session: nox.Session) -> None:
     """The main job: the default sweep over the three robots (report, videos, recording), then
-    a tune of every robot arm's approach x facing filters (success maps, tuned.yaml).
+    a tune of every robot arm's approach x facing filters (screening maps, a race on fresh
+    seeds, a decision per robot, arm and object, tuned.yaml).
 
     Arguments after ``--`` replace the sweep's (the tune is then skipped)."""
     session.install("-e", ".")
@@ -38,7 +39,8 @@ def demo(session: nox.Session) -> None:
         session.run("harness", "sweep", *session.posargs, env=RENDER_ENV)
         return
     session.run("harness", "sweep", "tasks/sweeps/demo.yaml", "--videos", env=RENDER_ENV)
-    tune = ["tasks/sweeps/demo.yaml", "--step", "15", "--bands", "1", "--episodes", "10"]
+    tune = ["tasks/sweeps/demo.yaml", "--step", "15", "--bands", "1", "--episodes", "10",
+            "--block", "10", "--max-seeds", "40"]  # fmt: skip
     session.run("harness", "tune", *tune, env=RENDER_ENV)
 
 
@@ -53,7 +55,8 @@ def benchmark(session: nox.Session) -> None:
 @nox.session(python=PYTHON)
 def lint(session: nox.Session) -> None:
     """ruff check, ruff format --check, and pyright (basic mode, pyrightconfig.json)."""
-    session.install("-e", ".[dev,ray]", "pyright[nodejs]>=1.1.400")
+    # The gpu extra too, so that pyright checks the mjwarp engine against MuJoCo Warp's API.
+    session.install("-e", ".[dev,ray,gpu]", "pyright[nodejs]>=1.1.400")
     session.run("ruff", "check", "harness", "tests", "robots", "noxfile.py")
     session.run("ruff", "format", "--check", "harness", "tests", "robots", "noxfile.py")
     python = os.path.join(session.virtualenv.location, "bin", "python")

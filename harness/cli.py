@@ -119,6 +119,7 @@ def _add_run(sub: Subparsers) -> None:
         default="failures",
         help="none|failures|invalid|all|sample:N",
     )
+    _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -174,6 +175,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
+    _add_engine(p)
     _add_objective(p)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -198,6 +200,16 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
     )
 
 
+def _add_engine(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--engine",
+        choices=["mujoco", "mjwarp"],
+        default="mujoco",
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
+        "worlds on a GPU, Warp's CPU device without one)",
+    )
+
+
 def _add_objective(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--objective",
@@ -215,23 +227,64 @@ def _add_compare(sub: Subparsers) -> None:
     p.add_argument("run_a", metavar="RUN_A", help="the baseline run directory (A)")
     p.add_argument("run_b", metavar="RUN_B", help="the run directory compared with it (B)")
     p.add_argument("--csv", metavar="FILE", help="also write the comparison table as CSV")
+    p.add_argument("--match", choices=["auto", "settings", "arm"], default="auto",
+                   help="pair by identical settings, or by robot, arm and object whatever "
+                   "filters ran (a tuned task file vs the current one); auto: by arm when "
+                   "each run holds one setting per robot, arm and object")  # fmt: skip
+    _add_objective(p)
     p.set_defaults(func=_handler("report", "compare"))
 
 
 def _add_tune(sub: Subparsers) -> None:
-    """``harness tune TASK_OR_SWEEP... [--episodes N] [--step 5] [--objective ...]``"""
-    p = sub.add_parser("tune", help="dense approach x facing grid: best filter block per arm")
+    """``harness tune TASK_OR_SWEEP... [--episodes N] [--budget B] [--write DIR] ...``"""
+    p = sub.add_parser(
+        "tune", help="screen an approach x facing grid, race the best on fresh seeds, decide"
+    )
     p.add_argument(
         "files", nargs="*", metavar="TASK_OR_SWEEP", help="task or sweep YAML files to tune"
     )
-    p.add_argument("--analyse", metavar="RUN_DIR", help="only analyse a finished tune run again")
-    p.add_argument("--episodes", type=EPISODES, help="episodes per setting (default 20)")
+    p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
+    p.add_argument("--episodes", type=EPISODES, help="screening seeds per setting (default 10)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
-    p.add_argument("--seed", type=SEED, help="sweep seed (default: the sweep's, else 0)")
-    p.add_argument("--out", metavar="DIR", help="the tune's run directory (default: reports/)")
+    p.add_argument(
+        "--top",
+        type=_bounded_int(1, 20),
+        default=3,
+        help="screening's best settings raced against the current one (default 3)",
+    )
+    p.add_argument(
+        "--block",
+        type=_bounded_int(1, 1000),
+        default=20,
+        help="fresh seeds per race round (default 20)",
+    )
+    p.add_argument(
+        "--max-seeds",
+        type=_bounded_int(1, 100_000),
+        default=100,
+        help="fresh seeds per robot, arm and object at most (default 100)",
+    )
+    p.add_argument(
+        "--budget",
+        metavar="N|Ns",
+        help="stop the race after N episodes or N CPU seconds (e.g. 300s)",
+    )
+    p.add_argument("--seed", type=SEED, help="screening sweep seed (default: the sweep's, else 0)")
+    p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
-    _add_objective(p)
+    p.add_argument(
+        "--write",
+        metavar="DIR",
+        help="write each tuned task file with its filter keys merged, and a diff",
+    )
+    p.add_argument(
+        "--objective",
+        choices=["valid", "reference"],
+        default="valid",
+        help="decide by the validity verdict (default) or the reference success",
+    )
+    _add_engine(p)
     p.set_defaults(func=_handler("tune", "main"))
 
 
@@ -356,7 +409,8 @@ def _add_bench(sub: Subparsers) -> None:
         "--only",
         nargs="+",
         metavar="SECTION",
-        help=f"run only these sections: {' '.join(SECTIONS)}",
+        help=f"run only these sections: {' '.join(SECTIONS)}, "
+        "engines (mjwarp vs mujoco; only when named)",
     )
     p.set_defaults(func=_handler("bench", "main"))
 

@@ -276,7 +276,8 @@ def audit(args: argparse.Namespace) -> int:
         never = int((column(group, "successes") == 0).sum())
         console.print(
             f"[bold]{obj}[/]: {len(group)} annotated grasp(s) executed in "
-            f"{int(column(group, 'trials').sum())} episode(s); {never} never succeeded, "
+            f"{int(column(group, 'trials').sum())} distinct execution(s) "
+            f"({int(column(group, 'rows').sum())} rows); {never} never succeeded, "
             f"{int(column(group, 'flagged').sum())} flagged (>= {args.min_trials} trials)",
             soft_wrap=True,
         )

@@ -113,11 +113,18 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
 def compare(args: argparse.Namespace) -> int:
     """Per-setting success-rate differences between two runs: McNemar on shared seeds, else a
     two-proportion test (``harness.report.compare``)."""
-    comparison = compare_runs(Path(args.run_a), Path(args.run_b))
+    comparison = compare_runs(Path(args.run_a), Path(args.run_b), args.match, args.objective)
     console = make_console()
-    params = varying_params(comparison) or [c for c in comparison.columns if c.startswith("param.")]
-    table = Table(title=f"B - A per setting   A = {args.run_a}   B = {args.run_b}")
-    for column in ("robot", "arm", "object", *[_short(p) for p in params]):
+    by_arm = bool(len(comparison)) and comparison["match"].iloc[0] == "arm"
+    params = [] if by_arm else (
+        varying_params(comparison) or [c for c in comparison.columns if c.startswith("param.")]
+    )  # fmt: skip
+    shown = ["filters_a", "filters_b"] if by_arm else params
+    what = "robot, arm and object" if by_arm else "setting"
+    table = Table(
+        title=f"B - A per {what} ({args.objective} rate)   A = {args.run_a}   B = {args.run_b}"
+    )
+    for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)
     for column in ("A", "B", "B - A", "p", "test", "pairs"):
         table.add_column(column, justify="right")
@@ -137,7 +144,7 @@ def compare(args: argparse.Namespace) -> int:
             str(row["robot"]),
             str(row["arm"]),
             str(row["object"]),
-            *[format_value(row[p]) for p in params],
+            *[format_value(row[p]) for p in shown],
             a,
             b,
             difference,
@@ -149,7 +156,7 @@ def compare(args: argparse.Namespace) -> int:
     both = frame_of(comparison[comparison["present"] == "both"])
     significant = int((column_of(both, "p_value") < SIGNIFICANCE).sum())
     console.print(
-        f"{len(both)} matched setting(s), {significant} with p < {SIGNIFICANCE} "
+        f"{len(both)} matched {what}(s), {significant} with p < {SIGNIFICANCE} "
         f"(not corrected for multiple comparisons)",
         soft_wrap=True,
     )

@@ -14,6 +14,7 @@ note of the mapping (ignored keys, approximations), in ``RUN_DIR/skipped.txt``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import re
 import sys
 import time
@@ -141,7 +142,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         record=args.record,
     )
-    episodes = expand(sweep, None)
+    episodes = [dataclasses.replace(e, engine=args.engine) for e in expand(sweep, None)]
     from harness.runs.preflight import check_tasks
 
     check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
@@ -176,7 +177,30 @@ def main(args: argparse.Namespace) -> int:
 
     finish_run(run.path)
     wall_s = time.perf_counter() - start
+    for task in tasks:
+        console.print(
+            filters_line(apply_overrides(task, overrides)),
+            soft_wrap=True,
+            highlight=False,
+            markup=False,
+        )
     return _print_outcome(console, rows, len(episodes), run.path, wall_s, bool(picks))
+
+
+def filters_line(task: TaskConfig) -> str:
+    """``filters fr3 left (fr3_pick_cube): filter_x_dir forward 90, filter_z_dir downward 140``:
+    the filters the run ran, on the robot's own axes (what ``harness compare`` matches)."""
+    from harness.grasps import resolve_filters
+    from harness.robots.facts import reference_convention
+
+    resolved = resolve_filters(task.pick, reference_convention(task.robot))
+    parts = [
+        f"{key} {spec.direction} {'-'.join(f'{a:g}' for a in spec.angles)}"
+        for key, spec in sorted(resolved.items())
+    ]
+    if task.pick.direction_to_obj:
+        parts.append(f"direction_to_obj {task.pick.direction_to_obj}")
+    return f"filters {task.robot} {task.arm} ({task.name}): {', '.join(parts) or 'none'}"
 
 
 def _print_outcome(

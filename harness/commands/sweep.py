@@ -57,6 +57,7 @@ def main(args: argparse.Namespace) -> int:
         episodes_per_point=args.episodes_per_point,
         progress=not args.no_progress,
         share=False if getattr(args, "no_share", False) else None,
+        engine=args.engine,
     )
     stats = outcome.stats
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run

@@ -2,8 +2,8 @@
 
 4. The executed plan, planned and timed (``harness.pick.execution_plan``,
    ``harness.planning.chain_timing``).
-5. The reference's 10 warm-up steps, then the execution and its verdict
-   (``harness.pick.executor``).
+5. The reference's 10 warm-up steps, then the execution and its verdict, by the spec's engine
+   (``harness.engines``: ``mujoco`` runs ``harness.pick.executor``).
 
 Their row columns are typed records (``harness.episode.records``): the ``ExecutedOutcome`` keeps
 them (the planning wall time apart), so an episode that chooses the same candidate of the same
@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from harness.engines import ExecutionJob, engine_for
 from harness.episode import location
 from harness.episode.candidate_cache import ExecutedOutcome
 from harness.episode.planning import Choice, Planning
@@ -23,7 +24,6 @@ from harness.episode.records import ExecutionColumns, MotionColumns, RowRecord
 from harness.episode.setup import WARMUP_TIME_S, EpisodeStopError
 from harness.episode.trace import planned_tcp
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
-from harness.pick.executor import PickExecutor
 from harness.pick.targets import PickTargets
 from harness.pick.validity import validity_columns
 from harness.planning.chain_timing import time_plan
@@ -89,23 +89,22 @@ def _execute(
     result.timings["plan_s"] = planning.plan_time.plan_time_s
     clock = time.perf_counter()
     warmup_steps = max(1, round(WARMUP_TIME_S / scene.model.opt.timestep))
-    warmup_ctrl = scene.data.ctrl.copy()
     setup.mark_stepped()
-    scene.step(warmup_steps)
     result.timings["warmup_steps"] = float(warmup_steps)
-    if (reason := scene.unstable()) is not None:
-        where = location.stage_failure("warmup")
-        raise EpisodeStopError("sim_unstable", f"during the warm-up steps: {reason}", where)
-    executor = PickExecutor(
+    job = ExecutionJob(
         scene, setup.task, targets, setup.facts.object_init_position,
-        planning.poses.lift_offset, setup.planner.checker,
-        record=True, log_ctrl=setup.spec.log_ctrl, semantics=setup.semantics,
+        planning.poses.lift_offset, setup.planner.checker, setup.semantics, warmup_steps,
+        record=True, log_ctrl=setup.spec.log_ctrl,
     )  # fmt: skip
-    outcome = executor.run()
+    execution = engine_for(setup.spec.engine).execute(job)
+    if execution.outcome is None:
+        why = f"during the warm-up steps: {execution.warmup_unstable}"
+        raise EpisodeStopError("sim_unstable", why, location.stage_failure("warmup"))
+    outcome = execution.outcome
     result.timings["sim_s"] = time.perf_counter() - clock
     result.timings["validity_s"] = outcome.validity_time_s
-    if executor.ctrl_log is not None:
-        result.ctrl_log = [(warmup_steps, warmup_ctrl), *executor.ctrl_log]
+    if execution.ctrl_log is not None:
+        result.ctrl_log = execution.ctrl_log
     planning.finish_trace(outcome, targets, planned)
     measured = ExecutionColumns(
         sim_time_s=outcome.sim_time_s,
@@ -118,7 +117,7 @@ def _execute(
         max_object_vel=outcome.max_object_vel,
         tcp_grasp_error_m=outcome.tcp_grasp_error_m,
     )
-    validity = validity_columns(executor.validity, outcome.table_penetration_m, outcome.validity)
+    validity = validity_columns(execution.validity, outcome.table_penetration_m, outcome.validity)
     stop = (outcome.failure_reason, outcome.message) if outcome.failure_reason else None
     if stop is None:
         return (measured, validity), stop

@@ -28,6 +28,7 @@ class EpisodeSpec:
     episode_id: str | None = None
     log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
     task_name: str | None = None  # the sweep's name of the task (the task's own when None)
+    engine: str = "mujoco"  # the execution engine (harness.engines): mujoco | mjwarp
 
     @property
     def resolved_task_name(self) -> str:

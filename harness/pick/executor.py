@@ -6,15 +6,15 @@ and 7); the success checks are ``harness.pick.verdict``; which of them apply, an
 collisions are checked, is ``harness.pick.semantics``. This module steps the physics and moves
 through the list.
 
-Execution: the control loop runs in Python once per control step (``control_dt``, the
-reference's 1/30 s); inside it the position servos get new setpoints every few physics steps
-(a chunk of ~10 ms, stepped inside MuJoCo with ``mj_step(m, d, n)``), sampled in advance from
-the timed trajectory with velocity feed-forward ``ctrl = q + (kv / kp) * qd``.
+Execution: the control loop runs in Python once per control step; the servo setpoints and
+chunking are ``harness.pick.servo``. The validity phase that follows the verdict, and its
+verdict, are ``harness.pick.executor_validity``. This is the CPU engine's executor
+(``harness.engines.mujoco_engine``); the batched GPU engine replays the control schedule it
+produces (``harness.engines.schedule``).
 """
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -29,25 +29,21 @@ from harness.pick.commands import (
     pose_reached,
     target_moved,
 )
-from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
+from harness.pick.executor_validity import run_validity_phase
+from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
 from harness.pick.recorder import TraceRecorder
 from harness.pick.semantics import Semantics
+from harness.pick.servo import SERVO_CHUNK_S, ServoTiming
 from harness.pick.targets import PickTargets
-from harness.pick.validity import ValidityPhase, phase_steps, validity_enabled
-from harness.pick.verdict import (
-    MAX_TABLE_PENETRATION,
-    VerdictTerm,
-    closing_terms,
-    first_failure,
-    validity_terms,
-)
+from harness.pick.validity import phase_steps, validity_enabled
+from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
 from harness.planning.collision import CollisionChecker, Phase
-from harness.planning.timing import Trajectory, gripper_trajectory
 from harness.sim import Scene
 from harness.transforms import invert_T
 
-SERVO_CHUNK_S = 0.010  # servo setpoint period inside a control step
+__all__ = ["EXECUTION_PENETRATION", "FINISH_STEPS", "SERVO_CHUNK_S", "PickExecutor"]
+
 FINISH_STEPS = 300  # recorder rows kept for the motion still playing after the list empties
 # Strict: a robot-environment contact during execution is a collision beyond this penetration
 # (m). Plans keep 0.1 mm; tracking lag lets a finger planned to graze the table dip a little.
@@ -85,23 +81,11 @@ class PickExecutor:
         self.object_init_position = np.asarray(object_init_position, dtype=float)
         self.commands = build_commands(task.pick, lift_offset)
         self.checker = checker if self.semantics.check_collisions else None
-        m = scene.model
-        self.timestep = float(m.opt.timestep)
-        self.substeps = max(1, round(task.control_dt / self.timestep))
-        self.control_dt = self.substeps * self.timestep
-        chunks = max(1, math.ceil(self.control_dt / SERVO_CHUNK_S - 1e-9))
-        chunks = min(chunks, self.substeps)
-        sizes = np.full(chunks, self.substeps // chunks)
-        sizes[: self.substeps % chunks] += 1
-        self.chunk_sizes = [int(size) for size in sizes]
-        self.chunk_ends = np.cumsum(self.chunk_sizes) * self.timestep
-        # Velocity feed-forward kv / kp per active servo (position servos damp absolute speed).
-        active = self.handles.active_actuators
-        kp = m.actuator_gainprm[active, 0]
-        kv = -m.actuator_biasprm[active, 2]
-        self.feedforward = np.where(kp > 0, kv / np.maximum(kp, 1e-12), 0.0)
-        self.ctrl_lower = m.actuator_ctrlrange[active, 0].copy()
-        self.ctrl_upper = m.actuator_ctrlrange[active, 1].copy()
+        self.servo = ServoTiming(scene.model, self.handles, task.control_dt)
+        self.timestep = self.servo.timestep
+        self.substeps = self.servo.substeps
+        self.control_dt = self.servo.control_dt
+        self.chunk_sizes = self.servo.chunk_sizes
         # The validity phase runs after the reference verdict (always under strict, whose
         # success it is); its steps are recorded too.
         self.validity = validity_enabled(task.pick)
@@ -131,31 +115,6 @@ class PickExecutor:
         self.failed_term = ""  # the name of the verdict term that failed the episode
         self.forces: tuple[float, float] = (0.0, 0.0)
         self.penetration = TablePenetration(scene)
-
-    # -- timing helpers -------------------------------------------------------------------------
-
-    def _chunk_times(self, duration: float) -> np.ndarray:
-        rows = math.ceil(duration / self.control_dt - 1e-9) + 1
-        return (np.arange(rows)[:, None] * self.control_dt + self.chunk_ends[None, :]).reshape(-1)
-
-    def _arm_setpoints(self, trajectory: Trajectory) -> np.ndarray:
-        """(rows, chunks, n) servo targets ``q + (kv/kp) qd`` for every chunk of the segment."""
-        ts = self._chunk_times(trajectory.duration)
-        q, qd, _ = trajectory.sample_many(ts)
-        ctrl = np.clip(q + qd * self.feedforward, self.ctrl_lower, self.ctrl_upper)
-        return ctrl.reshape(-1, len(self.chunk_sizes), q.shape[1])
-
-    def _gripper_setpoints(self, start: float, goal: float, final: float) -> np.ndarray:
-        """(rows, chunks) gripper targets: a ramp to ``goal`` at the robot's finger speed, sped
-        up if needed to finish within half of the closing window (``gripper_change_steps``
-        control steps), then one control step at ``final`` (the squeeze target of a
-        force-controlled grasp; ``goal`` otherwise)."""
-        window = 0.5 * self.pick.gripper_change_steps * self.control_dt
-        speed = max(self.arm_spec.gripper.speed, abs(goal - start) / max(window, 1e-3))
-        trajectory = gripper_trajectory(start, goal, speed)
-        q, _, _ = trajectory.sample_many(self._chunk_times(trajectory.duration))
-        rows = q[:, 0].reshape(-1, len(self.chunk_sizes))
-        return np.vstack([rows, np.full((1, len(self.chunk_sizes)), final)])
 
     @property
     def time(self) -> float:
@@ -202,7 +161,9 @@ class PickExecutor:
             # its force limit wherever the fingers stopped (GripperActuator.grasp).
             final = goal if opening else spec.finger_squeeze_position
             if abs(final - current) > 1e-6:
-                self.gripper_plan = self._gripper_setpoints(current, goal, final)
+                self.gripper_plan = self.servo.gripper_setpoints(
+                    current, goal, final, spec.gripper.speed, self.pick.gripper_change_steps
+                )
                 self.gripper_row = 0
                 self._event(f"gripper {command.gripper}")
 
@@ -228,7 +189,7 @@ class PickExecutor:
         d, h = self.data, self.handles
         if self.pending_segment is not None and self.arm_plan is None:
             segment = self.pending_segment
-            self.arm_plan = self._arm_setpoints(self.targets.segments[segment])
+            self.arm_plan = self.servo.arm_setpoints(self.targets.segments[segment])
             self.arm_row = 0
             self.arm_segment = segment
             self.started_segments.add(segment)
@@ -319,9 +280,7 @@ class PickExecutor:
             self.out.T_tcp_object_closed = self.object_pose_in_tcp()
             self.out.finger_force_left_n, self.out.finger_force_right_n = forces
             self._event(f"closed: finger forces {forces[0]:.2f} / {forces[1]:.2f} N")
-            if self.semantics.check_closing_forces and self._judge(
-                closing_terms(self.pick, forces)
-            ):
+            if self.semantics.check_closing_forces and self.judge(closing_terms(self.pick, forces)):
                 return False
         self.head += 1  # the idle count carries on: only a new target resets it
         if self.head < len(self.commands):
@@ -360,7 +319,7 @@ class PickExecutor:
             if self._progress(forces):
                 self._measure()
                 if not self.semantics.hold_after_list:
-                    self._judge(self.semantics.verdict_terms(self.pick, out))
+                    self.judge(self.semantics.verdict_terms(self.pick, out))
                 done = True
             if not done and not out.failure_reason and self.step >= self.task.max_episode_length:
                 self._fail(
@@ -377,7 +336,7 @@ class PickExecutor:
             self._event(f"verdict: {'success' if out.success else out.failure_reason}")
         if self.validity:
             clock = time.perf_counter()
-            self._validity_phase(verdict_reached=done)
+            run_validity_phase(self, verdict_reached=done)
             out.validity_time_s = time.perf_counter() - clock
         if self.recorder is not None:
             out.trace = self.recorder.finish()
@@ -398,7 +357,7 @@ class PickExecutor:
         out.lift_height_m = float(d.xpos[self.obj.body_id][2] - self.object_init_position[2])
         return forces
 
-    def _judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
+    def judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
         """Fail with the first term that did not pass (``harness.pick.verdict``); True if one."""
         failed = first_failure(terms)
         if failed is not None:
@@ -460,38 +419,3 @@ class PickExecutor:
     def grasp_reference(self) -> np.ndarray | None:
         """The object's pose in the TCP frame when the closing ended (None if it never did)."""
         return self.out.T_tcp_object_closed
-
-    def _validity_phase(self, verdict_reached: bool) -> None:
-        """After the verdict: the validity phase and its verdict (strict's success); the
-        command list's columns (steps, peak speeds) stay those of the list."""
-        out = self.out
-        measure = ValidityMeasure(
-            table_penetration_m=out.table_penetration_m,
-            closing_forces=(out.finger_force_left_n, out.finger_force_right_n),
-        )
-        if not verdict_reached:  # stopped before the verdict: only the motion's facts count
-            too_deep = not measure.table_penetration_m < MAX_TABLE_PENETRATION
-            reason = "table_penetration" if too_deep else ""
-            reason = reason or (self.failed_term if self.failed_term == "one_finger" else "")
-            out.validity = ValidityResult(False, reason or "not_run", out.message, measure)
-            return
-        kept = (out.sim_steps, out.max_joint_vel, out.max_object_vel)
-        self.post = "validity:finish"
-        ValidityPhase(self, self.pick.hold_time, float(self.object_init_position[2])).run(measure)
-        measure.table_penetration_m = out.table_penetration_m
-        failed = first_failure(validity_terms(self.pick, measure))
-        out.validity = ValidityResult(
-            failed is None, failed.name if failed else "", failed.message if failed else "", measure
-        )
-        self._event(
-            f"validity: {'valid' if failed is None else failed.name}, robustness "
-            f"{measure.robustness_g:g} g, hold slip {measure.hold_slip_m * 1e3:.2f} mm / "
-            f"{math.degrees(measure.hold_rotation_rad):.1f} deg"
-        )
-        if self.semantics.hold_after_list:  # strict: this is the verdict
-            out.slip_m, out.lift_height_m = measure.hold_slip_m, measure.lift_height_m
-            out.verdict_forces = measure.finger_forces
-            self._judge(self.semantics.verdict_terms(self.pick, out))
-            out.success = not out.failure_reason
-            self._event(f"verdict: {'success' if out.success else out.failure_reason}")
-        out.sim_steps, out.max_joint_vel, out.max_object_vel = kept

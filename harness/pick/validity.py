@@ -31,6 +31,7 @@ gripper keeps squeezing, as a robot waiting for its next command would.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Protocol
 
 import mujoco
@@ -58,6 +59,41 @@ TUG_DIRECTIONS: tuple[tuple[str, tuple[float, float, float]], ...] = (
 )
 # The state a tug direction starts from: physics, time, controls, applied forces, warm start.
 SAVED_STATE = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_WARMSTART
+
+
+# A tug rung's result: survived, slip since the end of the hold (m), still between the fingers.
+RungOutcome = tuple[bool, float, bool]
+
+
+def tug_rung_steps(control_dt: float) -> int:
+    """Control steps of one tug rung (``TUG_TIME_S``)."""
+    return max(1, round(TUG_TIME_S / control_dt))
+
+
+def tug_ladder(
+    rung: Callable[[str, tuple[float, float, float], float], RungOutcome],
+) -> tuple[float, str]:
+    """The ladder's order and result, for any engine: each direction tries the levels from the
+    best one every earlier direction survived downwards, stops at the first it survives;
+    ``robustness_g`` is the last direction's level (0 once one direction survives none). A rung
+    starts from the held state, so its result does not depend on the order it is run in (the
+    batched engine runs all 24 at once and answers ``rung`` from them)."""
+    best = TUG_LEVELS_G[-1]
+    message = ""
+    for name, direction in TUG_DIRECTIONS:
+        survived_level = 0.0
+        for k in sorted((level for level in TUG_LEVELS_G if level <= best), reverse=True):
+            survived, slip, between = rung(name, direction, k)
+            if survived:
+                survived_level = k
+                break
+            if not message or k == TUG_LEVELS_G[0]:
+                where = "between the fingers" if between else "no longer between the fingers"
+                message = f"{name} at {k:g} g: slip {slip * 1e3:.1f} mm, {where}"
+        best = survived_level
+        if best == 0.0:
+            break
+    return best, message
 
 
 def phase_steps(hold_time: float, control_dt: float) -> int:
@@ -169,34 +205,23 @@ class ValidityPhase:
         mujoco.mj_getState(m, d, state, SAVED_STATE)
         reference = host.object_in_tcp()
         host.event("validity: tug")
-        best = TUG_LEVELS_G[-1]
-        message = ""
-        rung_steps = max(1, round(TUG_TIME_S / host.control_dt))
-        for name, direction in TUG_DIRECTIONS:
-            survived_level = 0.0
-            for k in sorted((level for level in TUG_LEVELS_G if level <= best), reverse=True):
-                mujoco.mj_setState(m, d, state, SAVED_STATE)
-                force = np.asarray(direction) * k * weight
-                d.xfrc_applied[body, :3] = force
-                t_start = host.time
-                for _ in range(rung_steps):
-                    host.hold_step(f"validity:tug {name} {k:g} g")
-                    self._sample("tug", float(np.linalg.norm(host.object_in_tcp() - reference)))
-                slip = self.slips[-1]
-                between = self._between_fingers()
-                survived = slip < TUG_MAX_SLIP and between and self.scene.unstable() is None
-                self.tugs.append(
-                    TugRecord(name, k, force, t_start, host.time, slip, between, survived)
-                )
-                if survived:
-                    survived_level = k
-                    break
-                if not message or k == TUG_LEVELS_G[0]:
-                    where = "between the fingers" if between else "no longer between the fingers"
-                    message = f"{name} at {k:g} g: slip {slip * 1e3:.1f} mm, {where}"
-            best = survived_level
-            if best == 0.0:
-                break
+        rung_steps = tug_rung_steps(host.control_dt)
+
+        def rung(name: str, direction: tuple[float, float, float], k: float) -> RungOutcome:
+            mujoco.mj_setState(m, d, state, SAVED_STATE)
+            force = np.asarray(direction) * k * weight
+            d.xfrc_applied[body, :3] = force
+            t_start = host.time
+            for _ in range(rung_steps):
+                host.hold_step(f"validity:tug {name} {k:g} g")
+                self._sample("tug", float(np.linalg.norm(host.object_in_tcp() - reference)))
+            slip = self.slips[-1]
+            between = self._between_fingers()
+            survived = slip < TUG_MAX_SLIP and between and self.scene.unstable() is None
+            self.tugs.append(TugRecord(name, k, force, t_start, host.time, slip, between, survived))
+            return survived, slip, between
+
+        best, message = tug_ladder(rung)
         mujoco.mj_setState(m, d, state, SAVED_STATE)
         d.xfrc_applied[body] = 0.0
         mujoco.mj_forward(m, d)

@@ -8,6 +8,11 @@ runs hold episodes with the same seeds for a matched setting (two sweeps with th
 see the same scenes), the difference is tested with the exact McNemar test on those pairs;
 otherwise with the two-proportion test (``compare_proportions``: z, or Fisher's exact test for
 small expected counts).
+
+``match="arm"`` pairs the runs by robot, arm and object instead, whatever filters each side ran:
+a tuned task file against the current one (``filters_a`` / ``filters_b`` say which filters each
+side ran). ``"auto"`` (the default) matches by arm when each run holds one setting per robot, arm
+and object (two plain ``harness run`` s), else by settings.
 """
 
 from __future__ import annotations
@@ -32,6 +37,8 @@ SELECTION_KEYS = (*AXIS_KEYS, *NEUTRAL_KEYS, "direction_to_obj")
 # Swept keys the key columns already show (the object's name follows its mesh).
 SHOWN_BY_KEY = ("param.object.mesh", "param.objects.0.mesh")
 MATCH_KEY = [*KEY_COLUMNS, "settings"]
+ARM_KEY = ["robot", "arm", "object"]
+MATCHES = ("auto", "settings", "arm")
 
 
 def _filter(text: Any) -> list[Any] | None:
@@ -91,12 +98,39 @@ def _missing(value: Any) -> bool:
     return isinstance(value, float) and math.isnan(value)
 
 
-def _side(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per matched setting: point, point_id, n, successes and the seed -> success record."""
+def filters_text(settings: str) -> str:
+    """A settings JSON as ``filter_z_dir downward 140, filter_x_dir forward 90`` ("none")."""
+    parsed = json.loads(settings) if settings else {}
+    parts = [
+        f"{key} {value[0]} {'-'.join(f'{a:g}' for a in value[1:])}"
+        if isinstance(value, list) else f"{key} {value}"
+        for key, value in sorted(parsed.items())
+    ]  # fmt: skip
+    return ", ".join(parts) or "none"
+
+
+def one_setting_per_arm(frame: pd.DataFrame) -> bool:
+    """True when every robot, arm and object of ``frame`` ran one setting (a plain run)."""
+    return bool((frame.groupby(ARM_KEY)["settings"].nunique() == 1).all())
+
+
+def _by_arm(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` keyed by robot, arm and object only: task and settings become one value."""
+    filters = frame.groupby(ARM_KEY)["settings"].transform(
+        lambda s: " | ".join(filters_text(x) for x in dict.fromkeys(s))
+    )
+    return frame.assign(filters=filters, settings="", task="")
+
+
+def _side(frame: pd.DataFrame, verdict: str = "success") -> pd.DataFrame:
+    """Per matched setting: point, point_id, n, successes and the seed -> success record
+    (``verdict``: the ``success`` or the ``valid`` column)."""
     rows = []
+    if "filters" not in frame:
+        frame = frame.assign(filters=[filters_text(s) for s in frame["settings"]])
     for key, group in frame.groupby(MATCH_KEY, sort=False):
         seeds = column(group, "seed") if "seed" in group else pd.Series([-1] * len(group))
-        record = dict(zip(seeds, column(group, "success").astype(bool), strict=True))
+        record = dict(zip(seeds, column(group, verdict).astype(bool), strict=True))
         paired = bool((seeds >= 0).all()) and seeds.is_unique
         rows.append(
             {
@@ -104,7 +138,8 @@ def _side(frame: pd.DataFrame) -> pd.DataFrame:
                 "point_id": int(column(group, "point_id").min()),
                 "point": str(group["point"].iloc[0]),
                 "n": len(group),
-                "successes": int(column(group, "success").sum()),
+                "successes": int(column(group, verdict).astype(bool).sum()),
+                "filters": str(group["filters"].iloc[0]),
                 "record": record if paired else None,
             }
         )
@@ -129,16 +164,27 @@ def _test(row: Any) -> dict[str, Any]:
                 test=result.test, pairs=0, only_a=0, only_b=0)  # fmt: skip
 
 
-def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
+def compare_runs(
+    run_a: str | Path, run_b: str | Path, match: str = "settings", objective: str = "reference"
+) -> pd.DataFrame:
     """Per matched setting, ``rate_b - rate_a`` with its test (see the module docstring).
 
+    ``objective`` ``valid`` compares the validity verdicts instead of the reference success.
     Settings found in one run only are listed with ``present`` = ``a only`` / ``b only`` and no
     test. ``test`` is ``mcnemar`` (paired: ``pairs`` shared seeds, ``only_a`` / ``only_b``
     discordant successes), ``z`` or ``fisher``.
     """
+    if match not in MATCHES:
+        raise HarnessError(f"match {match!r}: expected one of {', '.join(MATCHES)}")
     frame_a = with_settings(load_episodes(run_a))
     frame_b = with_settings(load_episodes(run_b))
-    merged = pd.merge(_side(frame_a), _side(frame_b), on=MATCH_KEY, how="outer",
+    if match == "auto":
+        both = one_setting_per_arm(frame_a) and one_setting_per_arm(frame_b)
+        match = "arm" if both else "settings"
+    if match == "arm":
+        frame_a, frame_b = _by_arm(frame_a), _by_arm(frame_b)
+    verdict = "valid" if objective == "valid" else "success"
+    merged = pd.merge(_side(frame_a, verdict), _side(frame_b, verdict), on=MATCH_KEY, how="outer",
                       suffixes=("_a", "_b"), indicator=True)  # fmt: skip
     merged["present"] = (
         merged.pop("_merge")
@@ -160,7 +206,11 @@ def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
     merged["rate_a"] = merged["successes_a"] / merged["n_a"].where(merged["n_a"] > 0)
     merged["rate_b"] = merged["successes_b"] / merged["n_b"].where(merged["n_b"] > 0)
     params = _settings_columns(merged)
-    columns = [*KEY_COLUMNS, "point_id", "point", "settings", *params.columns, "n_a",
+    merged["match"] = match
+    for name in ("filters_a", "filters_b"):
+        merged[name] = merged[name].fillna("")
+    columns = [*KEY_COLUMNS, "match", "point_id", "point", "settings", "filters_a", "filters_b",
+               *params.columns, "n_a",
                "successes_a", "rate_a", "n_b", "successes_b", "rate_b", "difference", "z",
                "p_value", "test", "pairs", "only_a", "only_b", "present"]  # fmt: skip
     merged = pd.concat([merged, params], axis=1)
@@ -170,7 +220,7 @@ def compare_runs(run_a: str | Path, run_b: str | Path) -> pd.DataFrame:
 
 def _settings_columns(merged: pd.DataFrame) -> pd.DataFrame:
     """``param.<key>`` columns from the settings JSON (filters as JSON text), for display."""
-    parsed = [json.loads(s) for s in merged["settings"]]
+    parsed = [json.loads(s) if s else {} for s in merged["settings"]]
     keys = sorted({k for item in parsed for k in item})
     data = {
         f"param.{k}": [

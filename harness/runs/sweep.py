@@ -10,6 +10,7 @@ by a segfault) turns its episode into an ``error`` row and is replaced; Ctrl-C k
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,6 +68,7 @@ def run_sweep(
     max_episodes: int = MAX_EPISODES,
     retry_errors: bool = False,
     share: bool | None = None,
+    engine: str = "mujoco",
     max_points: int | None = MAX_POINTS,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
@@ -77,7 +79,8 @@ def run_sweep(
     points: no limit, for the generated grids of ``harness tune``); ``retry_errors`` runs the
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
-    differ only in selection keys; the rows are the same either way).
+    differ only in selection keys; the rows are the same either way); ``engine`` executes the
+    chosen plans (``harness.engines``: the row's ``engine`` column).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
@@ -102,7 +105,9 @@ def run_sweep(
             if notes:
                 run.write_notes(notes)
         done_ids = run.completed_ids(retry_errors=retry_errors)
-        todo = [e for e in episodes if e.resolved_id not in done_ids]
+        todo = [
+            dataclasses.replace(e, engine=engine) for e in episodes if e.resolved_id not in done_ids
+        ]
         if limit is not None:
             todo = todo[:limit]
         workers = workers or sweep.workers or default_workers()

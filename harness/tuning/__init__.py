@@ -1,9 +1,12 @@
 """Tuning filter settings and grasp annotations from runs (``harness tune``, ``grasps audit``).
 
-- ``grid``: the approach x facing grid a tune sweeps, and the task's current setting;
-- ``analysis``: success maps with Wilson intervals, the best setting, McNemar vs the current;
+- ``grid``: the approach x facing grid a tune screens (deduplicated), the current setting;
+- ``analysis``: the screening's success maps, the challengers it selects, the neighbour check;
+- ``decide``: the race's tests and the verdict (pure logic on paired outcomes);
+- ``race``: running the race's rounds on fresh seeds; ``simulate``: its error and power;
+- ``decisions``: the decision tables; ``blocks``: ``tuned.yaml`` / ``tuned.md``;
+- ``write``: ``--write DIR``, task files with only their filter keys merged;
 - ``heatmaps``: one PNG per robot, arm and object;
-- ``blocks``: ``tuned.yaml`` (paste-ready pick blocks in each robot's keys) and ``tuned.md``;
-- ``run``: ``tune`` runs the grid as one sweep and ``analyse`` writes ``<run dir>/tune/``;
+- ``run``: ``tune`` screens, races and decides, writing ``<out>/tune/``;
 - ``audit``: which annotated grasps were executed, which never succeed and why, cleaned files.
 """

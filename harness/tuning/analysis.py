@@ -1,12 +1,12 @@
-"""The tune's statistics: success maps, the best setting, and its paired test against the current.
+"""The tune's screening: per unit (robot, arm, object), the success map of the grid on the
+screening seeds, the few best settings that go on to the race, and the neighbour check.
 
 A *setting* is the pair (approach filter, facing filter) of a grid point, as the JSON of its
-``param.pick.approach_filter`` / ``param.pick.facing_filter`` columns. Per robot, arm and object
-(and per robot and arm, pooled over objects) the success map holds n, successes, rate and the 95%
-Wilson interval of every setting; the best setting has the highest lower bound (ties: higher
-rate, larger n, earlier grid point), and is tested against the task's current setting with the
-exact McNemar test on the pairs of episodes that share a seed (common random numbers: episode k
-of every point sees the same scene).
+point's ``pick.approach_filter`` / ``pick.facing_filter`` values. A *unit* is one task and one
+value of the sweep's other axes (``object.mesh``, ...): settings are chosen per object. The
+screening only *selects*; its rates are never the evidence (the screening maximum is biased up
+by the selection). ``ok`` is the chosen objective: the validity verdict (default) or the
+reference success; the reference success is kept beside it.
 """
 
 from __future__ import annotations
@@ -16,16 +16,17 @@ from typing import Any
 
 import pandas as pd
 
+from harness.config import SweepConfig
 from harness.errors import HarnessError
-from harness.report.frames import column, frame_of, series_rows
-from harness.report.stats import mcnemar_exact, wilson_interval
-from harness.row import param_columns
+from harness.report.frames import column, frame_of
+from harness.report.stats import wilson_interval
+from harness.runs.expansion import sweep_points
 from harness.tuning.grid import APPROACH_KEY, FACING_KEY
 
-APPROACH_COLUMN = "param." + APPROACH_KEY
-FACING_COLUMN = "param." + FACING_KEY
 SETTING = ["approach", "facing"]
-POOLED = "*"  # the object value of a robot/arm's row pooled over its objects
+UNIT = ["task", "context"]
+OBJECTIVES = ("valid", "reference")
+ISOLATION_DROP = 0.25  # a neighbour this far below the winner's screening rate is "poor" (chosen)
 
 
 def filter_label(text: str) -> str:
@@ -37,129 +38,121 @@ def filter_label(text: str) -> str:
     return f"{direction} {'-'.join(f'{a:g}' for a in angles)}"
 
 
-def settings_frame(frame: pd.DataFrame, objective: str) -> pd.DataFrame:
-    """One row per episode: robot, arm, object, task, context, seed, approach, facing, ok.
+def point_parts(point: dict[str, Any]) -> tuple[str, str, str]:
+    """(approach JSON, facing JSON, context JSON of the point's other axes)."""
+    others = {k: v for k, v in point.items() if k not in (APPROACH_KEY, FACING_KEY)}
+    return (
+        json.dumps(point.get(APPROACH_KEY)),
+        json.dumps(point.get(FACING_KEY)),
+        json.dumps(others, sort_keys=True),
+    )
 
-    ``ok`` is the reference success or, with ``objective="valid"``, the validity verdict.
-    ``context`` joins the point's other swept values (episodes pair within a context).
-    """
-    missing = [c for c in (APPROACH_COLUMN, FACING_COLUMN) if c not in frame.columns]
-    if missing:
-        raise HarnessError(f"not a tune run: the episodes have no {missing[0]} column")
-    others = [c for c in param_columns(frame.columns) if c not in (APPROACH_COLUMN, FACING_COLUMN)]
-    context = frame[others].astype(str).agg(" | ".join, axis=1) if others else ""
-    verdict = "valid" if objective == "valid" else "success"
+
+def settings_frame(frame: pd.DataFrame, sweep: SweepConfig, objective: str) -> pd.DataFrame:
+    """One row per rated episode: unit and setting columns, ``ok`` (the objective),
+    ``reference`` (the reference success), ``fallback`` (the filter kept nothing)."""
+    if objective not in OBJECTIVES:
+        raise HarnessError(f"objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
+    if "param." + APPROACH_KEY not in frame.columns:
+        raise HarnessError(f"not a tune run: the episodes have no param.{APPROACH_KEY} column")
+    rated = frame_of(frame[column(frame, "failure_reason") != "error"])
+    parts = [point_parts(p) for p in sweep_points(sweep)]
+    ids = column(rated, "point_id").astype(int)
+    outcome = column(rated, "filter_outcome") if "filter_outcome" in rated else ""
     return pd.DataFrame(
         {
-            "robot": frame["robot"],
-            "arm": frame["arm"],
-            "object": frame["object"],
-            "task": frame["task"],
-            "context": context,
-            "seed": frame["seed"],
-            "point_id": frame["point_id"],
-            "approach": column(frame, APPROACH_COLUMN).astype(str),
-            "facing": column(frame, FACING_COLUMN).astype(str),
-            "ok": column(frame, verdict).astype(bool),
+            "robot": column(rated, "robot"),
+            "arm": column(rated, "arm"),
+            "object": column(rated, "object"),
+            "task": column(rated, "task"),
+            "context": [parts[i][2] for i in ids],
+            "seed": column(rated, "seed"),
+            "episode_index": column(rated, "episode_index"),
+            "point_id": ids,
+            "approach": [parts[i][0] for i in ids],
+            "facing": [parts[i][1] for i in ids],
+            "ok": column(rated, "valid" if objective == "valid" else "success").astype(bool),
+            "reference": column(rated, "success").astype(bool),
+            "fallback": pd.Series(outcome, index=rated.index).astype(str) == "fallback",
         }
     )
 
 
-def success_map(settings: pd.DataFrame, by: list[str]) -> pd.DataFrame:
-    """Per ``by`` group and setting: n, successes, rate, Wilson bounds (lo, hi), point order."""
-    grouped = settings.groupby([*by, *SETTING], sort=False)
-    table = grouped.agg(
-        n=("ok", "size"), successes=("ok", "sum"), order=("point_id", "min")
-    ).reset_index()
+def success_map(settings: pd.DataFrame) -> pd.DataFrame:
+    """Per unit and setting: n, successes, rate, Wilson bounds, the reference rate beside it,
+    fallback episodes and the grid order."""
+    by = ["robot", "arm", "object", *UNIT, *SETTING]
+    table = (
+        settings.groupby(by, sort=False)
+        .agg(
+            n=("ok", "size"),
+            successes=("ok", "sum"),
+            reference_successes=("reference", "sum"),
+            fallbacks=("fallback", "sum"),
+            order=("point_id", "min"),
+        )
+        .reset_index()
+    )
     bounds = [
         wilson_interval(int(k), int(n)) for k, n in zip(table["successes"], table["n"], strict=True)
     ]
     table["rate"] = table["successes"] / table["n"]
     table["lo"] = [b[0] for b in bounds]
     table["hi"] = [b[1] for b in bounds]
+    table["reference_rate"] = table["reference_successes"] / table["n"]
     return table
 
 
-def best_of(table: pd.DataFrame, by: list[str]) -> pd.DataFrame:
-    """Per ``by`` group, the setting with the highest lower bound (ties: rate, n, grid order)."""
-    ranked = table.sort_values(
-        [*by, "lo", "rate", "n", "order"],
-        ascending=[*([True] * len(by)), False, False, False, True],
+def ranked(unit_map: pd.DataFrame, current: tuple[str, str]) -> pd.DataFrame:
+    """One unit's settings, best first: objective successes, reference successes, the current
+    setting first among equals, then grid order. Fallback settings are left out."""
+    table = unit_map.assign(
+        is_current=(unit_map["approach"] == current[0]) & (unit_map["facing"] == current[1])
+    )
+    table = frame_of(table[(column(table, "fallbacks") == 0) | column(table, "is_current")])
+    return table.sort_values(
+        ["successes", "reference_successes", "is_current", "order"],
+        ascending=[False, False, False, True],
         kind="stable",
-    )
-    return frame_of(ranked.groupby(by, sort=True).head(1)).reset_index(drop=True)
+    ).reset_index(drop=True)
 
 
-def paired_counts(
-    settings: pd.DataFrame, best: tuple[str, str], current: tuple[str, str]
-) -> tuple[int, int, int]:
-    """(pairs, current-only successes, best-only successes) over episodes sharing a seed."""
-    keys = ["task", "context", "seed"]
-
-    def outcomes(setting: tuple[str, str]) -> pd.DataFrame:
-        chosen = (settings["approach"] == setting[0]) & (settings["facing"] == setting[1])
-        return frame_of(settings.loc[chosen, [*keys, "ok"]])
-
-    pairs = outcomes(current).merge(outcomes(best), on=keys, suffixes=("_current", "_best"))
-    a, b = column(pairs, "ok_current"), column(pairs, "ok_best")
-    return len(pairs), int((a & ~b).sum()), int((b & ~a).sum())
+def challengers(
+    unit_map: pd.DataFrame, current: tuple[str, str], top: int
+) -> list[tuple[str, str]]:
+    """The ``top`` best non-fallback settings of the screening other than the current one."""
+    table = ranked(unit_map, current)
+    table = frame_of(table[~column(table, "is_current")])
+    return [(str(a), str(f)) for a, f in zip(table["approach"], table["facing"], strict=True)][:top]
 
 
-def choices(
-    settings: pd.DataFrame, current: dict[tuple[str, str], tuple[str, str]]
-) -> pd.DataFrame:
-    """Per robot, arm and object, and per robot and arm pooled (object ``*``): the best setting,
-    the current setting's stats, and the exact McNemar test of best vs current.
+def axis_order(values: list[str]) -> list[str]:
+    """Filter JSONs sorted as the heatmap shows them: single angles, bands, then no filter."""
 
-    ``current`` maps (robot, arm) to the current (approach, facing) JSON pair.
-    """
-    per_object = success_map(settings, ["robot", "arm", "object"])
-    pooled = success_map(settings, ["robot", "arm"]).assign(object=POOLED)
-    rows: list[dict[str, Any]] = []
-    for table in (per_object, pooled):
-        by = ["robot", "arm", "object"]
-        points = table.groupby(by, sort=False)["n"].transform("size")
-        table = table.assign(points=points)
-        for best in series_rows(best_of(table, by)):
-            rows.append(_choice_row(settings, table, best, current))
-    out = pd.DataFrame(rows)
-    return out.sort_values(["robot", "arm", "object"], kind="stable").reset_index(drop=True)
+    def rank(text: str) -> tuple[int, list[float]]:
+        value = json.loads(text) if text else None
+        if not value:
+            return 2, []
+        return len(value) - 2, sorted(float(a) for a in value[1:])
+
+    return sorted(set(values), key=rank)
 
 
-def _choice_row(
-    settings: pd.DataFrame,
-    table: pd.DataFrame,
-    best: Any,
-    current: dict[tuple[str, str], tuple[str, str]],
-) -> dict[str, Any]:
-    robot, arm, obj = str(best["robot"]), str(best["arm"]), str(best["object"])
-    now = current.get((robot, arm))
-    if now is None:
-        raise HarnessError(f"no current setting known for {robot} {arm}")
-    mine = (table["robot"] == robot) & (table["arm"] == arm) & (table["object"] == obj)
-    at_now = frame_of(table[mine & (table["approach"] == now[0]) & (table["facing"] == now[1])])
-    if at_now.empty:
-        raise HarnessError(f"the current setting of {robot} {arm} is not a grid point")
-    cur = at_now.iloc[0]
-    scope = settings if obj == POOLED else frame_of(settings[settings["object"] == obj])
-    scope = frame_of(scope[(scope["robot"] == robot) & (scope["arm"] == arm)])
-    pairs, only_current, only_best = paired_counts(
-        scope, (str(best["approach"]), str(best["facing"])), now
-    )
-    test = mcnemar_exact(only_current, only_best)
-    return {
-        "robot": robot,
-        "arm": arm,
-        "object": obj,
-        "points": int(best["points"]),
-        "approach": best["approach"],
-        "facing": best["facing"],
-        **{k: best[k] for k in ("n", "successes", "rate", "lo", "hi")},
-        "current_approach": now[0],
-        "current_facing": now[1],
-        **{f"current_{k}": cur[k] for k in ("n", "successes", "rate", "lo", "hi")},
-        "pairs": pairs,
-        "only_best": only_best,
-        "only_current": only_current,
-        "p_value": test.p_value,
+def isolated(unit_map: pd.DataFrame, setting: tuple[str, str]) -> bool:
+    """True when every grid neighbour of ``setting`` (one step along either axis of the map)
+    screened at least ``ISOLATION_DROP`` below it: a peak that may be noise."""
+    rates = {
+        (str(a), str(f)): float(r)
+        for a, f, r in zip(unit_map["approach"], unit_map["facing"], unit_map["rate"], strict=True)
     }
+    rows, cols = axis_order(list(unit_map["approach"])), axis_order(list(unit_map["facing"]))
+    if setting not in rates:
+        return False
+    i, j = rows.index(setting[0]), cols.index(setting[1])
+    cells = [(i + di, j + dj) for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1))]
+    near = [
+        rates[(rows[a], cols[b])]
+        for a, b in cells
+        if 0 <= a < len(rows) and 0 <= b < len(cols) and (rows[a], cols[b]) in rates
+    ]
+    return bool(near) and all(r <= rates[setting] - ISOLATION_DROP for r in near)

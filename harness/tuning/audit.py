@@ -4,7 +4,9 @@ why, and cleaned grasp files without them (``harness grasps audit RUN_DIR``).
 A row's ``chosen_index`` is a pose index into the 2N end-effector poses of its task's grasp file
 (pose i and N + i are grasp i, after ``constraints``; ``EEPoses.grasp_rows`` maps a grasp back to
 its file row), so the audit rebuilds the poses of every (task, point) and counts trials and
-successes per grasp-file row, across robots, arms and seeds. A grasp tried at least
+successes per grasp-file row, across robots, arms and seeds. A trial is a distinct execution
+(task, seed, chosen pose, non-filter point values), not a row: points that differ only in their
+filters share a seed's execution of the same grasp, and count it once. A grasp tried at least
 ``min_trials`` times that never succeeded is flagged with every cause the run supports:
 
 - ``wider than the jaw``: its annotated width exceeds the widest jaw opening of a robot that
@@ -31,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from harness.config import TaskConfig, apply_overrides
+from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.errors import HarnessError
 from harness.files import safe_child
 from harness.grasps.ee_poses import ee_poses_for_pick
@@ -39,6 +42,7 @@ from harness.objects.assets import find_grasp_file, resolve_mesh
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import load_episodes
 from harness.robots.facts import max_jaw_opening, reference_convention
+from harness.row import param_columns
 from harness.runs.expansion import load_sweep_tasks, point_overrides
 from harness.runs.rundir import RunDir
 
@@ -80,6 +84,7 @@ def executed_grasps(run_dir: Path) -> pd.DataFrame:
     tasks = {t.name: t for t in load_sweep_tasks(run.load_sweep(), run.sweep_yaml)}
     frame = load_episodes(run_dir)
     executed = frame_of(frame[column(frame, "chosen_index") >= 0]).copy()
+    executed["execution"] = execution_keys(executed)
     executed["grasp_file"] = ""
     executed["grasp_row"] = -1
     for key, group in executed.groupby(["task", "point"], sort=False):
@@ -92,6 +97,16 @@ def executed_grasps(run_dir: Path) -> pd.DataFrame:
         executed.loc[group.index, "grasp_file"] = str(path)
         executed.loc[group.index, "grasp_row"] = rows
     return executed
+
+
+def execution_keys(frame: pd.DataFrame) -> list[str]:
+    """One key per distinct execution: the task, the seed, the chosen pose and the point's
+    non-selection values. Points that differ only in filters share a seed's execution of the
+    same candidate (``harness.episode.candidate_cache``): one execution, several rows."""
+    selection = {f"param.pick.{key}" for key in SELECTION_KEYS}
+    others = [c for c in param_columns(frame.columns) if c not in selection]
+    cells = frame[["task", "seed", "chosen_index", *others]].astype(str)
+    return [json.dumps(list(row)) for row in cells.itertuples(index=False, name=None)]
 
 
 def _causes(group: pd.DataFrame, width: float) -> list[str]:
@@ -127,16 +142,19 @@ def audit_table(executed: pd.DataFrame, min_trials: int) -> pd.DataFrame:
         if path not in widths:
             widths[str(path)] = read_grasp_array(str(path))[:, 1]
         width = float(widths[str(path)][int(grasp)])
-        successes = int(column(group, "success").sum())
-        flagged = successes == 0 and len(group) >= min_trials
+        distinct = group.drop_duplicates("execution")
+        trials = len(distinct)
+        successes = int(column(distinct, "success").sum())
+        flagged = successes == 0 and trials >= min_trials
         rows.append(
             {
                 "object": obj,
                 "grasp_file": path,
                 "grasp_row": int(grasp),
                 "width_m": width,
-                "trials": len(group),
+                "trials": trials,
                 "successes": successes,
+                "rows": len(group),
                 "robots": " ".join(
                     sorted(set(column(group, "robot") + "/" + column(group, "arm")))
                 ),

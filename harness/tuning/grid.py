@@ -16,16 +16,24 @@ Facing cone (angle from base +X): ``[forward, b]`` for b = 2 step, 4 step, ... u
 
 The task's current setting is added to both axes, so it is a grid point and the best setting is
 compared with it on the same seeds. Other axes of a sweep file (``object.mesh``, ...) are kept.
+
+Each axis is deduplicated by what a filter keeps (:func:`filter_key`): ``[downward, 90]`` and the
+band ``[downward, 90, 180]`` keep the same axes, ``[forward, 180]`` and ``[forward, 180, 0]``
+keep every axis, like no filter at all. The first value of each class stays (the current setting
+is the class's first value when it has one); with ``--step 15 --bands 1`` 8 x 7 = 56 points are
+7 x 6 = 42 distinct settings.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
 from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.grasps import neutral_form, resolve_filters
+from harness.grasps.filters import DIRECTION_ROW_SIGN
 from harness.robots.facts import reference_convention
 from harness.runs.expansion import absolute_paths, load_sweep_tasks
 
@@ -50,6 +58,50 @@ def facing_values(step: int, bands: int) -> list[list[Any]]:
     if not singles or singles[-1][1] != 180.0:
         singles.append(["forward", 180.0])
     return singles + [["forward", hi, lo] for lo, hi in _bands(0.0, 180.0, bands)]
+
+
+def filter_key(value: list[Any] | None) -> tuple[int, float, float] | None:
+    """What a neutral filter keeps, as (base row, lowest, highest axis component); None: all.
+
+    ``[dir, a]`` keeps components >= cos a (forward/upward) or <= cos a (backward/downward),
+    a band the components between the cosines of its angles (``harness.grasps.filters``).
+    """
+    if not value:
+        return None
+    direction, *angles = value
+    row, sign = DIRECTION_ROW_SIGN[str(direction)]
+    cosines = [math.cos(math.radians(float(a))) for a in angles]
+    if len(cosines) == 1:
+        low, high = (cosines[0], 1.0) if sign > 0 else (-1.0, cosines[0])
+    else:
+        low, high = min(cosines), max(cosines)
+    low, high = round(max(low, -1.0), 9), round(min(high, 1.0), 9)
+    return None if (low, high) == (-1.0, 1.0) else (row, low, high)
+
+
+def dedupe(values: list[list[Any] | None]) -> list[list[Any] | None]:
+    """``values`` without the ones that keep the same axes as an earlier one (first stays)."""
+    seen: set[Any] = set()
+    kept: list[list[Any] | None] = []
+    for value in values:
+        key = filter_key(value)
+        if key not in seen:
+            seen.add(key)
+            kept.append(value)
+    return kept
+
+
+def axis_values(grid: list[list[Any]], currents: list[list[Any] | None]) -> list[list[Any] | None]:
+    """One axis of the tune: the distinct grid values, then the current settings not in it.
+
+    A grid value that keeps the same axes as a current setting gives way to it, so the
+    current setting is run as the task states it.
+    """
+    claimed = {filter_key(v) for v in currents}
+    kept: list[list[Any] | None] = [
+        v for v in dedupe([*grid]) if filter_key(v) not in claimed or v in currents
+    ]
+    return kept + [v for v in dedupe(currents) if filter_key(v) not in map(filter_key, kept)]
 
 
 def current_setting(task: TaskConfig) -> dict[str, list[Any] | None]:
@@ -100,13 +152,9 @@ def tune_sweep(
     """The tune sweep: tasks x (approach cones x facing cones x other axes) x seeds."""
     if not 1 <= step <= 90:
         raise ConfigError(f"--step {step}: expected 1 to 90 degrees")
-    approach: list[list[Any] | None] = [*approach_values(step, bands)]
-    facing: list[list[Any] | None] = [*facing_values(step, bands)]
-    for task in tasks:
-        for key, value in current_setting(task).items():
-            values = approach if key == APPROACH_KEY else facing
-            if value not in values:
-                values.append(value)
+    currents = [current_setting(task) for task in tasks]
+    approach = axis_values(approach_values(step, bands), [c[APPROACH_KEY] for c in currents])
+    facing = axis_values(facing_values(step, bands), [c[FACING_KEY] for c in currents])
     data = {
         "name": name,
         "tasks": [

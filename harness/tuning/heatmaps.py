@@ -1,8 +1,8 @@
 """Tune heatmaps: the success map of one robot, arm and object over approach x facing cones.
 
 Rows are approach settings, columns facing settings, each sorted (single angles ascending, then
-bands, then no filter); the colour is the rate, each
-cell says k/n when the grid is small enough to read. The best setting is outlined in black, the
+bands, then no filter); the colour is the objective's screening rate, each
+cell says k/n when the grid is small enough to read. The chosen setting is outlined in black, the
 current one in white dashes.
 """
 
@@ -45,6 +45,7 @@ def heatmap(
     best: tuple[str, str],
     current: tuple[str, str],
     path: Path,
+    objective: str = "valid",
 ) -> Path:
     """Write the heatmap PNG of one success map (``success_map`` rows of one group)."""
     rows, cols = _order(table, "approach"), _order(table, "facing")
@@ -58,7 +59,7 @@ def heatmap(
     height = min(22.0, max(4.5, 2.5 + 0.32 * len(rows)))
     fig, ax = plt.subplots(figsize=(width, height), dpi=100)
     image = ax.imshow(rates, cmap="viridis", vmin=0.0, vmax=1.0, aspect="auto")
-    fig.colorbar(image, ax=ax, label="success rate")
+    fig.colorbar(image, ax=ax, label=f"{objective} rate")
     ax.set_xticks(range(len(cols)), [filter_label(c) for c in cols], rotation=60, ha="right")
     ax.set_yticks(range(len(rows)), [filter_label(r) for r in rows])
     ax.set_xlabel("facing_filter (facing axis angle from base +X)")
@@ -83,26 +84,21 @@ def heatmap(
 
 
 def write_heatmaps(
-    per_object: pd.DataFrame, chosen: pd.DataFrame, out_dir: Path, objective: str
-) -> list[Path]:
-    """One PNG per robot, arm and object: ``<out_dir>/<robot>_<arm>_<object>.png``."""
-    paths: list[Path] = []
-    for choice in series_rows(chosen):
-        robot, arm, obj = str(choice["robot"]), str(choice["arm"]), str(choice["object"])
-        group = frame_of(
-            per_object[
-                (per_object["robot"] == robot)
-                & (per_object["arm"] == arm)
-                & (per_object["object"] == obj)
-            ]
-        )
+    success: pd.DataFrame, decisions: pd.DataFrame, out_dir: Path, objective: str
+) -> dict[tuple[str, str], Path]:
+    """One PNG per unit, coloured by the objective's screening rate:
+    ``<out_dir>/<robot>_<arm>_<object>.png``; keyed by (task, context)."""
+    paths: dict[tuple[str, str], Path] = {}
+    for row in series_rows(decisions):
+        task, context = str(row["task"]), str(row["context"])
+        group = frame_of(success[(success["task"] == task) & (success["context"] == context)])
         n = int(column(group, "n").max())
-        title = f"{robot} {arm} arm, {obj}: {objective} success (n = {n} per cell)"
-        best = (str(choice["approach"]), str(choice["facing"]))
-        current = (str(choice["current_approach"]), str(choice["current_facing"]))
-        paths.append(
-            heatmap(
-                group, title, best, current, safe_child(out_dir, robot, arm, obj, suffix=".png")
-            )
+        name = f"{row['robot']} {row['arm']} arm, {row['object']}"
+        title = f"{name}: {objective} rate on the screening seeds (n = {n}); {row['verdict']}"
+        chosen = (str(row["approach"]), str(row["facing"]))
+        current = (str(row["current_approach"]), str(row["current_facing"]))
+        path = safe_child(
+            out_dir, str(row["robot"]), str(row["arm"]), str(row["object"]), suffix=".png"
         )
+        paths[(task, context)] = heatmap(group, title, chosen, current, path, objective)
     return paths

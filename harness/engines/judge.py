@@ -1,0 +1,208 @@
+"""A batched engine's signals judged into a ``PickOutcome``, with the CPU executor's rules.
+
+The measurements are taken at the control steps the CPU executor takes them (the schedule says
+which: ``harness.engines.schedule``) and judged by the same verdict terms
+(``harness.pick.verdict``: ``closing_terms``, the semantics' ``verdict_terms``,
+``validity_terms``) and the same tug ladder (``harness.pick.validity.tug_ladder``): no second
+copy of the reference or validity checks lives here, only the reading of the signal rows.
+Not reproduced: strict's robot-environment collision check during the motion (no collision
+model on the device; ``collisions`` stays empty) and the event log / trace.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from harness.engines.schedule import DeviceJob, ExecutionSchedule
+from harness.engines.signals import (
+    EE_MAT,
+    EE_POS,
+    FORCE_LEFT,
+    FORCE_RIGHT,
+    JOINT_SPEED,
+    OBJ_POS,
+    OBJ_VEL,
+    PENETRATION,
+    HoldWindow,
+    object_in_tcp,
+    object_pose_in_tcp,
+    object_speed,
+    unstable_reason,
+)
+from harness.pick.executor_validity import judged_validity, stopped_validity
+from harness.pick.outcome import PickOutcome, ValidityMeasure
+from harness.pick.validity import (
+    TUG_DIRECTIONS,
+    TUG_LEVELS_G,
+    TUG_MAX_SLIP,
+    pose_drift,
+    tug_ladder,
+)
+from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
+
+# Tug rungs in the order a batched engine runs them: direction-major, levels ascending.
+RUNGS = [(name, k) for name, _ in TUG_DIRECTIONS for k in TUG_LEVELS_G]
+
+
+def _forces(row: np.ndarray) -> tuple[float, float]:
+    return float(row[FORCE_LEFT]), float(row[FORCE_RIGHT])
+
+
+def _tcp_error(job: DeviceJob, row: np.ndarray) -> float:
+    """``PickExecutor._tcp_error`` on a signal row."""
+    axis, offset = job.approach_index, job.tcp_offset
+    planned = job.T_world_grasp
+    R = row[EE_MAT].reshape(3, 3)
+    p_planned = planned[:3, 3] + planned[:3, axis] * offset
+    p_executed = row[EE_POS] + R[:, axis] * offset
+    return float(np.linalg.norm(p_executed - p_planned))
+
+
+class _Judge:
+    """Walks the signal rows as the CPU loop walks its control steps."""
+
+    def __init__(self, job: DeviceJob, schedule: ExecutionSchedule, steps: np.ndarray) -> None:
+        self.job, self.schedule, self.steps = job, schedule, steps
+        self.pick = job.task.pick
+        self.out = PickOutcome()
+        self.failed_term = ""
+        self.substeps = sum(schedule.chunk_sizes)
+        self.timestep = schedule.control_dt / self.substeps
+
+    def fail(self, term: VerdictTerm | None) -> bool:
+        if term is None:
+            return False
+        if not self.out.failure_reason:
+            self.failed_term = term.name
+            self.out.failure_reason, self.out.message = term.reason, term.message
+        return True
+
+    def measure(self, row: np.ndarray) -> None:
+        """``PickExecutor._measure``."""
+        out = self.out
+        out.verdict_forces = _forces(row)
+        out.verdict_joint_speed = float(row[JOINT_SPEED])
+        out.verdict_object_speed = float(np.max(np.abs(row[OBJ_VEL])))
+        out.lift_height_m = float(row[OBJ_POS][2] - self.job.object_init_position[2])
+
+    def motion(self) -> bool:
+        """The command list: True when the verdict was reached."""
+        out, schedule, steps = self.out, self.schedule, self.steps
+        last = schedule.verdict_step if schedule.verdict_step >= 0 else schedule.steps - 1
+        out.object_z_before = math.nan
+        reached = False
+        step = 0
+        for step in range(last + 1):
+            row = steps[step]
+            out.max_joint_vel = max(out.max_joint_vel, float(row[JOINT_SPEED]))
+            out.max_object_vel = max(out.max_object_vel, object_speed(row))
+            out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
+            reason = unstable_reason(row)
+            if reason is not None:
+                out.failure_reason, out.message = "sim_unstable", reason
+                break
+            if step == schedule.close_step:
+                forces = _forces(row)
+                out.tcp_grasp_error_m = _tcp_error(self.job, row)
+                out.contact_during_close = max(forces) > 0.0
+                out.finger_force_left_n, out.finger_force_right_n = forces
+                out.T_tcp_object_closed = object_pose_in_tcp(row)
+                if self.job.semantics.check_closing_forces and self.fail(
+                    first_failure(closing_terms(self.pick, forces))
+                ):
+                    break
+            if step == schedule.verdict_step:
+                self.measure(row)
+                if not self.job.semantics.hold_after_list:
+                    self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
+                reached = True
+        if not reached and not out.failure_reason:
+            out.failure_reason = "timeout"
+            out.message = (
+                f"episode length limit ({self.job.task.max_episode_length} control steps) reached"
+            )
+        out.control_steps = step + 1
+        out.sim_steps = out.control_steps * self.substeps
+        out.sim_time_s = out.sim_steps * self.timestep
+        out.object_z_after = float(steps[step][OBJ_POS][2])
+        if not math.isfinite(out.lift_height_m):
+            self.measure(steps[step])
+        out.success = not out.failure_reason
+        return reached
+
+    def validity(self, window: HoldWindow, rungs: np.ndarray | None) -> None:
+        """``run_validity_phase`` on the rows after the motion and the tug rungs' end rows."""
+        out, steps = self.out, self.steps
+        for row in steps[self.schedule.verdict_step + 1 : self.schedule.steps]:
+            out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
+        measure = ValidityMeasure(
+            table_penetration_m=out.table_penetration_m,
+            closing_forces=(out.finger_force_left_n, out.finger_force_right_n),
+        )
+        end = steps[window.hold_end]
+        reference = object_in_tcp(steps[window.rest_end])
+        measure.ran = True
+        closed = out.T_tcp_object_closed
+        if closed is not None:  # the drift from the closing to the end of the hold
+            drift = pose_drift(closed, object_pose_in_tcp(end))
+            measure.hold_slip_m, measure.hold_rotation_rad = drift
+        else:  # never closed: the hold alone
+            measure.hold_slip_m = float(np.linalg.norm(object_in_tcp(end) - reference))
+            measure.hold_rotation_rad = 0.0
+        measure.finger_forces = _forces(end)
+        measure.lift_height_m = float(end[OBJ_POS][2] - self.job.object_init_position[2])
+        measure.object_speed = float(np.max(np.abs(end[OBJ_VEL])))
+        measure.joint_speed = float(end[JOINT_SPEED])
+        if unstable_reason(end) is not None:
+            measure.hold_slip_m = math.inf
+        if rungs is not None:
+            held = object_in_tcp(end)
+
+            def rung(name: str, direction: tuple[float, float, float], k: float):
+                row = rungs[RUNGS.index((name, k))]
+                slip = float(np.linalg.norm(object_in_tcp(row) - held))
+                between = min(_forces(row)) > 0.0
+                survived = slip < TUG_MAX_SLIP and between and unstable_reason(row) is None
+                return survived, slip, between
+
+            measure.robustness_g, measure.tug_message = tug_ladder(rung)
+        else:
+            measure.robustness_g, measure.tug_message = 0.0, "not tugged: the object is not held"
+        out.validity = judged_validity(self.pick, measure)
+        if self.job.semantics.hold_after_list:  # strict: this is the verdict
+            out.slip_m, out.lift_height_m = measure.hold_slip_m, measure.lift_height_m
+            out.verdict_forces = measure.finger_forces
+            self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
+            out.success = not out.failure_reason
+
+
+def needs_tug(steps: np.ndarray, window: HoldWindow, object_init_z: float) -> bool:
+    """The CPU phase tugs when the object is lifted and the hold stayed finite."""
+    end = steps[window.hold_end]
+    lift = float(end[OBJ_POS][2] - object_init_z)
+    return lift > 0.0 and unstable_reason(end) is None
+
+
+def judge(
+    job: DeviceJob,
+    steps: np.ndarray,
+    validity: bool,
+    window: HoldWindow | None,
+    rungs: np.ndarray | None,
+) -> PickOutcome:
+    """The outcome of one world: ``steps`` its signal rows (motion, then the validity window),
+    ``rungs`` the end rows of the 24 tug rungs (``RUNGS`` order) when it was tugged."""
+    state = _Judge(job, job.schedule, steps)
+    reached = state.motion()
+    if validity:
+        if reached and window is not None:
+            state.validity(window, rungs)
+        else:
+            measure = ValidityMeasure(
+                table_penetration_m=state.out.table_penetration_m,
+                closing_forces=(state.out.finger_force_left_n, state.out.finger_force_right_n),
+            )
+            state.out.validity = stopped_validity(measure, state.failed_term, state.out.message)
+    return state.out

@@ -1,0 +1,297 @@
+"""Many execution jobs of one task model stepped in lockstep on MuJoCo Warp.
+
+One ``mjw.Model`` per task model (``DeviceModel``), one ``mjw.Data`` of ``len(jobs)`` worlds per
+batch. Each world starts from its job's reset state (qpos, qvel, mocap pose, warm start), runs the
+reference's warm-up steps with the home controls, then its control schedule
+(``harness.engines.schedule``): the schedule lives on the device as (world, chunk row, actuator)
+and a device step counter indexes it inside the captured CUDA graph of one control step (setting
+the controls, the physics steps of each servo chunk, recording the signals, saving the validity
+window's states); the host replays that graph once per control step. Worlds whose schedule ended
+hold their last controls. The validity phase's tug runs as a second batch: 24 worlds per tugged
+episode (6 directions x 4 levels), each started from the episode's state at the end of its hold
+with its pull in ``xfrc_applied``. On Warp's CPU device the same functions run without capture.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import mujoco_warp as mjw
+import numpy as np
+import warp as wp
+
+from harness.config import TaskConfig
+from harness.engines import mjwarp_kernels as kernels
+from harness.engines.judge import RUNGS, judge, needs_tug
+from harness.engines.schedule import DeviceJob, ExecutionSchedule
+from harness.engines.signals import (
+    SIGNALS,
+    HoldWindow,
+    hold_window,
+    unstable_reason,
+    window_steps,
+)
+from harness.pick.outcome import PickOutcome
+from harness.pick.penetration import TablePenetration
+from harness.pick.validity import TUG_DIRECTIONS, tug_rung_steps, validity_enabled
+from harness.sim import Scene
+
+NCONMAX = 128  # contacts per world (a grasp holds ~10-40)
+NJMAX = 768  # constraint rows per world
+
+
+@dataclass
+class BatchTimings:
+    """Where a batch's wall time went (s)."""
+
+    upload_s: float = 0.0
+    physics_s: float = 0.0
+    tug_s: float = 0.0
+    download_s: float = 0.0
+    world_steps: int = 0
+
+
+class DeviceModel:
+    """A task model on a Warp device, with the constant inputs of the signal kernels."""
+
+    def __init__(self, scene: Scene, task: TaskConfig, device: str) -> None:
+        m = scene.model
+        self.mj_model = m
+        self.template = scene.data
+        self.device = device
+        handles = scene.arms[task.arm]
+        obj = scene.objects[task.target_object.name]
+        with wp.ScopedDevice(device):
+            self.model = mjw.put_model(m)
+            self.robot_dof = wp.array(scene.robot_dof.astype(np.int32), dtype=wp.int32)
+            self.finger_side = wp.array(handles.finger_geom_side.astype(np.int32), dtype=wp.int32)
+            geom_object = scene.geom_object == scene.object_names.index(obj.name)
+            self.object_geom = wp.array(geom_object.astype(np.int32), dtype=wp.int32)
+            pen = TablePenetration(scene)
+            self.pen_geom = wp.array(pen.geoms.astype(np.int32), dtype=wp.int32)
+            self.pen_box = wp.array(pen.box_half.astype(np.float32), dtype=wp.vec3)
+            self.pen_radial = wp.array(pen.radial.astype(np.float32), dtype=wp.float32)
+            self.pen_round = wp.array(pen.round.astype(np.float32), dtype=wp.float32)
+            self.pen_offset = wp.array(pen.offset.astype(np.float32), dtype=wp.vec3)
+        # The table geom sits in the world body: its model pose is its world pose (an unrotated
+        # box: its face normals are the world axes).
+        self.table = wp.vec3(*(float(v) for v in m.geom_pos[pen.table]))
+        self.table_half = wp.vec3(*(float(v) for v in m.geom_size[pen.table]))
+        self.pen_count = len(pen.geoms)
+        self.obj_body = int(obj.body_id)
+        self.obj_dof = int(obj.dof_adr)
+        self.ee_body = int(handles.ee_body)
+        self.tcp_body = int(handles.tcp_body)
+        self.weight = float(m.body_subtreemass[obj.body_id]) * float(np.linalg.norm(m.opt.gravity))
+
+    def penetration_start(self, nworld: int) -> wp.array:
+        """Per world and geom, how deep it is in the slab at the start (filled by ``record``
+        with ``baseline``)."""
+        return wp.zeros((nworld, max(1, self.pen_count)), dtype=wp.float32, device=self.device)
+
+    def record(
+        self,
+        d: mjw.Data,
+        step: wp.array,
+        out: wp.array,
+        pen_initial: wp.array,
+        baseline: bool = False,
+    ) -> None:
+        """Launch the signal kernels for the current state into ``out[:, step]``; ``baseline``:
+        this state is the start the penetration is counted from (``TablePenetration.depth``'s
+        first call), its row's penetration is 0."""
+        wp.launch(
+            kernels.record, dim=d.nworld,
+            inputs=[
+                d.qpos, d.qvel, d.xpos, d.xmat, d.geom_xpos, d.geom_xmat, self.robot_dof,
+                self.obj_body, self.obj_dof, self.ee_body, self.tcp_body, self.pen_geom,
+                self.pen_box, self.pen_radial, self.pen_round, self.pen_offset, self.table,
+                self.table_half, pen_initial, int(baseline), step, out,
+            ],
+        )  # fmt: skip
+        wp.launch(
+            kernels.finger_forces, dim=d.naconmax,
+            inputs=[
+                d.nacon, d.contact.geom, d.contact.worldid, d.contact.efc_address, d.efc.force,
+                self.finger_side, self.object_geom, step, out,
+            ],
+        )  # fmt: skip
+
+
+def _replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def]
+    """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
+    one captured CUDA graph (on the CPU device: eagerly)."""
+    if times <= 0:
+        return
+    fn()
+    if times == 1:
+        return
+    if not wp.get_device(device).is_cuda:
+        for _ in range(times - 1):
+            fn()
+        return
+    with wp.ScopedCapture(device=device) as capture:
+        fn()
+    graph = capture.graph
+    assert graph is not None
+    for _ in range(times - 1):
+        wp.capture_launch(graph)
+
+
+def _world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
+    return {name: np.stack([job.state[name] for job in jobs]) for name in jobs[0].state}
+
+
+def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """(world, rows * chunks, nu) controls, each world's padded with its held controls."""
+    nchunks = len(schedules[0].chunk_sizes)
+    nu = schedules[0].ctrl.shape[2]
+    table = np.empty((len(schedules), rows * nchunks, nu), dtype=np.float32)
+    last = np.empty(len(schedules), dtype=np.int32)
+    for w, schedule in enumerate(schedules):
+        flat = schedule.ctrl.reshape(-1, nu)
+        table[w, : len(flat)] = flat
+        table[w, len(flat) :] = schedule.hold_ctrl
+        last[w] = len(flat) - 1
+    return table, last
+
+
+class WorldBatch:
+    """Runs jobs of one ``DeviceModel`` in lockstep and judges them (``run``)."""
+
+    def __init__(self, dm: DeviceModel) -> None:
+        self.dm = dm
+        self.timings = BatchTimings()
+
+    def _data(self, nworld: int) -> mjw.Data:
+        return mjw.put_data(
+            self.dm.mj_model, self.dm.template, nworld=nworld, nconmax=NCONMAX, njmax=NJMAX
+        )
+
+    def run(self, jobs: list[DeviceJob]) -> list[PickOutcome]:
+        dm, device = self.dm, self.dm.device
+        n = len(jobs)
+        schedules = [job.schedule for job in jobs]
+        validity = [validity_enabled(job.task.pick) for job in jobs]
+        dt = schedules[0].control_dt
+        hold_time = jobs[0].task.pick.hold_time
+        window = window_steps(hold_time, dt)
+        motion = np.array([s.steps for s in schedules], dtype=np.int32)
+        spans = motion + np.where(validity, window, 0)
+        rows = int(spans.max())
+        clock = time.perf_counter()
+        with wp.ScopedDevice(device):
+            d = self._data(n)
+            for name, values in _world_arrays(jobs).items():
+                getattr(d, name).assign(values.astype(np.float32))
+            table, last = _schedule_rows(schedules, rows)
+            table_d = wp.array(table, dtype=wp.float32)
+            last_d = wp.array(last, dtype=wp.int32)
+            step = wp.zeros(1, dtype=wp.int32)
+            out = wp.zeros((n, rows, SIGNALS), dtype=wp.float32)
+            warm = wp.zeros((n, 1, SIGNALS), dtype=wp.float32)
+            zero = wp.zeros(1, dtype=wp.int32)
+            slots = window + 1
+            nq, nv = dm.mj_model.nq, dm.mj_model.nv
+            saved = [wp.zeros((n, slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
+            first_row = wp.array(motion - 1, dtype=wp.int32)
+            wp.synchronize_device(device)
+            self.timings.upload_s += time.perf_counter() - clock
+            clock = time.perf_counter()
+            _replay(device, lambda: mjw.step(dm.model, d), schedules[0].warmup_steps)
+            pen_initial = dm.penetration_start(n)
+            dm.record(d, zero, warm, pen_initial, baseline=True)
+            chunk_sizes = schedules[0].chunk_sizes
+
+            def control_step() -> None:
+                for chunk, size in enumerate(chunk_sizes):
+                    wp.launch(
+                        kernels.set_ctrl, dim=(n, d.ctrl.shape[1]),
+                        inputs=[table_d, step, chunk, len(chunk_sizes), last_d, d.ctrl],
+                    )  # fmt: skip
+                    for _ in range(size):
+                        mjw.step(dm.model, d)
+                dm.record(d, step, out, pen_initial)
+                wp.launch(
+                    kernels.save_state, dim=n,
+                    inputs=[d.qpos, d.qvel, d.qacc_warmstart, first_row, slots, step, *saved],
+                )  # fmt: skip
+                wp.launch(kernels.advance, dim=1, inputs=[step])
+
+            _replay(device, control_step, rows)
+            wp.synchronize_device(device)
+            self.timings.physics_s += time.perf_counter() - clock
+            self.timings.world_steps += n * (schedules[0].warmup_steps + rows * sum(chunk_sizes))
+            clock = time.perf_counter()
+            steps = out.numpy()
+            warm_rows = warm.numpy()[:, 0]
+            self.timings.download_s += time.perf_counter() - clock
+            windows: list[HoldWindow | None] = []
+            tugged: list[int] = []
+            for w, job in enumerate(jobs):
+                win = None
+                if validity[w] and schedules[w].verdict_step >= 0:
+                    win = hold_window(steps[w], int(motion[w]), hold_time, dt)
+                    if needs_tug(steps[w], win, float(job.object_init_position[2])):
+                        tugged.append(w)
+                windows.append(win)
+            rung_rows = self._tug(jobs, d, saved, motion, windows, tugged)
+        outcomes = []
+        for w, job in enumerate(jobs):
+            reason = unstable_reason(warm_rows[w])
+            if reason is not None:
+                outcomes.append(PickOutcome(failure_reason="sim_unstable", message=reason))
+                continue
+            rung = rung_rows.get(w)
+            outcomes.append(judge(job, steps[w], validity[w], windows[w], rung))
+        return outcomes
+
+    def _tug(
+        self,
+        jobs: list[DeviceJob],
+        d: mjw.Data,
+        saved: list[wp.array],
+        motion: np.ndarray,
+        windows: list[HoldWindow | None],
+        tugged: list[int],
+    ) -> dict[int, np.ndarray]:
+        """The 24 rungs of every tugged world; their end rows by world."""
+        if not tugged:
+            return {}
+        clock = time.perf_counter()
+        dm = self.dm
+        directions = dict(TUG_DIRECTIONS)
+        source, slot, force = [], [], []
+        for w in tugged:
+            win = windows[w]
+            assert win is not None
+            for name, k in RUNGS:
+                source.append(w)
+                slot.append(win.hold_end - (int(motion[w]) - 1))
+                force.append(np.asarray(directions[name]) * k * dm.weight)
+        nt = len(source)
+        td = self._data(nt)
+        wp.launch(
+            kernels.load_rungs, dim=nt,
+            inputs=[
+                wp.array(np.asarray(source, dtype=np.int32), dtype=wp.int32),
+                wp.array(np.asarray(slot, dtype=np.int32), dtype=wp.int32),
+                *saved, d.ctrl, d.mocap_pos, d.mocap_quat,
+                wp.array(np.asarray(force, dtype=np.float32), dtype=wp.vec3), dm.obj_body,
+                td.qpos, td.qvel, td.qacc_warmstart, td.ctrl, td.mocap_pos, td.mocap_quat,
+                td.xfrc_applied,
+            ],
+        )  # fmt: skip
+        substeps = round(float(jobs[0].task.control_dt) / float(dm.mj_model.opt.timestep))
+        substeps = max(1, substeps)
+        rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
+        _replay(dm.device, lambda: mjw.step(dm.model, td), rung_steps * substeps)
+        zero = wp.zeros(1, dtype=wp.int32)
+        out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
+        # the rungs' penetration is not judged: each rung row measures its own start
+        dm.record(td, zero, out, dm.penetration_start(nt), baseline=True)
+        rows = out.numpy()[:, 0]
+        self.timings.tug_s += time.perf_counter() - clock
+        self.timings.world_steps += nt * rung_steps * substeps
+        return {w: rows[i * len(RUNGS) : (i + 1) * len(RUNGS)] for i, w in enumerate(tugged)}

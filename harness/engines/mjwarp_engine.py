@@ -1,0 +1,81 @@
+"""The ``mjwarp`` engine: execution jobs on MuJoCo Warp (the optional extra ``gpu``).
+
+``execute`` (one job, what ``harness sweep --engine mjwarp`` calls in each worker) and
+``execute_many`` (a batch of jobs of one task model, what the throughput bench feeds) both make
+each job's control schedule on the CPU (``harness.engines.schedule``), step the worlds in
+lockstep on the device (``harness.engines.mjwarp_batch``) and judge the recorded signals with the
+CPU's verdict terms (``harness.engines.judge``). The device is ``HARNESS_WARP_DEVICE`` when set
+(``cpu`` for Warp's CPU device, ``cuda:1`` ...), else the first CUDA device, else the CPU: one
+engine per device, so several GPUs take one worker process each.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from harness.config import TaskConfig
+from harness.engines.base import Execution, ExecutionJob
+from harness.engines.schedule import DeviceJob, device_job
+from harness.errors import HarnessError
+from harness.pick.outcome import PickOutcome
+from harness.pick.validity import validity_enabled
+from harness.sim import Scene
+
+
+def _import_warp() -> tuple[Any, Any]:
+    try:
+        import mujoco_warp
+        import warp
+    except ImportError as exc:
+        raise HarnessError(
+            "the mjwarp engine needs the 'gpu' extra: pip install 'pick-harness[gpu]' "
+            f"(mujoco-warp, warp-lang): {exc}"
+        ) from None
+    return warp, mujoco_warp
+
+
+def default_device() -> str:
+    """``HARNESS_WARP_DEVICE``, else ``cuda:0`` when Warp sees a CUDA device, else ``cpu``."""
+    wp, _ = _import_warp()
+    chosen = os.environ.get("HARNESS_WARP_DEVICE")
+    if chosen:
+        return chosen
+    wp.config.quiet = True
+    wp.init()
+    return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
+
+
+class MjwarpEngine:
+    """Batched MuJoCo Warp worlds; one ``DeviceModel`` per task model, kept between calls."""
+
+    name = "mjwarp"
+
+    def __init__(self, device: str | None = None) -> None:
+        _import_warp()
+        self.device = device or default_device()
+        self._models: dict[tuple[int, str, str], Any] = {}
+
+    def batch(self, scene: Scene, task: TaskConfig) -> Any:
+        """A ``WorldBatch`` on the device model of ``scene`` (made once per model)."""
+        from harness.engines.mjwarp_batch import DeviceModel, WorldBatch
+
+        # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
+        key = (id(scene.model), task.arm, task.target_object.name)
+        dm = self._models.get(key)
+        if dm is None:
+            dm = self._models[key] = DeviceModel(scene, task, self.device)
+        return WorldBatch(dm)
+
+    def execute(self, job: ExecutionJob) -> Execution:
+        packed = device_job(job)
+        outcome = self.batch(job.scene, job.task).run([packed])[0]
+        validity = validity_enabled(job.task.pick)
+        if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
+            return Execution(None, validity, warmup_unstable=outcome.message)
+        return Execution(outcome, validity)
+
+    def execute_many(self, scene: Scene, jobs: list[DeviceJob]) -> tuple[list[PickOutcome], Any]:
+        """Jobs of ``scene``'s task model in one batch; the outcomes and the batch's timings."""
+        batch = self.batch(scene, jobs[0].task)
+        return batch.run(jobs), batch.timings

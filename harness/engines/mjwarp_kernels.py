@@ -1,0 +1,246 @@
+"""The Warp kernels of the ``mjwarp`` engine: apply the schedule, record the signals, copy states.
+
+Every kernel runs inside the captured CUDA graph of one control step (or eagerly on Warp's CPU
+device), so the control schedule stays on the device and is indexed by a device step counter:
+no host copy per step (``harness.engines.mjwarp_batch``). The signal layout is
+``harness.engines.signals``.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+SIG_FORCE = 0
+SIG_OBJ_POS = 2
+SIG_OBJ_VEL = 5
+SIG_JOINT_SPEED = 8
+SIG_PENETRATION = 9
+SIG_MAX_QVEL = 10
+SIG_NONFINITE = 11
+SIG_EE = 12
+SIG_TCP = 24
+SIG_OBJ_MAT = 36
+
+
+@wp.kernel
+def set_ctrl(
+    schedule: wp.array3d(dtype=wp.float32),  # (world, rows, nu): chunk rows, then held
+    step: wp.array(dtype=wp.int32),
+    chunk: int,
+    nchunks: int,
+    last_row: wp.array(dtype=wp.int32),
+    ctrl: wp.array2d(dtype=wp.float32),
+):
+    w, a = wp.tid()
+    row = wp.min(step[0] * nchunks + chunk, last_row[w])
+    ctrl[w, a] = schedule[w, row, a]
+
+
+@wp.kernel
+def advance(step: wp.array(dtype=wp.int32)):
+    step[0] = step[0] + 1
+
+
+@wp.func
+def _pose(out: wp.array3d(dtype=wp.float32), w: int, s: int, at: int, p: wp.vec3, R: wp.mat33):
+    for i in range(3):
+        out[w, s, at + i] = p[i]
+    for i in range(3):
+        for j in range(3):
+            out[w, s, at + 3 + 3 * i + j] = R[i, j]
+
+
+@wp.func
+def slab_depth(
+    c: wp.vec3,
+    R: wp.mat33,
+    box: wp.vec3,
+    radial: wp.float32,
+    rounding: wp.float32,
+    offset: wp.vec3,
+    table: wp.vec3,
+    table_half: wp.vec3,
+) -> wp.float32:
+    """How deep one geom is inside the table slab (m, >= 0): the smallest overlap of the geom's
+    extent with the slab along the slab's three face normals (world x, y, z), 0 when one of
+    them separates them. The extent along world axis ``a`` is ``TablePenetration``'s
+    lowest-point formula on row ``a`` of the rotation. The CPU executor asks
+    ``mj_geomDistance`` (every separating axis, exact hull for meshes); this bound uses only
+    the slab's axes and a mesh's bounding box, so it is never below the CPU's depth and equals
+    it for a geom pressed through the top face inside the footprint (docs/engines.md)."""
+    depth = wp.float32(1.0e9)
+    for a in range(3):
+        r = wp.vec3(R[a, 0], R[a, 1], R[a, 2])
+        centre = c[a] + wp.dot(r, offset)
+        ca = wp.min(wp.abs(r[2]), 1.0)
+        extent = wp.abs(r[0]) * box[0] + wp.abs(r[1]) * box[1] + wp.abs(r[2]) * box[2]
+        extent = extent + radial * wp.sqrt(1.0 - ca * ca) + rounding
+        gap = wp.abs(centre - table[a])
+        overlap = extent + table_half[a] - gap
+        depth = wp.min(depth, overlap)
+    return wp.max(depth, 0.0)
+
+
+@wp.kernel
+def record(
+    qpos: wp.array2d(dtype=wp.float32),
+    qvel: wp.array2d(dtype=wp.float32),
+    xpos: wp.array2d(dtype=wp.vec3),
+    xmat: wp.array2d(dtype=wp.mat33),
+    geom_xpos: wp.array2d(dtype=wp.vec3),
+    geom_xmat: wp.array2d(dtype=wp.mat33),
+    robot_dof: wp.array(dtype=wp.int32),
+    obj_body: int,
+    obj_dof: int,
+    ee_body: int,
+    tcp_body: int,
+    pen_geom: wp.array(dtype=wp.int32),
+    pen_box: wp.array(dtype=wp.vec3),
+    pen_radial: wp.array(dtype=wp.float32),
+    pen_round: wp.array(dtype=wp.float32),
+    pen_offset: wp.array(dtype=wp.vec3),
+    table: wp.vec3,  # the slab's centre
+    table_half: wp.vec3,  # the slab's half sizes
+    pen_initial: wp.array2d(dtype=wp.float32),  # (world, geom): depth at the start
+    baseline: int,  # 1: this call measures the start (writes pen_initial, records 0)
+    step: wp.array(dtype=wp.int32),
+    out: wp.array3d(dtype=wp.float32),
+):
+    """One signal row per world (finger forces zeroed here, added by ``finger_forces``)."""
+    w = wp.tid()
+    s = step[0]
+    out[w, s, SIG_FORCE] = 0.0
+    out[w, s, SIG_FORCE + 1] = 0.0
+    p = xpos[w, obj_body]
+    for i in range(3):
+        out[w, s, SIG_OBJ_POS + i] = p[i]
+        out[w, s, SIG_OBJ_VEL + i] = qvel[w, obj_dof + i]
+    joint = wp.float32(0.0)
+    for i in range(robot_dof.shape[0]):
+        joint = wp.max(joint, wp.abs(qvel[w, robot_dof[i]]))
+    out[w, s, SIG_JOINT_SPEED] = joint
+    fastest = wp.float32(0.0)
+    bad = wp.float32(0.0)
+    for i in range(qvel.shape[1]):
+        v = qvel[w, i]
+        if not wp.isfinite(v):
+            bad = wp.float32(1.0)
+        else:
+            fastest = wp.max(fastest, wp.abs(v))
+    for i in range(qpos.shape[1]):
+        if not wp.isfinite(qpos[w, i]):
+            bad = wp.float32(1.0)
+    out[w, s, SIG_MAX_QVEL] = fastest
+    out[w, s, SIG_NONFINITE] = bad
+    # harness.pick.penetration.TablePenetration.depth, per world, bounded by the separating
+    # axes of the slab's faces (see slab_depth)
+    deepest = wp.float32(0.0)
+    for i in range(pen_geom.shape[0]):
+        g = pen_geom[i]
+        inside = slab_depth(
+            geom_xpos[w, g], geom_xmat[w, g], pen_box[i], pen_radial[i], pen_round[i],
+            pen_offset[i], table, table_half,
+        )  # fmt: skip
+        if baseline == 1:
+            pen_initial[w, i] = inside
+        else:
+            deepest = wp.max(deepest, inside - pen_initial[w, i])
+    out[w, s, SIG_PENETRATION] = deepest
+    _pose(out, w, s, SIG_EE, xpos[w, ee_body], xmat[w, ee_body])
+    _pose(out, w, s, SIG_TCP, xpos[w, tcp_body], xmat[w, tcp_body])
+    R_obj = xmat[w, obj_body]
+    for i in range(3):
+        for j in range(3):
+            out[w, s, SIG_OBJ_MAT + 3 * i + j] = R_obj[i, j]
+
+
+@wp.kernel
+def finger_forces(
+    nacon: wp.array(dtype=wp.int32),
+    contact_geom: wp.array(dtype=wp.vec2i),
+    contact_world: wp.array(dtype=wp.int32),
+    contact_efc: wp.array2d(dtype=wp.int32),
+    efc_force: wp.array2d(dtype=wp.float32),
+    finger_side: wp.array(dtype=wp.int32),  # (ngeom,) 0 left, 1 right, -1 other
+    object_geom: wp.array(dtype=wp.int32),  # (ngeom,) 1 for the target object's geoms
+    step: wp.array(dtype=wp.int32),
+    out: wp.array3d(dtype=wp.float32),
+):
+    """``Scene.finger_forces``: the summed normal force of each finger's contacts with the
+    object (elliptic cones: the contact's first constraint row is its normal force)."""
+    c = wp.tid()
+    if c >= nacon[0]:
+        return
+    g = contact_geom[c]
+    side = wp.int32(-1)
+    if finger_side[g[0]] >= 0 and object_geom[g[1]] == 1:
+        side = finger_side[g[0]]
+    elif finger_side[g[1]] >= 0 and object_geom[g[0]] == 1:
+        side = finger_side[g[1]]
+    adr = contact_efc[c, 0]
+    if side < 0 or adr < 0:
+        return
+    w = contact_world[c]
+    wp.atomic_add(out, w, step[0], SIG_FORCE + side, wp.abs(efc_force[w, adr]))
+
+
+@wp.kernel
+def save_state(
+    qpos: wp.array2d(dtype=wp.float32),
+    qvel: wp.array2d(dtype=wp.float32),
+    warm: wp.array2d(dtype=wp.float32),
+    first_row: wp.array(dtype=wp.int32),  # per world: the row whose state is saved first
+    slots: int,
+    step: wp.array(dtype=wp.int32),
+    saved_qpos: wp.array3d(dtype=wp.float32),
+    saved_qvel: wp.array3d(dtype=wp.float32),
+    saved_warm: wp.array3d(dtype=wp.float32),
+):
+    """Keep the states of the validity window (the tug starts from the end of the hold)."""
+    w = wp.tid()
+    slot = step[0] - first_row[w]
+    if slot < 0 or slot >= slots:
+        return
+    for i in range(qpos.shape[1]):
+        saved_qpos[w, slot, i] = qpos[w, i]
+    for i in range(qvel.shape[1]):
+        saved_qvel[w, slot, i] = qvel[w, i]
+        saved_warm[w, slot, i] = warm[w, i]
+
+
+@wp.kernel
+def load_rungs(
+    source: wp.array(dtype=wp.int32),  # per rung world: its episode world
+    slot: wp.array(dtype=wp.int32),  # per rung world: the saved slot (end of the hold)
+    saved_qpos: wp.array3d(dtype=wp.float32),
+    saved_qvel: wp.array3d(dtype=wp.float32),
+    saved_warm: wp.array3d(dtype=wp.float32),
+    hold_ctrl: wp.array2d(dtype=wp.float32),
+    mocap_pos_src: wp.array2d(dtype=wp.vec3),
+    mocap_quat_src: wp.array2d(dtype=wp.quat),
+    force: wp.array(dtype=wp.vec3),
+    obj_body: int,
+    qpos: wp.array2d(dtype=wp.float32),
+    qvel: wp.array2d(dtype=wp.float32),
+    warm: wp.array2d(dtype=wp.float32),
+    ctrl: wp.array2d(dtype=wp.float32),
+    mocap_pos: wp.array2d(dtype=wp.vec3),
+    mocap_quat: wp.array2d(dtype=wp.quat),
+    xfrc: wp.array2d(dtype=wp.spatial_vector),
+):
+    """Start each tug rung world from its episode's held state with its pull applied."""
+    r = wp.tid()
+    b = source[r]
+    k = slot[r]
+    for i in range(qpos.shape[1]):
+        qpos[r, i] = saved_qpos[b, k, i]
+    for i in range(qvel.shape[1]):
+        qvel[r, i] = saved_qvel[b, k, i]
+        warm[r, i] = saved_warm[b, k, i]
+    for i in range(ctrl.shape[1]):
+        ctrl[r, i] = hold_ctrl[b, i]
+    for i in range(mocap_pos.shape[1]):
+        mocap_pos[r, i] = mocap_pos_src[b, i]
+        mocap_quat[r, i] = mocap_quat_src[b, i]
+    f = force[r]
+    xfrc[r, obj_body] = wp.spatial_vector(f[0], f[1], f[2], 0.0, 0.0, 0.0)

@@ -1,0 +1,152 @@
+"""The control schedule of an execution job, made without physics (for batched engines).
+
+The CPU executor decides when a command pops from the end-effector pose it reads each control
+step (``harness.pick.commands``). A batched engine cannot wait for each world's pose on the host,
+so the schedule is made ahead on the CPU by the executor itself (``PickExecutor``, the one
+command list and servo schedule) run on a *kinematic* copy of the scene: each physics chunk sets
+the arm joints to their servo setpoints and runs ``mj_kinematics`` instead of ``mj_step``. The
+commands then pop when the *commanded* pose reaches its target: at the end of each segment
+rather than a few control steps later when the real arm, lagging its setpoints, gets there. The
+verdicts are not taken here (the physics is not run); the schedule records where they are due.
+What this timing difference does to the outcomes is measured (docs/engines.md, agreement).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from harness.config import TaskConfig
+from harness.engines.base import ExecutionJob
+from harness.pick.executor import PickExecutor
+from harness.pick.semantics import Semantics
+from harness.pick.verdict import VerdictTerm
+from harness.sim import Scene
+
+
+@dataclass
+class ExecutionSchedule:
+    """Per control step, the servo targets of each physics chunk, and the steps that matter.
+
+    ``ctrl`` is (steps, chunks, nu): the motion up to the verdict and, when the validity phase
+    applies, the rest of the planned motion; after it every servo holds ``ctrl[-1, -1]``.
+    ``close_step`` is the control step at whose end the closing ended (-1: never),
+    ``verdict_step`` the one at whose end the list emptied (-1: the episode timed out at
+    ``max_episode_length``), both 0-based."""
+
+    ctrl: np.ndarray
+    chunk_sizes: list[int]
+    warmup_steps: int
+    warmup_ctrl: np.ndarray
+    close_step: int
+    verdict_step: int
+    control_dt: float
+
+    @property
+    def steps(self) -> int:
+        return int(self.ctrl.shape[0])
+
+    @property
+    def hold_ctrl(self) -> np.ndarray:
+        return self.ctrl[-1, -1]
+
+
+class _ScheduleExecutor(PickExecutor):
+    """The executor on a kinematic scene: judges nothing, notes when the verdicts are due."""
+
+    close_step = -1
+    verdict_step = -1
+
+    def judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
+        return False  # verdicts are taken on the engine's signals (harness.engines.judge)
+
+    def _measure(self) -> tuple[float, float]:
+        if self.verdict_step < 0 and self.head >= len(self.commands):  # the list emptied
+            self.verdict_step = self.step - 1
+        return (0.0, 0.0)
+
+    def _progress(self, forces: tuple[float, float]) -> bool:
+        closed_before = math.isfinite(self.out.tcp_grasp_error_m)
+        done = super()._progress(forces)
+        if not closed_before and math.isfinite(self.out.tcp_grasp_error_m):
+            self.close_step = self.step - 1
+        return done
+
+
+def kinematic_scene(scene: Scene) -> Scene:
+    """A copy of the scene on its own MjData whose ``step`` moves the arm joints to their servo
+    setpoints (no dynamics, no contacts: no forces, never unstable)."""
+    kin = copy.copy(scene)
+    data = copy.copy(scene.data)
+    kin.data = data
+    model = scene.model
+    arms = list(scene.arms.values())
+
+    def step(nstep: int) -> None:
+        for handles in arms:
+            data.qpos[handles.active_qpos] = data.ctrl[handles.active_actuators]
+        mujoco.mj_kinematics(model, data)
+
+    kin.step = step  # type: ignore[method-assign]
+    kin.finger_forces = lambda arm, object_name: (0.0, 0.0)  # type: ignore[method-assign]
+    kin.unstable = lambda: None  # type: ignore[method-assign]
+    return kin
+
+
+def build_schedule(job: ExecutionJob) -> ExecutionSchedule:
+    """Run the executor kinematically from the job's start state; see the module doc."""
+    scene = kinematic_scene(job.scene)
+    warmup_ctrl = scene.data.ctrl.copy()
+    executor = _ScheduleExecutor(
+        scene, job.task, job.targets, job.object_init_position, job.lift_offset, None,
+        record=False, log_ctrl=True, semantics=job.semantics,
+    )  # fmt: skip
+    validity = executor.validity
+    executor.validity = False
+    executor.run()
+    if validity and executor.verdict_step >= 0:
+        executor.post = "validity:finish"
+        while not executor.finish_step():
+            pass
+    log = executor.ctrl_log
+    assert log is not None
+    chunks = len(executor.chunk_sizes)
+    ctrl = np.asarray([c for _, c in log], dtype=float).reshape(-1, chunks, len(warmup_ctrl))
+    return ExecutionSchedule(
+        ctrl, list(executor.chunk_sizes), job.warmup_steps, warmup_ctrl,
+        executor.close_step, executor.verdict_step, executor.control_dt,
+    )  # fmt: skip
+
+
+@dataclass
+class DeviceJob:
+    """An execution job in plain arrays (picklable: planning workers send it to the process that
+    owns the device): the start state, the schedule, and what the verdicts need of the plan."""
+
+    task: TaskConfig
+    semantics: Semantics
+    object_init_position: np.ndarray
+    T_world_grasp: np.ndarray
+    approach_index: int
+    tcp_offset: float
+    state: dict[str, np.ndarray]
+    schedule: ExecutionSchedule
+
+
+def device_job(job: ExecutionJob) -> DeviceJob:
+    """The job's start state and schedule (``build_schedule``) as a ``DeviceJob``."""
+    d = job.scene.data
+    convention = job.scene.robot.convention
+    state = {
+        name: np.array(getattr(d, name))
+        for name in ("qpos", "qvel", "qacc_warmstart", "ctrl", "mocap_pos", "mocap_quat")
+    }
+    return DeviceJob(
+        job.task, job.semantics, np.asarray(job.object_init_position, dtype=float),
+        job.targets.T_world_grasp.copy(), int(convention.approach_index),
+        float(job.task.pick.tcp_offset or convention.tcp_offset), state, build_schedule(job),
+    )  # fmt: skip

@@ -1,0 +1,212 @@
+"""Running the race: each round, every unit's alive racers on the next block of fresh seeds.
+
+The race lives in its own run directory (``<tune>/confirm``) whose ``sweep.yaml`` is the
+screening sweep with another sweep seed (``CONFIRM_SEED_OFFSET`` added) and ``max_seeds``
+episodes per point: every race episode is an episode of that sweep (same ids, same seeds), so
+the confirmation seeds are fresh (no screening seed among them), the racers of a unit share each
+seed (common random numbers; points that differ only in filters share the seed's candidate
+evaluations) and a rerun of the tune skips what the directory already holds.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from harness.config import SweepConfig, TaskConfig, apply_overrides
+from harness.episode.ids import episode_seed
+from harness.episode.spec import EpisodeSpec
+from harness.runs.executors import executor_for
+from harness.runs.expansion import point_overrides, sweep_points
+from harness.runs.rundir import RunDir
+from harness.tuning.decide import UnitRace, update
+from harness.tuning.grid import APPROACH_KEY, FACING_KEY
+
+CONFIRM_SEED_OFFSET = 100_000
+
+
+@dataclass(frozen=True)
+class Budget:
+    """When the race stops at the latest: episodes run, or episode-seconds (the sum of the rows'
+    ``wall_time_s``: each episode runs on one core, so on an idle machine this is its CPU time;
+    on a loaded one it is more), over the whole race; None: no limit but ``max_seeds``."""
+
+    episodes: int | None = None
+    seconds: float | None = None
+
+    @staticmethod
+    def parse(text: str | None) -> Budget:
+        """``"400"`` (episodes) or ``"300s"`` (CPU seconds)."""
+        if not text:
+            return Budget()
+        if text.endswith("s"):
+            return Budget(seconds=float(text[:-1]))
+        return Budget(episodes=int(text))
+
+    def spent(self, episodes: int, seconds: float) -> bool:
+        return (self.episodes is not None and episodes >= self.episodes) or (
+            self.seconds is not None and seconds >= self.seconds
+        )
+
+
+@dataclass
+class Unit:
+    """One race: a task and one value of the other axes (its object)."""
+
+    task: str
+    context: str  # JSON of the point's other axes
+    race: UnitRace
+
+
+@dataclass
+class RaceLog:
+    """What the race ran: episodes, CPU seconds, rounds, and whether it was cut short."""
+
+    episodes: int = 0
+    seconds: float = 0.0
+    rounds: int = 0
+    budget_spent: bool = False
+    interrupted: bool = False
+    rows: list[dict[str, Any]] = field(default_factory=list)
+
+
+def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
+    """The screening sweep with fresh seeds and ``max_seeds`` episodes per point."""
+    data = screen.model_dump(mode="json")
+    data.update(
+        name=f"{screen.name}-confirm",
+        seed=screen.seed + CONFIRM_SEED_OFFSET,
+        episodes_per_point=max_seeds,
+        record="none",
+    )
+    return SweepConfig.model_validate(data)
+
+
+class RaceRunner:
+    """Builds and runs the episodes of the rounds in ``run_dir`` (reusing stored rows)."""
+
+    def __init__(
+        self,
+        run_dir: Path,
+        screen: SweepConfig,
+        tasks: list[TaskConfig],
+        max_seeds: int,
+        *,
+        objective: str,
+        engine: str = "mujoco",
+        backend: str,
+        workers: int,
+        may_run: bool,
+    ) -> None:
+        self.sweep = confirm_sweep(screen, max_seeds)
+        self.run = RunDir(run_dir)
+        self.tasks = {t.name: t for t in tasks}
+        self.points = {
+            json.dumps(p, sort_keys=True): i for i, p in enumerate(sweep_points(self.sweep))
+        }
+        self.objective, self.backend, self.workers, self.may_run = (
+            objective,
+            backend,
+            workers,
+            may_run,
+        )
+        self.engine = engine
+        self.configured: dict[tuple[str, str], TaskConfig] = {}
+        self.stored: dict[str, dict[str, Any]] = {}
+
+    def open(self) -> None:
+        """Create (or reopen) the race's run directory and read the rows it holds."""
+        if self.run.sweep_yaml.is_file():
+            self.run = RunDir.existing(self.run.path, force=True)
+            self.stored = {
+                str(r["episode_id"]): r for r in self.run.store.load().to_dict("records")
+            }
+        elif self.may_run:
+            self.run.create(self.sweep, list(self.tasks.values()), taken="")
+        else:
+            return
+
+    def close(self) -> None:
+        if self.run.sweep_yaml.is_file():
+            self.run.finalize() if self.may_run else self.run.lock.release()
+
+    def _spec(self, task: str, point: dict[str, Any], index: int) -> EpisodeSpec:
+        key = json.dumps(point, sort_keys=True)
+        configured = self.configured.get((task, key))
+        if configured is None:
+            base = self.tasks[task]
+            configured = apply_overrides(base, point_overrides(base, point))
+            self.configured[(task, key)] = configured
+        return EpisodeSpec(
+            task=configured,
+            task_name=task,
+            point_id=self.points.get(key, -1),
+            point=point,
+            episode_index=index,
+            seed=episode_seed(self.sweep.seed, index),
+            run=self.sweep.name,
+            engine=self.engine,
+        )
+
+    def round(self, units: list[Unit], block: int, log: RaceLog) -> bool:
+        """Run one block for every running unit and apply the look; False if cut short."""
+        wanted: list[tuple[Any, list[EpisodeSpec]]] = []
+        for unit in units:
+            others = json.loads(unit.context)
+            start = unit.race.look * block
+            for racer in unit.race.alive():
+                point = {
+                    APPROACH_KEY: json.loads(racer.setting[0]),
+                    FACING_KEY: json.loads(racer.setting[1]),
+                    **others,
+                }
+                specs = [self._spec(unit.task, point, i) for i in range(start, start + block)]
+                wanted.append((racer, specs))
+        todo = [s for _, specs in wanted for s in specs if s.resolved_id not in self.stored]
+        if todo and not self.may_run:
+            log.interrupted = True
+            return False
+        if todo:
+            stats = executor_for(self.backend, self.workers)(
+                todo, self.run.path, "none", self._store, share=True
+            )
+            if stats.interrupted:
+                log.interrupted = True
+                return False
+        verdict = "valid" if self.objective == "valid" else "success"
+        for racer, specs in wanted:
+            rows = [self.stored[s.resolved_id] for s in specs]
+            racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
+            racer.reference.extend(bool(r.get("success")) for r in rows)
+            racer.fallback = racer.fallback or any(
+                r.get("filter_outcome") == "fallback" for r in rows
+            )
+            log.episodes += len(rows)
+            log.seconds += sum(float(r.get("wall_time_s") or 0.0) for r in rows)
+            log.rows.extend(rows)
+        for unit in units:
+            update(unit.race)
+        log.rounds += 1
+        return True
+
+    def _store(self, row: dict[str, Any]) -> None:
+        self.run.append(row)
+        self.stored[str(row["episode_id"])] = row
+
+
+def run_race(units: list[Unit], runner: RaceRunner, block: int, budget: Budget) -> RaceLog:
+    """Rounds until every unit's race stopped, the budget is spent or the run is cut short."""
+    log = RaceLog()
+    runner.open()
+    try:
+        while running := [u for u in units if not u.race.stopped]:
+            if budget.spent(log.episodes, log.seconds):
+                log.budget_spent = True
+                break
+            if not runner.round(running, block, log):
+                break
+    finally:
+        runner.close()
+    return log

@@ -1,0 +1,74 @@
+"""``harness tune ... --write DIR``: per tuned task file, a copy with only its filter keys changed.
+
+The copy is the file read and written by ruamel.yaml's round-trip mode, so every other key,
+comment, order and quoting stays (``semantics: strict`` and ``timing: ruckig`` stay strict and
+ruckig); an existing filter list is edited in place (its comments stay), a new key is appended
+to the pick block, a key whose tuned value is "no filter" is removed. Beside each copy
+``<name>.diff`` is the unified diff against the original.
+"""
+
+from __future__ import annotations
+
+import difflib
+import io
+from pathlib import Path
+from typing import Any
+
+from ruamel.yaml import YAML
+from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.util import load_yaml_guess_indent
+
+from harness.errors import HarnessError
+
+
+def _flow(values: list[Any]) -> CommentedSeq:
+    seq = CommentedSeq(values)
+    seq.fa.set_flow_style()
+    return seq
+
+
+def merged_text(text: str, keys: dict[str, list[Any] | None], source: Path) -> str:
+    """``text`` (a task file) with the pick keys of ``keys`` set (None: removed)."""
+    yaml = YAML()
+    yaml.preserve_quotes = True
+    yaml.width = 4096
+    _, indent, sequence_offset = load_yaml_guess_indent(text)
+    yaml.indent(mapping=sequence_offset or indent, sequence=indent, offset=sequence_offset)
+    data = yaml.load(text)
+    if not isinstance(data, CommentedMap):
+        raise HarnessError(f"{source}: not a task file (a mapping)")
+    pick = data.get("pick")
+    if pick is None:
+        pick = data["pick"] = CommentedMap()
+    if not isinstance(pick, CommentedMap):
+        raise HarnessError(f"{source}: key pick: expected a mapping")
+    for key, value in keys.items():
+        old = pick.get(key)
+        if value is None:
+            pick.pop(key, None)
+        elif isinstance(old, CommentedSeq):
+            del old[:]
+            old.extend(value)
+        else:
+            pick[key] = _flow(value)
+    out = io.StringIO()
+    yaml.dump(data, out)
+    return out.getvalue()
+
+
+def write_copy(source: Path, keys: dict[str, list[Any] | None], out_dir: Path) -> tuple[Path, Path]:
+    """Write ``out_dir/<source name>`` (merged) and ``<source name>.diff``; their paths."""
+    text = source.read_text(encoding="utf-8")
+    merged = merged_text(text, keys, source)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    target = out_dir / source.name
+    target.write_text(merged, encoding="utf-8")
+    diff = difflib.unified_diff(
+        text.splitlines(keepends=True),
+        merged.splitlines(keepends=True),
+        fromfile=str(source),
+        tofile=str(target),
+    )
+    diff_path = out_dir / f"{source.name}.diff"
+    diff_path.write_text("".join(diff), encoding="utf-8")
+    return target, diff_path
