@@ -49,12 +49,13 @@ def _bounded_int(low: int, high: int) -> Callable[[str], int]:
 
 
 def _record_policy(text: str) -> str:
-    """An argparse type: none | failures | all | sample:N."""
+    """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
     if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:\d+", text):
         return text
     raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, invalid, all or sample:N")
 
 
+RECORD_HELP = "none|failures|invalid|all|sample:N"
 SEED = _bounded_int(0, 2**63 - 1)
 # The config's own cap (SweepConfig.episodes_per_point <= 100,000): a larger flag would pass
 # argparse and fail later in pydantic with a traceback.
@@ -113,12 +114,7 @@ def _add_run(sub: Subparsers) -> None:
         help="override a task key, e.g. pick.filter_z_dir='[downward,150]' (repeatable)",
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
-    p.add_argument(
-        "--record",
-        type=_record_policy,
-        default="failures",
-        help="none|failures|invalid|all|sample:N",
-    )
+    p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
     _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 
@@ -151,11 +147,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="where episodes run: this process, a process pool (default) or Ray",
     )
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    p.add_argument(
-        "--record",
-        type=_record_policy,
-        help="none|failures|invalid|all|sample:N (overrides the sweep)",
-    )
+    p.add_argument("--record", type=_record_policy, help=f"{RECORD_HELP} (overrides the sweep)")
     p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
     p.add_argument(
         "--no-share",
