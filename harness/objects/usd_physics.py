@@ -17,6 +17,8 @@ import functools
 from dataclasses import dataclass
 from pathlib import Path
 
+from harness.objects.meshes import check_usd_layers
+
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 
@@ -42,6 +44,9 @@ def read_usd_physics(path: str | Path) -> UsdPhysics:
     path = Path(path)
     if path.suffix.lower() not in USD_SUFFIXES or not path.is_file():
         return NO_PHYSICS
+    # Every layer the stage would open must be a regular file under the size cap (a FIFO or a
+    # device sublayer would block usd-core forever: issue 26); refused with the file named.
+    check_usd_layers(path)
     return _read(path.resolve(), path.stat().st_mtime_ns)
 
 

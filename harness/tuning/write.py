@@ -19,6 +19,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.util import load_yaml_guess_indent
 
 from harness.errors import HarnessError
+from harness.files import safe_file_name
 
 
 def _flow(values: list[Any]) -> CommentedSeq:
@@ -61,7 +62,7 @@ def write_copy(source: Path, keys: dict[str, list[Any] | None], out_dir: Path) -
     text = source.read_text(encoding="utf-8")
     merged = merged_text(text, keys, source)
     out_dir.mkdir(parents=True, exist_ok=True)
-    target = out_dir / source.name
+    target = out_dir / safe_file_name(source.name)
     target.write_text(merged, encoding="utf-8")
     diff = difflib.unified_diff(
         text.splitlines(keepends=True),
@@ -69,6 +70,6 @@ def write_copy(source: Path, keys: dict[str, list[Any] | None], out_dir: Path) -
         fromfile=str(source),
         tofile=str(target),
     )
-    diff_path = out_dir / f"{source.name}.diff"
+    diff_path = out_dir / safe_file_name(source.name, ".diff")
     diff_path.write_text("".join(diff), encoding="utf-8")
     return target, diff_path
