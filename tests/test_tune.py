@@ -121,7 +121,7 @@ def test_tune_heatmap_per_robot_arm_object(tuned) -> None:
 
 def test_the_keys_to_merge_hold_the_decision_in_the_robots_keys(tuned, tmp_path: Path) -> None:
     blocks = yaml.safe_load(tuned.tuned_yaml.read_text())
-    keys = blocks["fr3_pick_cube"]["pick"]
+    keys = blocks["fr3_pick"]["pick"]
     decision = tuned.decisions.iloc[0]
     chosen = (
         (decision["approach"], decision["facing"])
@@ -142,7 +142,7 @@ def test_the_keys_merge_into_an_interndata_file(tuned, tmp_path: Path) -> None:
     source = INTERNDATA / "tasks" / "franka_single_pick_banana.yaml"
     if not source.is_file():
         pytest.skip("the InternDataEngine example data (../shared) is not here")
-    keys = yaml.safe_load(tuned.tuned_yaml.read_text())["fr3_pick_cube"]["pick"]
+    keys = yaml.safe_load(tuned.tuned_yaml.read_text())["fr3_pick"]["pick"]
     data = yaml.safe_load(source.read_text())
     skill = data["tasks"][0]["skills"][0]["franka"][0]["left"][0]
     assert skill["name"] == "pick"
@@ -197,7 +197,7 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
         args = ["run", str(path), "--episodes", str(EPISODES), "--record", "none", "--out"]
         assert cli_main([*args, str(runs[name])]) == 0
         assert (
-            "filters fr3 left (fr3_pick_cube): filter_x_dir forward 90" in capsys.readouterr().out
+            "filters fr3 left (fr3_pick): filter_x_dir forward 90" in capsys.readouterr().out
         )
     by_arm = compare_runs(runs["now"], runs["wide"], match="auto")
     assert len(by_arm) == 1 and by_arm["match"].iloc[0] == "arm"
@@ -218,7 +218,7 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
     assert json.loads(matched.iloc[0]["settings"])["filter_z_dir"] == ["downward", 140.0]
     # The decision again from the stored episodes; a plain run is refused.
     assert cli_main(["tune", "--analyse", str(tuned.run_dir)]) == 0
-    assert "fr3_pick_cube:" in capsys.readouterr().out
+    assert "fr3_pick:" in capsys.readouterr().out
     assert cli_main(["tune", "--analyse", str(runs["now"])]) == 2
     assert "not a tune directory" in capsys.readouterr().err
 
@@ -284,14 +284,14 @@ def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -
     cone is narrowed to ``forward 20`` (measured: valid 4/10 and 22/40 on fresh seeds; docs/tune.md)
     tuned together: the bad copy switches with a confirmed gain, the canonical one keeps."""
     bad = tmp_path / "fr3_facing20.yaml"
-    text = FR3.read_text().replace("name: fr3_pick_cube", "name: fr3_pick_cube_facing20")
+    text = FR3.read_text().replace("name: fr3_pick", "name: fr3_pick_facing20")
     bad.write_text(merged_text(text, {"filter_x_dir": ["forward", 20]}, FR3))
     options = TuneOptions(screen_seeds=3, top=1, block=10, max_seeds=30)
     result = tune(
         [FR3, bad], step=90, bands=0, out=tmp_path / "tune", options=options, backend="serial"
     )
     decisions = result.decisions.set_index("task")
-    good, switched = decisions.loc["fr3_pick_cube"], decisions.loc["fr3_pick_cube_facing20"]
+    good, switched = decisions.loc["fr3_pick"], decisions.loc["fr3_pick_facing20"]
     assert good["verdict"] == KEEP, good.to_dict()
     assert switched["verdict"] == SWITCH, switched.to_dict()
     assert switched["facing"] != '["forward", 20.0]'

@@ -188,7 +188,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def filters_line(task: TaskConfig) -> str:
-    """``filters fr3 left (fr3_pick_cube): filter_x_dir forward 90, filter_z_dir downward 140``:
+    """``filters fr3 left (fr3_pick): filter_x_dir forward 90, filter_z_dir downward 140``:
     the filters the run ran, on the robot's own axes (what ``harness compare`` matches)."""
     from harness.grasps import resolve_filters
     from harness.robots.facts import reference_convention
