@@ -56,7 +56,12 @@ def _read(path: Path, mtime_ns: int) -> UsdPhysics:
     from pxr import Usd, UsdShade
     from pxr import UsdPhysics as Physics
 
-    stage = Usd.Stage.Open(str(path))
+    try:
+        stage = Usd.Stage.Open(str(path))
+    except Exception:  # pxr.Tf.ErrorException: the mesh loader reports it, naming the file
+        return NO_PHYSICS
+    if stage is None:
+        return NO_PHYSICS
     mass = static = dynamic = None
     for prim in stage.Traverse():
         if mass is None and prim.HasAPI(Physics.MassAPI):
