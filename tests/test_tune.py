@@ -196,9 +196,7 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
         runs[name] = tmp_path / name
         args = ["run", str(path), "--episodes", str(EPISODES), "--record", "none", "--out"]
         assert cli_main([*args, str(runs[name])]) == 0
-        assert (
-            "filters fr3 left (fr3_pick): filter_x_dir forward 90" in capsys.readouterr().out
-        )
+        assert "filters fr3 left (fr3_pick): filter_x_dir forward 90" in capsys.readouterr().out
     by_arm = compare_runs(runs["now"], runs["wide"], match="auto")
     assert len(by_arm) == 1 and by_arm["match"].iloc[0] == "arm"
     row = by_arm.iloc[0]
