@@ -52,13 +52,7 @@ from harness.episode.execution import execute_chosen
 from harness.episode.planning import candidates, feasibility
 from harness.episode.records import EndColumns, RowRecord, WallTimeColumns, merge_records
 from harness.episode.result import EpisodeResult
-from harness.episode.setup import (
-    INIT_RECORD_TIME_S,
-    SETTLE_TIME_S,
-    WARMUP_TIME_S,
-    EpisodeStopError,
-    reset,
-)
+from harness.episode.setup import EpisodeStopError, reset
 from harness.episode.spec import EpisodeSpec
 from harness.errors import EpisodeTimeoutError, HarnessError
 from harness.pick.outcome import ValidityColumns
@@ -66,15 +60,7 @@ from harness.pick.validity import validity_enabled
 from harness.row import IDENTITY_COLUMNS, EpisodeRow, identity_columns
 from harness.version import __version__
 
-__all__ = [
-    "INIT_RECORD_TIME_S",
-    "SETTLE_TIME_S",
-    "WARMUP_TIME_S",
-    "EpisodeResult",
-    "EpisodeSpec",
-    "base_row",
-    "run_episode",
-]
+__all__ = ["base_row", "run_episode"]  # the package __init__ exports the rest from their modules
 
 
 # --------------------------------------------------------------------------------------------

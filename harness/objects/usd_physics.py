@@ -44,15 +44,16 @@ def read_usd_physics(path: str | Path) -> UsdPhysics:
     path = Path(path)
     if path.suffix.lower() not in USD_SUFFIXES or not path.is_file():
         return NO_PHYSICS
-    # Every layer the stage would open must be a regular file under the size cap (a FIFO or a
-    # device sublayer would block usd-core forever: issue 26); refused with the file named.
-    check_usd_layers(path)
     return _read(path.resolve(), path.stat().st_mtime_ns)
 
 
 @functools.lru_cache(maxsize=256)
 def _read(path: Path, mtime_ns: int) -> UsdPhysics:
     del mtime_ns  # part of the cache key only
+    # Every layer the stage would open must be a regular file under the size cap (a FIFO or a
+    # device sublayer would block usd-core forever: issue 26); refused with the file named.
+    # Inside the cache: a file read once is not parsed again for the check.
+    check_usd_layers(path)
     from pxr import Usd, UsdShade
     from pxr import UsdPhysics as Physics
 
