@@ -59,6 +59,29 @@ def check_deadline() -> None:
 
 
 @contextlib.contextmanager
+def budget_paused() -> Iterator[None]:
+    """Stop the active budget's clock while the episode waits for work that is not its own
+    (a shared device executing a batch of many workers' jobs, which may first compile its
+    kernels): the deadline moves by the time spent inside, and the alarm is off meanwhile."""
+    if not _ACTIVE:
+        yield
+        return
+    budget = _ACTIVE[-1]
+    alarm = threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGALRM")
+    armed = alarm and signal.getitimer(signal.ITIMER_REAL)[0] > 0.0
+    if armed:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+    start = time.perf_counter()
+    try:
+        yield
+    finally:
+        budget.deadline += time.perf_counter() - start
+        if armed:
+            left = max(0.0, budget.deadline - time.perf_counter())
+            signal.setitimer(signal.ITIMER_REAL, left + 0.05, 0.5)
+
+
+@contextlib.contextmanager
 def episode_budget(wall_time_s: float, sim_steps: int) -> Iterator[None]:
     """Limit the episode run inside: ``wall_time_s`` of wall clock, ``sim_steps`` physics steps."""
     budget = _Budget(time.perf_counter() + wall_time_s, wall_time_s, sim_steps, sim_steps)

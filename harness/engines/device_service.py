@@ -1,0 +1,224 @@
+"""One device shared by a process pool's workers: their execution jobs stepped in batches.
+
+With ``--engine mjwarp`` and the process backend, each worker plans its episodes as always and,
+at the execution, sends the chosen plan's job (``DeviceJob``, with its control schedule) to the
+parent over its pipe and waits (``PooledDeviceEngine``, the worker's ``mjwarp`` engine). A thread
+of the parent (``DeviceService``) owns the one MuJoCo Warp engine: it gathers the jobs waiting
+(at most one per worker), steps the jobs of each task model as one batch of worlds, and answers
+each worker with its outcome, which the worker turns into its row as the in-process engine
+would. So a pool of W workers shares one CUDA context and one set of compiled kernels, and
+batches hold up to W worlds (more workers than cores keep both the cores and the device busy).
+
+The wait is not the episode's: the worker's wall-clock budget is paused while it waits
+(``harness.sim.budget.budget_paused``), and the parent does not count it towards the worker's
+kill deadline. A device failure answers every job of its batch with an error, which the worker
+stores as an ``error`` row naming it.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from typing import TYPE_CHECKING, Any
+
+from harness.errors import HarnessError
+
+if TYPE_CHECKING:
+    from harness.engines.base import Execution, ExecutionJob
+    from harness.pick.outcome import PickOutcome
+
+# How long a worker waits for its outcome before giving up with an error (covers MuJoCo Warp's
+# first-use kernel compilation, ~4 min for the first task model on an H100 box; chosen, no
+# public source).
+DEVICE_WAIT_LIMIT_S = 1800.0
+# After the first job of a batch arrives, how long the service waits for the other busy
+# workers' jobs before it steps what it has (chosen: a few planning times of one episode).
+GATHER_S = 0.05
+
+
+@dataclass
+class DeviceRequest:
+    """Worker to parent: execute this job on the shared device."""
+
+    job: Any  # harness.engines.schedule.DeviceJob
+
+
+@dataclass
+class DeviceReply:
+    """Parent to worker: the job's outcome, or why the device could not run it."""
+
+    outcome: PickOutcome | None
+    error: str | None = None
+
+
+@dataclass
+class DeviceStats:
+    """What the service did: batches, jobs, the largest batch, seconds on the device."""
+
+    batches: int = 0
+    jobs: int = 0
+    largest: int = 0
+    device_s: float = 0.0
+    errors: list[str] = field(default_factory=list)
+
+
+class PooledDeviceEngine:
+    """A worker's ``mjwarp`` engine: makes the job's schedule here, runs it on the parent's
+    device (``DeviceService``) and waits for the outcome."""
+
+    name = "mjwarp"
+
+    def __init__(self, conn: Connection) -> None:
+        self.conn = conn
+
+    def execute(self, job: ExecutionJob) -> Execution:
+        from harness.engines.schedule import device_job
+        from harness.pick.validity import validity_enabled
+        from harness.sim.budget import budget_paused
+
+        packed = device_job(job)
+        self.conn.send(DeviceRequest(packed))
+        with budget_paused():
+            if not self.conn.poll(DEVICE_WAIT_LIMIT_S):
+                raise HarnessError(
+                    f"the shared mjwarp device gave no outcome within {DEVICE_WAIT_LIMIT_S:g} s"
+                )
+            reply = self.conn.recv()
+        if not isinstance(reply, DeviceReply):
+            raise HarnessError(f"the parent answered a device request with {type(reply).__name__}")
+        if reply.error is not None or reply.outcome is None:
+            raise HarnessError(f"mjwarp device: {reply.error}")
+        return execution_of(reply.outcome, validity_enabled(job.task.pick))
+
+
+def execution_of(outcome: PickOutcome, validity: bool) -> Execution:
+    """The ``Execution`` of a device outcome (a warm-up that diverged has no outcome)."""
+    from harness.engines.base import Execution
+
+    if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
+        return Execution(None, validity, warmup_unstable=outcome.message)
+    return Execution(outcome, validity)
+
+
+Answer = Callable[[DeviceReply], None]
+
+
+class DeviceService:
+    """The parent's device thread: gathers waiting jobs, steps them in batches, answers."""
+
+    def __init__(
+        self,
+        waiting: Callable[[], int],
+        device: str | None = None,
+        execute: Callable[[Any, list[Any]], list[PickOutcome]] | None = None,
+    ) -> None:
+        """``waiting``: how many workers may still send a job before the current ones are
+        answered (the batch stops gathering once that many arrived); ``execute(scene, jobs)``
+        runs one batch (default: the ``mjwarp`` engine on ``device``)."""
+        self.waiting = waiting
+        self.device = device
+        self._execute_batch = execute
+        self.stats = DeviceStats()
+        self._queue: queue.Queue[tuple[Any, Answer] | None] = queue.Queue()
+        self._engine: Any = None
+        self._scenes: dict[Any, Any] = {}
+        self._thread = threading.Thread(target=self._loop, name="mjwarp-device", daemon=True)
+        self._thread.start()
+
+    def submit(self, job: Any, answer: Answer) -> None:
+        """Queue ``job``; ``answer`` is called (from the device thread) with its reply."""
+        self._queue.put((job, answer))
+
+    def stop(self) -> None:
+        self._queue.put(None)
+        self._thread.join(timeout=60)
+
+    def _gather(self, first: tuple[Any, Answer]) -> list[tuple[Any, Answer]]:
+        """The first job and those that arrive within ``GATHER_S`` while more may come (a
+        stop request stays queued for the loop)."""
+        batch = [first]
+        deadline = time.monotonic() + GATHER_S
+        while True:
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                if len(batch) >= max(1, self.waiting()) or time.monotonic() >= deadline:
+                    return batch
+                time.sleep(0.002)
+                continue
+            if item is None:
+                self._queue.put(None)
+                return batch
+            batch.append(item)
+
+    def _loop(self) -> None:
+        while True:
+            first = self._queue.get()
+            if first is None:
+                return
+            self._run(self._gather(first))
+
+    def _run(self, batch: list[tuple[Any, Answer]]) -> None:
+        """Each task model's jobs as one batch of worlds; every job answered, error or not."""
+        clock = time.perf_counter()
+        groups: dict[tuple[Any, ...], list[tuple[Any, Answer]]] = {}
+        for item in batch:
+            try:
+                key = self._key(item[0])
+            except Exception as exc:  # a scene that cannot be built: that job's error
+                item[1](DeviceReply(None, f"{type(exc).__name__}: {exc}"))
+                continue
+            groups.setdefault(key, []).append(item)
+        for items in groups.values():
+            jobs = [job for job, _ in items]
+            try:
+                outcomes = self._execute(jobs)
+            except Exception as exc:
+                message = f"batch of {len(jobs)} failed: {type(exc).__name__}: {exc}"
+                self.stats.errors.append(message)
+                for _, answer in items:
+                    answer(DeviceReply(None, message))
+                continue
+            for (_, answer), outcome in zip(items, outcomes, strict=True):
+                answer(DeviceReply(outcome))
+            self.stats.batches += 1
+            self.stats.jobs += len(jobs)
+            self.stats.largest = max(self.stats.largest, len(jobs))
+        self.stats.device_s += time.perf_counter() - clock
+
+    def _scene(self, task: Any) -> Any:
+        """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
+        from harness.robots import RobotModel
+        from harness.sim import Scene, scene_key
+
+        key = scene_key(task)
+        if key not in self._scenes:
+            robot = RobotModel.load(task.robot, task.gripper)
+            self._scenes[key] = Scene.build(robot, task.objects, task.physics, task.base_dir())
+        return self._scenes[key]
+
+    def _key(self, job: Any) -> tuple[Any, ...]:
+        """Jobs of one key run as one batch: one device model (task model, arm, target) and
+        the same timing (``WorldBatch.run`` takes these from its first job)."""
+        scene = self._scene(job.task)
+        schedule = job.schedule
+        return (
+            id(scene.model), job.task.arm, job.task.target_object.name,
+            float(job.task.pick.hold_time), float(schedule.control_dt),
+            tuple(schedule.chunk_sizes), int(schedule.warmup_steps),
+        )  # fmt: skip
+
+    def _execute(self, jobs: list[Any]) -> list[PickOutcome]:
+        scene = self._scene(jobs[0].task)
+        if self._execute_batch is not None:
+            return self._execute_batch(scene, jobs)
+        from harness.engines.mjwarp_engine import MjwarpEngine
+
+        if self._engine is None:
+            self._engine = MjwarpEngine(self.device)
+        outcomes, _ = self._engine.execute_many(scene, jobs)
+        return outcomes
