@@ -153,6 +153,7 @@ def test_a_pool_on_warps_cpu_device_gives_the_mujoco_verdicts(
     """Two FR3 cube episodes planned by two workers and stepped as one MJWarp batch on Warp's
     CPU device: the same reference and validity verdicts as the CPU engine."""
     monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    monkeypatch.setattr(service_module, "GATHER_S", 120.0)  # both jobs in one batch
     task = fr3().model_copy(update={"limits": fr3().limits.model_copy(update={"wall_time_s": 900})})
     episodes = [EpisodeSpec(task=task, seed=s, episode_index=s) for s in range(2)]
     cpu: list[dict[str, Any]] = []

@@ -73,6 +73,13 @@ def main(args: argparse.Namespace) -> int:
         f"{stats.finished} episode(s) in {stats.wall_time_s:.1f} s"
         + (f", {stats.crashed} worker crash(es) recorded as errors" if stats.crashed else "")
     )
+    if stats.device is not None:  # mjwarp on the process pool: one shared device
+        device = stats.device
+        console.print(
+            f"device: {device.jobs} job(s) in {device.batches} batch(es) of up to "
+            f"{device.largest} world(s), {device.device_s:.1f} s"
+            + (f"; {len(device.errors)} failed batch(es)" if device.errors else "")
+        )
     print_summary(outcome.run_dir, console)
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
     failing = too_many_errors(outcome.errors, outcome.rows)

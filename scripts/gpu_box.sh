@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The GPU box sitting of issue 24 (docs/engines.md, "Setting up the GPU box"): the box has no
+# package index, so the project's missing packages travel as one xz tarball of a `pip install
+# --target` tree made here (cp312, manylinux), split into parts carried one per call.
+#   scripts/gpu_box.sh stash DIR      copy the carried part(s) in DIR to /tmp/parts
+#   scripts/gpu_box.sh setup          unpack /tmp/parts into /tmp/site (once per machine)
+#   source scripts/gpu_box.sh env     put /tmp/site and this checkout on PYTHONPATH
+set -euo pipefail
+SITE=/tmp/site
+case "${1:-}" in
+  stash)
+    mkdir -p /tmp/parts
+    cp "$2"/part.* /tmp/parts/
+    ls -la /tmp/parts
+    ;;
+  setup)
+    if [ ! -f "$SITE/.done" ]; then
+      mkdir -p "$SITE"
+      cat /tmp/parts/part.* | xz -d -T0 | tar -x -C "$SITE"
+      touch "$SITE/.done"
+    fi
+    ;;
+  env)
+    export PYTHONPATH="$SITE:$SITE/cmeel.prefix/lib/python3.12/site-packages:$PWD"
+    export WARP_CACHE_PATH=/tmp/warpcache MUJOCO_GL=egl PYTHONUNBUFFERED=1
+    ;;
+  *)
+    echo "usage: $0 stash DIR | setup | env" >&2
+    exit 2
+    ;;
+esac
