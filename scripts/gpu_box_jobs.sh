@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Runs the issue-24 GPU measurements one after another on the GPU box (started in the
+# background with setsid by the call that unpacks the packages; later calls poll
+# /tmp/results/status). Each job logs to /tmp/results/<job>.log; `pack` puts the results in
+# one tarball under $1.
+#   scripts/gpu_box_jobs.sh agree sweep throughput ...   (jobs in order)
+#   scripts/gpu_box_jobs.sh pack OUT_DIR
+set -uo pipefail
+source "$(dirname "$0")/gpu_box.sh" env
+set +e
+R=/tmp/results
+mkdir -p "$R"
+if [ "${1:-}" = "pack" ]; then
+  tar -C "$R" --exclude='*.rrd' --exclude='videos' -cJf "$2/results.tar.xz" . && ls -la "$2"
+  exit 0
+fi
+for job in "$@"; do
+  echo "$job started $(date -u +%T)" >> "$R/status"
+  case "$job" in
+    info)
+      { nvidia-smi; nproc; free -g; python3 -c "import numpy, pandas, scipy, mujoco, mujoco_warp, warp; print(numpy.__version__, pandas.__version__, scipy.__version__, mujoco.__version__, mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '', warp.__version__)"; git log --oneline -1; } ;;
+    agree)  # five arms x cube, banana x 32 seeds on both engines
+      python3 -m harness.benchmarks.engines 32 "$R/agree" ;;
+    sweep_cpu)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --out "$R/sweep_mujoco" --no-progress ;;
+    sweep_gpu)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp --workers 32 --out "$R/sweep_mjwarp" --no-progress ;;
+    throughput)  # FR3 cube, 2048 episodes, batches of BENCH_BATCH worlds
+      BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 2048 "$R/throughput" fr3 ;;
+    *) echo "unknown job $job" ;;
+  esac > "$R/$job.log" 2>&1
+  echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
+done
+echo "all done" >> "$R/status"
