@@ -3,7 +3,7 @@ device's ``execute_many`` is a stub here; the real one is measured on the GPU bo
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import pytest
 
@@ -18,7 +18,7 @@ class _Timings:
 
 
 class _StubEngine:
-    batches: list[int] = []
+    batches: ClassVar[list[int]] = []
 
     def __init__(self, device: str | None = None) -> None:
         pass
