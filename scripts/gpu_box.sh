@@ -16,7 +16,7 @@ case "${1:-}" in
   setup)
     if [ ! -f "$SITE/.done" ]; then
       mkdir -p "$SITE"
-      cat /tmp/parts/part.* | xz -d -T0 | tar -x -C "$SITE"
+      cat /tmp/parts/part.* | xz -d -T0 | tar -x -i -C "$SITE"
       touch "$SITE/.done"
     fi
     ;;
