@@ -11,7 +11,9 @@ every rung not yet computed assumed survived (round 1: every direction at the to
 rungs). The first of them is certainly needed (the walk agrees with the real ladder up to it);
 the others are needed when it survives. ``PATH_LOWER`` also asks, from round 2 on, for the
 levels below the first missing rung in its direction, which that direction tries next when the
-rung fails.
+rung fails; ``PATH_LOWER_ALL`` for the levels below every missing rung of the path, which
+completes every ladder in at most two rounds (round 2 then holds every level a direction can
+still be asked for).
 A world is done when its walk meets no missing rung: that walk *is* the real ladder, so its
 result is the one the CPU's ladder would give on the same rung outcomes. ``ALL`` (every rung in
 the first round) is the unadaptive reference the rounds are tested against.
@@ -41,6 +43,7 @@ class RoundPolicy(Enum):
     ALL = "all"  # every rung in round 1 (the 24-rung reference)
     PATH = "path"  # the optimistic path's missing rungs
     PATH_LOWER = "path+lower"  # those, and the levels below the first in its direction
+    PATH_LOWER_ALL = "path+lower-all"  # those, and the levels below each in its direction
 
 
 @dataclass(frozen=True)
@@ -76,10 +79,12 @@ def round_rungs(known: Mapping[Rung, RungOutcome], policy: RoundPolicy) -> list[
     if policy is RoundPolicy.ALL:
         return [r for r in RUNGS if r not in known]
     missing = list(walk(known).missing)
-    if missing and known and policy is RoundPolicy.PATH_LOWER:
-        name, k = missing[0]
-        below = [(name, level) for level in TUG_LEVELS_G if level < k]
-        missing += [r for r in sorted(below, key=lambda r: -r[1]) if r not in known]
+    if not known or policy is RoundPolicy.PATH:
+        return missing
+    extend = missing[:1] if policy is RoundPolicy.PATH_LOWER else list(missing)
+    for name, k in extend:
+        below = [(name, level) for level in reversed(TUG_LEVELS_G) if level < k]
+        missing += [r for r in below if r not in known and r not in missing]
     return missing
 
 
