@@ -34,7 +34,7 @@ from harness.engines.signals import (
     unstable_reason,
     window_steps,
 )
-from harness.engines.tug_rounds import RoundPolicy, Rung, run_rounds
+from harness.engines.tug_rounds import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
 from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
 from harness.pick.validity import (
@@ -171,7 +171,7 @@ def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.nd
 class WorldBatch:
     """Runs jobs of one ``DeviceModel`` in lockstep and judges them (``run``)."""
 
-    def __init__(self, dm: DeviceModel, policy: RoundPolicy = RoundPolicy.PATH) -> None:
+    def __init__(self, dm: DeviceModel, policy: RoundPolicy = DEFAULT_POLICY) -> None:
         self.dm = dm
         self.policy = policy  # which rungs each tug round runs
         self.timings = BatchTimings()

@@ -46,6 +46,12 @@ class RoundPolicy(Enum):
     PATH_LOWER_ALL = "path+lower-all"  # those, and the levels below each in its direction
 
 
+# The batched engine's policy: at most two rounds, for a few more rung-worlds than PATH
+# (docs/engines.md: on a device a round of a few worlds costs about what one of a thousand
+# does, so rounds cost more than the rungs they save).
+DEFAULT_POLICY = RoundPolicy.PATH_LOWER_ALL
+
+
 @dataclass(frozen=True)
 class LadderWalk:
     """The ladder evaluated on the known rungs: the missing rungs of its optimistic path, in the
@@ -99,7 +105,7 @@ class RoundStats:
 def run_rounds(
     worlds: list[int],
     run: RoundRunner,
-    policy: RoundPolicy = RoundPolicy.PATH,
+    policy: RoundPolicy = DEFAULT_POLICY,
 ) -> tuple[dict[int, dict[Rung, RungOutcome]], RoundStats]:
     """Rounds until every world's ladder is complete: ``run`` gets one round's (world, rung)
     pairs and returns their outcomes in the same order. The known rungs of each world, and the
