@@ -113,6 +113,43 @@ def test_schedule_marks_the_closing_and_the_verdict() -> None:
     np.testing.assert_array_equal(schedule.hold_ctrl, schedule.ctrl[-1, -1])
 
 
+class _BothSchedules:
+    """Makes each job's schedule lean and in full (every measurement of the executor), then
+    runs it on the mujoco engine."""
+
+    name = "both-schedules"
+
+    def __init__(self) -> None:
+        self.pairs: list = []
+
+    def execute(self, job):
+        from harness.engines.schedule import build_schedule
+
+        self.pairs.append((build_schedule(job, lean=False), build_schedule(job)))
+        return engine_for("mujoco").execute(job)
+
+
+@pytest.mark.parametrize(("arm", "seed"), [("fr3", 0), ("split_aloha_left", 3)])
+def test_the_lean_schedule_is_the_full_runs(arm: str, seed: int) -> None:
+    """The kinematic run without the penetration, the speeds and the per-chunk kinematics makes
+    the same schedule, byte for byte: controls, chunks, warm-up, closing and verdict steps."""
+    both = _BothSchedules()
+    register_engine(both)
+    task = load_task(repo_root() / "tasks" / "pick" / f"{arm}.yaml")
+    row = run_episode(EpisodeSpec(task=task, seed=seed, engine=both.name), {}).row
+    assert row["success"], row["error_message"]
+    (pair,) = both.pairs
+    full, lean = pair
+    assert 0 < full.close_step < full.verdict_step < full.steps
+    for field in dataclasses.fields(full):
+        a, b = getattr(full, field.name), getattr(lean, field.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype and a.shape == b.shape, field.name
+            assert a.tobytes() == b.tobytes(), field.name
+        else:
+            assert a == b, field.name
+
+
 @pytest.mark.slow
 @pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
@@ -138,3 +175,42 @@ def test_mjwarp_on_the_cpu_device_agrees_with_mujoco(monkeypatch: pytest.MonkeyP
     assert abs(gpu["hold_rotation_rad"] - cpu["hold_rotation_rad"]) < math.radians(1.0)
     assert gpu["table_penetration_m"] >= 0.0
     assert abs(gpu["table_penetration_m"] - cpu["table_penetration_m"]) < 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_mjwarp_tug_rounds_give_the_24_rung_ladder() -> None:
+    """A grasp that gives way (FR3, 0.4 kg cube at friction 0.3, seed 14: it survives no rung
+    on the CPU) on Warp's CPU device: the tug in rounds (the default policy) and all 24 rungs
+    in one round give the same robustness, tug message and validity; the rounds run fewer
+    rung-worlds than 24 only where the ladder stops early, never more."""
+    from harness.benchmarks.engines import _SCENES, _plan, tasks
+    from harness.config import apply_overrides
+    from harness.engines.mjwarp_batch import WorldBatch
+    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.tug_rounds import RoundPolicy
+    from harness.episode import EpisodeSpec
+    from harness.episode.scene_cache import get_scene
+    from harness.runs.expansion import point_overrides
+
+    (task,) = tasks(("fr3",), ("cube",))
+    task = apply_overrides(
+        task, point_overrides(task, {"object.mass": 0.4, "object.friction": 0.3})
+    )
+    _, job = _plan(EpisodeSpec(task=task, seed=14))
+    assert job is not None
+    engine = MjwarpEngine("cpu")
+    rounds = engine.batch(get_scene(task, _SCENES).scene, task)
+    full = WorldBatch(rounds.dm, RoundPolicy.ALL)
+    (a,) = rounds.run([job])
+    (b,) = full.run([job])
+    assert a.validity is not None and b.validity is not None
+    assert (full.timings.tug_rounds, full.timings.tug_rungs) == (1, 24)
+    assert rounds.timings.tug_rounds >= 2 and rounds.timings.tug_rungs <= 24
+    for key in ("robustness_g", "tug_message"):
+        assert getattr(a.validity.measure, key) == getattr(b.validity.measure, key), key
+    assert (a.validity.valid, a.validity.invalid_reason) == (
+        b.validity.valid,
+        b.validity.invalid_reason,
+    )

@@ -130,7 +130,10 @@ def run_gpu(
     engine = MjwarpEngine(device)
     scenes: dict[Any, Any] = {}
     outcomes: dict[int, PickOutcome] = {}
-    totals = {"upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0}
+    totals = {
+        "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0,
+        "tug_rounds": 0.0, "tug_rungs": 0.0,
+    }  # fmt: skip
     counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
     device_s = 0.0
 
@@ -266,6 +269,10 @@ def figures(result: dict[str, Any]) -> list[Figure]:
             SECTION, "physics world-steps per second (mjwarp)",
             [gpu["world_steps"] / max(gpu["physics_s"] + gpu["tug_s"], 1e-9)], "steps/s",
             notes=f"largest batch {gpu['max_batch']} worlds",
+        ),
+        figure(
+            SECTION, "tug rung-worlds (mjwarp)", [gpu["tug_rungs"]], "worlds",
+            notes=f"in {gpu['tug_rounds']:.0f} rounds, {gpu['tug_s']:.1f} s on the device",
         ),
         figure(SECTION, "reference outcome agreement", [same_ref / k], "share"),
         figure(SECTION, "validity agreement", [same_valid / k], "share"),

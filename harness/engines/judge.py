@@ -3,8 +3,9 @@
 The measurements are taken at the control steps the CPU executor takes them (the schedule says
 which: ``harness.engines.schedule``) and judged by the same verdict terms
 (``harness.pick.verdict``: ``closing_terms``, the semantics' ``verdict_terms``,
-``validity_terms``) and the same tug ladder (``harness.pick.validity.tug_ladder``): no second
-copy of the reference or validity checks lives here, only the reading of the signal rows.
+``validity_terms``) and the same tug ladder (``harness.pick.validity.tug_ladder``, answered from
+the rungs the batch ran: ``harness.engines.tug_rounds``): no second copy of the reference or
+validity checks lives here, only the reading of the signal rows.
 Not reproduced: strict's robot-environment collision check during the motion (no collision
 model on the device; ``collisions`` stays empty) and the event log / trace.
 """
@@ -12,6 +13,7 @@ model on the device; ``collisions`` stays empty) and the event log / trace.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -31,19 +33,11 @@ from harness.engines.signals import (
     object_speed,
     unstable_reason,
 )
+from harness.engines.tug_rounds import Rung, walk
 from harness.pick.executor_validity import judged_validity, stopped_validity
 from harness.pick.outcome import PickOutcome, ValidityMeasure
-from harness.pick.validity import (
-    TUG_DIRECTIONS,
-    TUG_LEVELS_G,
-    TUG_MAX_SLIP,
-    pose_drift,
-    tug_ladder,
-)
+from harness.pick.validity import TUG_MAX_SLIP, RungOutcome, pose_drift
 from harness.pick.verdict import VerdictTerm, closing_terms, first_failure
-
-# Tug rungs in the order a batched engine runs them: direction-major, levels ascending.
-RUNGS = [(name, k) for name, _ in TUG_DIRECTIONS for k in TUG_LEVELS_G]
 
 
 def _forces(row: np.ndarray) -> tuple[float, float]:
@@ -132,8 +126,8 @@ class _Judge:
         out.success = not out.failure_reason
         return reached
 
-    def validity(self, window: HoldWindow, rungs: np.ndarray | None) -> None:
-        """``run_validity_phase`` on the rows after the motion and the tug rungs' end rows."""
+    def validity(self, window: HoldWindow, rungs: Mapping[Rung, RungOutcome] | None) -> None:
+        """``run_validity_phase`` on the rows after the motion and the tug rungs' outcomes."""
         out, steps = self.out, self.steps
         for row in steps[self.schedule.verdict_step + 1 : self.schedule.steps]:
             out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
@@ -158,16 +152,9 @@ class _Judge:
         if unstable_reason(end) is not None:
             measure.hold_slip_m = math.inf
         if rungs is not None:
-            held = object_in_tcp(end)
-
-            def rung(name: str, direction: tuple[float, float, float], k: float):
-                row = rungs[RUNGS.index((name, k))]
-                slip = float(np.linalg.norm(object_in_tcp(row) - held))
-                between = min(_forces(row)) > 0.0
-                survived = slip < TUG_MAX_SLIP and between and unstable_reason(row) is None
-                return survived, slip, between
-
-            measure.robustness_g, measure.tug_message = tug_ladder(rung)
+            ladder = walk(rungs)
+            assert ladder.done, f"tug rungs missing: {ladder.missing}"
+            measure.robustness_g, measure.tug_message = ladder.result
         else:
             measure.robustness_g, measure.tug_message = 0.0, "not tugged: the object is not held"
         out.validity = judged_validity(self.pick, measure)
@@ -176,6 +163,22 @@ class _Judge:
             out.verdict_forces = measure.finger_forces
             self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
             out.success = not out.failure_reason
+
+
+def held_in_tcp(steps: np.ndarray, window: HoldWindow) -> np.ndarray:
+    """The object's position in the TCP frame at the end of the hold: what a rung's slip is
+    measured from."""
+    return object_in_tcp(steps[window.hold_end])
+
+
+def rung_outcome(row: np.ndarray, held: np.ndarray) -> RungOutcome:
+    """A tug rung's outcome from its end row (``ValidityPhase._tug``'s rule): survived when the
+    slip since the end of the hold (``held``) is under ``TUG_MAX_SLIP``, both fingers still
+    touch the object and the state is finite."""
+    slip = float(np.linalg.norm(object_in_tcp(row) - held))
+    between = min(_forces(row)) > 0.0
+    survived = slip < TUG_MAX_SLIP and between and unstable_reason(row) is None
+    return survived, slip, between
 
 
 def needs_tug(steps: np.ndarray, window: HoldWindow, object_init_z: float) -> bool:
@@ -190,10 +193,11 @@ def judge(
     steps: np.ndarray,
     validity: bool,
     window: HoldWindow | None,
-    rungs: np.ndarray | None,
+    rungs: Mapping[Rung, RungOutcome] | None,
 ) -> PickOutcome:
     """The outcome of one world: ``steps`` its signal rows (motion, then the validity window),
-    ``rungs`` the end rows of the 24 tug rungs (``RUNGS`` order) when it was tugged."""
+    ``rungs`` the outcomes of the tug rungs its ladder asked for (``rung_outcome``) when it was
+    tugged."""
     state = _Judge(job, job.schedule, steps)
     reached = state.motion()
     if validity:

@@ -7,9 +7,11 @@ reference's warm-up steps with the home controls, then its control schedule
 and a device step counter indexes it inside the captured CUDA graph of one control step (setting
 the controls, the physics steps of each servo chunk, recording the signals, saving the validity
 window's states); the host replays that graph once per control step. Worlds whose schedule ended
-hold their last controls. The validity phase's tug runs as a second batch: 24 worlds per tugged
-episode (6 directions x 4 levels), each started from the episode's state at the end of its hold
-with its pull in ``xfrc_applied``. On Warp's CPU device the same functions run without capture.
+hold their last controls. The validity phase's tug runs in rounds of rung batches
+(``harness.engines.tug_rounds``): each rung is a world started from its episode's state at the
+end of the hold with its pull in ``xfrc_applied``; round 1 runs every tugged episode's six
+directions at the top level, each later round the rungs its ladder still asks for. On Warp's
+CPU device the same functions run without capture.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import warp as wp
 
 from harness.config import TaskConfig
 from harness.engines import mjwarp_kernels as kernels
-from harness.engines.judge import RUNGS, judge, needs_tug
+from harness.engines.judge import held_in_tcp, judge, needs_tug, rung_outcome
 from harness.engines.schedule import DeviceJob, ExecutionSchedule
 from harness.engines.signals import (
     SIGNALS,
@@ -32,9 +34,15 @@ from harness.engines.signals import (
     unstable_reason,
     window_steps,
 )
+from harness.engines.tug_rounds import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
 from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
-from harness.pick.validity import TUG_DIRECTIONS, tug_rung_steps, validity_enabled
+from harness.pick.validity import (
+    TUG_DIRECTIONS,
+    RungOutcome,
+    tug_rung_steps,
+    validity_enabled,
+)
 from harness.sim import Scene
 
 NCONMAX = 128  # contacts per world (a grasp holds ~10-40)
@@ -43,13 +51,16 @@ NJMAX = 768  # constraint rows per world
 
 @dataclass
 class BatchTimings:
-    """Where a batch's wall time went (s)."""
+    """Where a batch's wall time went (s), its world-steps, and its tug rounds and rung-worlds
+    (one world per rung run)."""
 
     upload_s: float = 0.0
     physics_s: float = 0.0
     tug_s: float = 0.0
     download_s: float = 0.0
     world_steps: int = 0
+    tug_rounds: int = 0
+    tug_rungs: int = 0
 
 
 class DeviceModel:
@@ -160,8 +171,9 @@ def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.nd
 class WorldBatch:
     """Runs jobs of one ``DeviceModel`` in lockstep and judges them (``run``)."""
 
-    def __init__(self, dm: DeviceModel) -> None:
+    def __init__(self, dm: DeviceModel, policy: RoundPolicy = DEFAULT_POLICY) -> None:
         self.dm = dm
+        self.policy = policy  # which rungs each tug round runs
         self.timings = BatchTimings()
 
     def _data(self, nworld: int) -> mjw.Data:
@@ -236,15 +248,14 @@ class WorldBatch:
                     if needs_tug(steps[w], win, float(job.object_init_position[2])):
                         tugged.append(w)
                 windows.append(win)
-            rung_rows = self._tug(jobs, d, saved, motion, windows, tugged)
+            rungs = self._tug(jobs, d, saved, motion, windows, steps, tugged)
         outcomes = []
         for w, job in enumerate(jobs):
             reason = unstable_reason(warm_rows[w])
             if reason is not None:
                 outcomes.append(PickOutcome(failure_reason="sim_unstable", message=reason))
                 continue
-            rung = rung_rows.get(w)
-            outcomes.append(judge(job, steps[w], validity[w], windows[w], rung))
+            outcomes.append(judge(job, steps[w], validity[w], windows[w], rungs.get(w)))
         return outcomes
 
     def _tug(
@@ -254,23 +265,44 @@ class WorldBatch:
         saved: list[wp.array],
         motion: np.ndarray,
         windows: list[HoldWindow | None],
+        steps: np.ndarray,
         tugged: list[int],
-    ) -> dict[int, np.ndarray]:
-        """The 24 rungs of every tugged world; their end rows by world."""
+    ) -> dict[int, dict[Rung, RungOutcome]]:
+        """The tug ladders of the tugged worlds, in rounds (``self.policy``); by world, the
+        outcomes of the rungs its ladder asked for."""
         if not tugged:
             return {}
+        held = {w: held_in_tcp(steps[w], _window(windows[w])) for w in tugged}
+
+        def run(batch: list[tuple[int, Rung]]) -> list[RungOutcome]:
+            rows = self._rungs(jobs, d, saved, motion, windows, batch)
+            return [rung_outcome(row, held[w]) for (w, _), row in zip(batch, rows, strict=True)]
+
+        known, stats = run_rounds(tugged, run, self.policy)
+        self.timings.tug_rounds += stats.rounds
+        self.timings.tug_rungs += stats.rungs
+        return known
+
+    def _rungs(
+        self,
+        jobs: list[DeviceJob],
+        d: mjw.Data,
+        saved: list[wp.array],
+        motion: np.ndarray,
+        windows: list[HoldWindow | None],
+        batch: list[tuple[int, Rung]],
+    ) -> np.ndarray:
+        """One round: a world per (world, rung), started from that world's held state with the
+        rung's pull; their end rows in ``batch`` order."""
         clock = time.perf_counter()
         dm = self.dm
         directions = dict(TUG_DIRECTIONS)
         source, slot, force = [], [], []
-        for w in tugged:
-            win = windows[w]
-            assert win is not None
-            for name, k in RUNGS:
-                source.append(w)
-                slot.append(win.hold_end - (int(motion[w]) - 1))
-                force.append(np.asarray(directions[name]) * k * dm.weight)
-        nt = len(source)
+        for w, (name, k) in batch:
+            source.append(w)
+            slot.append(_window(windows[w]).hold_end - (int(motion[w]) - 1))
+            force.append(np.asarray(directions[name]) * k * dm.weight)
+        nt = len(batch)
         td = self._data(nt)
         wp.launch(
             kernels.load_rungs, dim=nt,
@@ -294,4 +326,9 @@ class WorldBatch:
         rows = out.numpy()[:, 0]
         self.timings.tug_s += time.perf_counter() - clock
         self.timings.world_steps += nt * rung_steps * substeps
-        return {w: rows[i * len(RUNGS) : (i + 1) * len(RUNGS)] for i, w in enumerate(tugged)}
+        return rows
+
+
+def _window(window: HoldWindow | None) -> HoldWindow:
+    assert window is not None, "a tugged world has a hold window"
+    return window

@@ -9,6 +9,12 @@ commands then pop when the *commanded* pose reaches its target: at the end of ea
 rather than a few control steps later when the real arm, lagging its setpoints, gets there. The
 verdicts are not taken here (the physics is not run); the schedule records where they are due.
 What this timing difference does to the outcomes is measured (docs/engines.md, agreement).
+
+The kinematic run computes only what the schedule depends on (``lean``): the pose tests that pop
+commands. It skips what the executor measures for its row and nobody reads here (the device
+measures them itself): the table penetration, the joint and object speeds; and it runs
+``mj_kinematics`` only when a pose is read (once per control step, not once per servo chunk).
+``lean=False`` runs the executor's every measurement, for the test that the schedule is the same.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from harness.pick.executor import PickExecutor
 from harness.pick.semantics import Semantics
 from harness.pick.verdict import VerdictTerm
 from harness.sim import Scene
+from harness.sim.queries import T_from_pos_mat
 
 
 @dataclass
@@ -55,11 +62,26 @@ class ExecutionSchedule:
         return self.ctrl[-1, -1]
 
 
+class _NoPenetration:
+    """A ``TablePenetration`` that measures nothing (the device measures the depth)."""
+
+    def depth(self, data: mujoco.MjData) -> float:
+        return 0.0
+
+
 class _ScheduleExecutor(PickExecutor):
     """The executor on a kinematic scene: judges nothing, notes when the verdicts are due."""
 
     close_step = -1
     verdict_step = -1
+    lean = True
+
+    def _track_penetration(self) -> None:
+        if not self.lean:
+            super()._track_penetration()
+
+    def _object_speed(self) -> float:
+        return super()._object_speed() if not self.lean else 0.0
 
     def judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
         return False  # verdicts are taken on the engine's signals (harness.engines.judge)
@@ -77,34 +99,53 @@ class _ScheduleExecutor(PickExecutor):
         return done
 
 
-def kinematic_scene(scene: Scene) -> Scene:
+def kinematic_scene(scene: Scene, lean: bool = True) -> Scene:
     """A copy of the scene on its own MjData whose ``step`` moves the arm joints to their servo
-    setpoints (no dynamics, no contacts: no forces, never unstable)."""
+    setpoints (no dynamics, no contacts: no forces, never unstable). ``lean``: the body poses
+    are brought up to date when ``T_world_body`` reads one (the same poses: ``mj_kinematics``
+    is a function of ``qpos``, which only ``step`` changes), and the joint speed reads 0."""
     kin = copy.copy(scene)
     data = copy.copy(scene.data)
     kin.data = data
     model = scene.model
     arms = list(scene.arms.values())
+    stale = [False]
 
     def step(nstep: int) -> None:
         for handles in arms:
             data.qpos[handles.active_qpos] = data.ctrl[handles.active_actuators]
-        mujoco.mj_kinematics(model, data)
+        if lean:
+            stale[0] = True
+        else:
+            mujoco.mj_kinematics(model, data)
 
     kin.step = step  # type: ignore[method-assign]
     kin.finger_forces = lambda arm, object_name: (0.0, 0.0)  # type: ignore[method-assign]
     kin.unstable = lambda: None  # type: ignore[method-assign]
+    if lean:
+
+        def T_world_body(body: int) -> np.ndarray:
+            if stale[0]:
+                mujoco.mj_kinematics(model, data)
+                stale[0] = False
+            return T_from_pos_mat(data.xpos[body], data.xmat[body])
+
+        kin.T_world_body = T_world_body  # type: ignore[method-assign]
+        kin.robot_joint_speed = lambda: 0.0  # type: ignore[method-assign]
     return kin
 
 
-def build_schedule(job: ExecutionJob) -> ExecutionSchedule:
+def build_schedule(job: ExecutionJob, lean: bool = True) -> ExecutionSchedule:
     """Run the executor kinematically from the job's start state; see the module doc."""
-    scene = kinematic_scene(job.scene)
+    scene = kinematic_scene(job.scene, lean)
     warmup_ctrl = scene.data.ctrl.copy()
     executor = _ScheduleExecutor(
         scene, job.task, job.targets, job.object_init_position, job.lift_offset, None,
         record=False, log_ctrl=True, semantics=job.semantics,
     )  # fmt: skip
+    executor.lean = lean
+    if lean:
+        executor.penetration = _NoPenetration()  # type: ignore[assignment]
     validity = executor.validity
     executor.validity = False
     executor.run()
