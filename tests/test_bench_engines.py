@@ -13,8 +13,8 @@ from harness.pick.outcome import PickOutcome
 
 
 class _Timings:
-    upload_s = physics_s = tug_s = download_s = 0.0
-    world_steps = 0
+    upload_s = physics_s = tug_s = download_s = judge_s = 0.0
+    world_steps = tug_rounds = tug_rungs = 0
 
 
 class _StubEngine:

@@ -58,6 +58,7 @@ class BatchTimings:
     physics_s: float = 0.0
     tug_s: float = 0.0
     download_s: float = 0.0
+    judge_s: float = 0.0  # the verdicts on the host (``judge``), after the download
     world_steps: int = 0
     tug_rounds: int = 0
     tug_rungs: int = 0
@@ -249,6 +250,7 @@ class WorldBatch:
                         tugged.append(w)
                 windows.append(win)
             rungs = self._tug(jobs, d, saved, motion, windows, steps, tugged)
+        clock = time.perf_counter()
         outcomes = []
         for w, job in enumerate(jobs):
             reason = unstable_reason(warm_rows[w])
@@ -256,6 +258,7 @@ class WorldBatch:
                 outcomes.append(PickOutcome(failure_reason="sim_unstable", message=reason))
                 continue
             outcomes.append(judge(job, steps[w], validity[w], windows[w], rungs.get(w)))
+        self.timings.judge_s += time.perf_counter() - clock
         return outcomes
 
     def _tug(
