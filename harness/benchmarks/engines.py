@@ -119,11 +119,19 @@ def _batch_key(job: Any) -> str:
 
 
 def run_gpu(
-    all_specs: list[Any], workers: int, device: str, batch: int = 1024, chunk: int = 8
+    all_specs: list[Any],
+    workers: int,
+    device: str,
+    batch: int = 1024,
+    chunk: int = 8,
+    bucket: int = 1,
 ) -> dict[str, Any]:
-    """Plan on the pool while the device steps what is planned: as soon as ``batch`` jobs of
-    one task model are planned they run as one batch of worlds (the pool keeps planning
-    meanwhile); the rest run once planning is done. The outcomes and where the time went."""
+    """Plan on the pool while the device steps what is planned: as soon as ``bucket * batch``
+    jobs of one task model wait, the ``batch`` shortest of them run as one batch of worlds (the
+    pool keeps planning meanwhile); the rest run once planning is done, shortest first, in
+    batches of ``batch``. ``bucket`` > 1 trades a later first batch for batches of similar
+    schedule lengths (every world of a batch is stepped for its longest schedule). The
+    outcomes and where the time went."""
     from harness.engines.mjwarp_engine import MjwarpEngine
     from harness.episode.scene_cache import get_scene
 
@@ -182,17 +190,23 @@ def run_gpu(
                     continue
                 group = waiting.setdefault(_batch_key(job), [])
                 group.append(i)
-                if len(group) >= batch:
-                    step(group, [planned[j][1] for j in group])
-                    group.clear()
+                if len(group) >= bucket * batch:
+                    # the `batch` shortest schedules of what waits: a lockstep batch is
+                    # stepped for its longest schedule
+                    group.sort(key=lambda j: planned[j][1].schedule.steps)
+                    step(group[:batch], [planned[j][1] for j in group[:batch]])
+                    del group[:batch]
         plan_s = finished - wall_start
     for group in waiting.values():
-        if group:
-            step(group, [planned[j][1] for j in group])
+        group.sort(key=lambda j: planned[j][1].schedule.steps)
+        for k in range(0, len(group), batch):
+            part = group[k : k + batch]
+            step(part, [planned[j][1] for j in part])
     total_s = time.perf_counter() - start
     return {
         "planned": planned, "outcomes": outcomes, "plan_s": plan_s, "device_s": device_s,
         "total_s": total_s, "compile_s": compile_s, "workers": workers, "batch": batch,
+        "bucket": bucket,
         **counts, **totals,
     }  # fmt: skip
 
@@ -238,7 +252,8 @@ def measure(
     cpu_rows, cpu_s = run_cpu(all_specs[:cpu_n], workers)
     # one core less for planning on the GPU path: this process drives the device
     batch = int(os.environ.get("BENCH_BATCH", "1024"))
-    gpu = run_gpu(all_specs, max(1, workers - 1), device, batch=batch)
+    bucket = int(os.environ.get("BENCH_BUCKET", "1"))
+    gpu = run_gpu(all_specs, max(1, workers - 1), device, batch=batch, bucket=bucket)
     records = agreement(cpu_rows, gpu)
     n = len(all_specs)
     return {"n": n, "cpu_n": cpu_n, "cpu_s": cpu_s, "records": records, "gpu": gpu}
