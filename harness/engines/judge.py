@@ -30,8 +30,9 @@ from harness.engines.signals import (
     HoldWindow,
     object_in_tcp,
     object_pose_in_tcp,
-    object_speed,
+    running_peak,
     unstable_reason,
+    unstable_rows,
 )
 from harness.engines.tug_rounds import Rung, walk
 from harness.pick.executor_validity import judged_validity, stopped_validity
@@ -82,36 +83,44 @@ class _Judge:
         out.lift_height_m = float(row[OBJ_POS][2] - self.job.object_init_position[2])
 
     def motion(self) -> bool:
-        """The command list: True when the verdict was reached."""
+        """The command list: True when the verdict was reached. The CPU loop's walk, in one
+        pass: it stops at the first unstable row, or at the closing step when a closing term
+        fails; the peaks are taken over the rows up to where it stopped."""
         out, schedule, steps = self.out, self.schedule, self.steps
         last = schedule.verdict_step if schedule.verdict_step >= 0 else schedule.steps - 1
         out.object_z_before = math.nan
+        bad = unstable_rows(steps[: last + 1])
+        unstable_at = int(np.argmax(bad)) if bad.any() else -1
+        end = last if unstable_at < 0 else unstable_at
         reached = False
-        step = 0
-        for step in range(last + 1):
-            row = steps[step]
-            out.max_joint_vel = max(out.max_joint_vel, float(row[JOINT_SPEED]))
-            out.max_object_vel = max(out.max_object_vel, object_speed(row))
-            out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
-            reason = unstable_reason(row)
-            if reason is not None:
-                out.failure_reason, out.message = "sim_unstable", reason
-                break
-            if step == schedule.close_step:
-                forces = _forces(row)
-                out.tcp_grasp_error_m = _tcp_error(self.job, row)
-                out.contact_during_close = max(forces) > 0.0
-                out.finger_force_left_n, out.finger_force_right_n = forces
-                out.T_tcp_object_closed = object_pose_in_tcp(row)
-                if self.job.semantics.check_closing_forces and self.fail(
-                    first_failure(closing_terms(self.pick, forces))
-                ):
-                    break
-            if step == schedule.verdict_step:
-                self.measure(row)
+        stopped_at_closing = False
+        close = schedule.close_step
+        if 0 <= close <= end and close != unstable_at:
+            row = steps[close]
+            forces = _forces(row)
+            out.tcp_grasp_error_m = _tcp_error(self.job, row)
+            out.contact_during_close = max(forces) > 0.0
+            out.finger_force_left_n, out.finger_force_right_n = forces
+            out.T_tcp_object_closed = object_pose_in_tcp(row)
+            if self.job.semantics.check_closing_forces and self.fail(
+                first_failure(closing_terms(self.pick, forces))
+            ):
+                end, stopped_at_closing = close, True
+        if not stopped_at_closing:
+            if unstable_at >= 0:
+                reason = unstable_reason(steps[unstable_at])
+                out.failure_reason, out.message = "sim_unstable", reason or ""
+            elif schedule.verdict_step >= 0:
+                self.measure(steps[schedule.verdict_step])
                 if not self.job.semantics.hold_after_list:
                     self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
                 reached = True
+        walked = steps[: end + 1]
+        out.max_joint_vel = running_peak(out.max_joint_vel, walked[:, JOINT_SPEED])
+        speeds = np.linalg.norm(walked[:, OBJ_VEL], axis=1)
+        out.max_object_vel = running_peak(out.max_object_vel, speeds)
+        out.table_penetration_m = running_peak(out.table_penetration_m, walked[:, PENETRATION])
+        step = end
         if not reached and not out.failure_reason:
             out.failure_reason = "timeout"
             out.message = (
@@ -129,8 +138,8 @@ class _Judge:
     def validity(self, window: HoldWindow, rungs: Mapping[Rung, RungOutcome] | None) -> None:
         """``run_validity_phase`` on the rows after the motion and the tug rungs' outcomes."""
         out, steps = self.out, self.steps
-        for row in steps[self.schedule.verdict_step + 1 : self.schedule.steps]:
-            out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
+        after = steps[self.schedule.verdict_step + 1 : self.schedule.steps, PENETRATION]
+        out.table_penetration_m = running_peak(out.table_penetration_m, after)
         measure = ValidityMeasure(
             table_penetration_m=out.table_penetration_m,
             closing_forces=(out.finger_force_left_n, out.finger_force_right_n),

@@ -63,6 +63,27 @@ def unstable_reason(row: np.ndarray) -> str | None:
     return None
 
 
+def unstable_rows(rows: np.ndarray) -> np.ndarray:
+    """``unstable_reason(row) is not None`` for each row of ``rows``, in one pass (the batch
+    judge's hot path): the same tests with the same precision (the speed compared in the row's
+    float32, the position in float64)."""
+    nonfinite = (rows[:, NONFINITE] > 0) | ~np.all(np.isfinite(rows), axis=1)
+    with np.errstate(invalid="ignore"):
+        fast = rows[:, MAX_QVEL] > np.float32(MAX_SANE_SPEED)
+        pos = rows[:, OBJ_POS].astype(np.float64)
+        reach = np.maximum(np.maximum(np.abs(pos[:, 0]), np.abs(pos[:, 1])), pos[:, 2])
+        escaped = (pos[:, 2] < -MAX_FALL_M) | (reach > MAX_REACH_M)
+    return nonfinite | fast | escaped
+
+
+def running_peak(start: float, values: np.ndarray) -> float:
+    """``max(start, float(v))`` folded over ``values`` as the CPU loop folds it (a NaN never
+    becomes the peak)."""
+    if values.size == 0:
+        return start
+    return float(np.fmax.reduce(values.astype(np.float64), initial=start))
+
+
 def object_in_tcp(row: np.ndarray) -> np.ndarray:
     """The object's position in the TCP frame."""
     R = row[TCP_MAT].reshape(3, 3)

@@ -1,0 +1,160 @@
+"""The batch judge's one-pass walk (``harness.engines.judge._Judge.motion``) against the CPU
+loop's row-by-row walk it replaced, on real FR3 jobs with synthetic signal rows: unstable rows
+(NaN, runaway speeds, an escaped object), failing closings, timeouts, everywhere."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+from harness.config import load_task
+from harness.engines import Execution, ExecutionJob, register_engine
+from harness.engines.judge import _forces, _Judge, _tcp_error
+from harness.engines.signals import (
+    JOINT_SPEED,
+    MAX_QVEL,
+    NONFINITE,
+    OBJ_MAT,
+    OBJ_POS,
+    PENETRATION,
+    SIGNALS,
+    TCP_MAT,
+    EE_MAT,
+    object_pose_in_tcp,
+    object_speed,
+    unstable_reason,
+)
+from harness.episode import EpisodeSpec, run_episode
+from harness.objects.assets import repo_root
+from harness.pick.outcome import PickOutcome
+from harness.pick.verdict import closing_terms, first_failure
+
+
+class _LoopJudge(_Judge):
+    """The row-by-row walk, as the batch judge had it (the oracle)."""
+
+    def motion(self) -> bool:
+        out, schedule, steps = self.out, self.schedule, self.steps
+        last = schedule.verdict_step if schedule.verdict_step >= 0 else schedule.steps - 1
+        out.object_z_before = math.nan
+        reached = False
+        step = 0
+        for step in range(last + 1):
+            row = steps[step]
+            out.max_joint_vel = max(out.max_joint_vel, float(row[JOINT_SPEED]))
+            out.max_object_vel = max(out.max_object_vel, object_speed(row))
+            out.table_penetration_m = max(out.table_penetration_m, float(row[PENETRATION]))
+            reason = unstable_reason(row)
+            if reason is not None:
+                out.failure_reason, out.message = "sim_unstable", reason
+                break
+            if step == schedule.close_step:
+                forces = _forces(row)
+                out.tcp_grasp_error_m = _tcp_error(self.job, row)
+                out.contact_during_close = max(forces) > 0.0
+                out.finger_force_left_n, out.finger_force_right_n = forces
+                out.T_tcp_object_closed = object_pose_in_tcp(row)
+                if self.job.semantics.check_closing_forces and self.fail(
+                    first_failure(closing_terms(self.pick, forces))
+                ):
+                    break
+            if step == schedule.verdict_step:
+                self.measure(row)
+                if not self.job.semantics.hold_after_list:
+                    self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
+                reached = True
+        if not reached and not out.failure_reason:
+            out.failure_reason = "timeout"
+            out.message = (
+                f"episode length limit ({self.job.task.max_episode_length} control steps) reached"
+            )
+        out.control_steps = step + 1
+        out.sim_steps = out.control_steps * self.substeps
+        out.sim_time_s = out.sim_steps * self.timestep
+        out.object_z_after = float(steps[step][OBJ_POS][2])
+        if not math.isfinite(out.lift_height_m):
+            self.measure(steps[step])
+        out.success = not out.failure_reason
+        return reached
+
+
+class _Keep:
+    name = "keep-judge"
+
+    def __init__(self) -> None:
+        self.jobs: list[Any] = []
+
+    def execute(self, job: ExecutionJob) -> Execution:
+        from harness.engines.schedule import device_job
+
+        self.jobs.append(device_job(job))
+        return Execution(PickOutcome(failure_reason="error", message="kept"), False)
+
+
+@pytest.fixture(scope="module")
+def jobs() -> list[Any]:
+    keep = _Keep()
+    register_engine(keep)
+    task = load_task(repo_root() / "tasks" / "pick" / "fr3.yaml")
+    cache: dict = {}
+    for seed in range(2):
+        run_episode(EpisodeSpec(task=task, seed=seed, engine=keep.name), cache)
+    return keep.jobs
+
+
+def _rows(rng: np.random.Generator, job: Any, n: int) -> np.ndarray:
+    rows = np.zeros((n, SIGNALS), dtype=np.float32)
+    rows[:, :2] = rng.choice([0.0, 0.2, 3.0, 40.0], size=(n, 2))  # finger forces
+    rows[:, OBJ_POS] = job.object_init_position + rng.normal(0, 0.05, (n, 3))
+    rows[:, 5:8] = rng.normal(0, 0.3, (n, 3))  # object velocity
+    rows[:, JOINT_SPEED] = rng.uniform(0, 3, n)
+    rows[:, PENETRATION] = rng.uniform(0, 0.004, n)
+    rows[:, MAX_QVEL] = rng.uniform(0, 5, n)
+    for mat in (EE_MAT, TCP_MAT, OBJ_MAT):
+        rows[:, mat] = np.eye(3, dtype=np.float32).ravel()
+    for _ in range(rng.integers(0, 3)):  # unstable rows of each kind
+        k = rng.integers(0, n)
+        kind = rng.integers(0, 4)
+        if kind == 0:
+            rows[k, JOINT_SPEED] = np.nan
+        elif kind == 1:
+            rows[k, MAX_QVEL] = 1e6
+        elif kind == 2:
+            rows[k, OBJ_POS.start + 2] = -50.0
+        else:
+            rows[k, NONFINITE] = 1.0
+    return rows
+
+
+def test_the_one_pass_walk_equals_the_row_by_row_walk(jobs: list[Any]) -> None:
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        job = jobs[trial % len(jobs)]
+        n = int(rng.integers(5, 60))
+        close = int(rng.integers(-1, n))
+        verdict = int(rng.choice([-1, rng.integers(max(close, 0), n)]))
+        schedule = dataclasses.replace(
+            job.schedule,
+            ctrl=job.schedule.ctrl[:1].repeat(n, axis=0),
+            close_step=close,
+            verdict_step=verdict,
+        )
+        job = dataclasses.replace(job, schedule=schedule)
+        steps = _rows(rng, job, n)
+        new, old = _Judge(job, schedule, steps), _LoopJudge(job, schedule, steps)
+        assert new.motion() == old.motion(), trial
+        a, b = dataclasses.asdict(new.out), dataclasses.asdict(old.out)
+        for key in a:
+            x, y = a[key], b[key]
+            if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+                np.testing.assert_array_equal(x, y, err_msg=f"{trial} {key}")
+            elif key == "max_object_vel":  # float32 norms: row by row or in one call
+                assert math.isclose(x, y, rel_tol=1e-6), (trial, key)
+            elif isinstance(x, float) and math.isnan(x):
+                assert isinstance(y, float) and math.isnan(y), (trial, key)
+            else:
+                assert x == y, (trial, key, x, y)
