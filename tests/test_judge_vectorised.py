@@ -15,6 +15,7 @@ from harness.config import load_task
 from harness.engines import Execution, ExecutionJob, register_engine
 from harness.engines.judge import _forces, _Judge, _tcp_error
 from harness.engines.signals import (
+    EE_MAT,
     JOINT_SPEED,
     MAX_QVEL,
     NONFINITE,
@@ -23,7 +24,6 @@ from harness.engines.signals import (
     PENETRATION,
     SIGNALS,
     TCP_MAT,
-    EE_MAT,
     object_pose_in_tcp,
     object_speed,
     unstable_reason,
