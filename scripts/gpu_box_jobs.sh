@@ -27,9 +27,12 @@ for job in "$@"; do
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp --workers 32 --out "$R/sweep_mjwarp" --no-progress ;;
     throughput)  # FR3 cube, 2048 episodes in one batch
       BENCH_BATCH=2048 BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 2048 "$R/throughput" fr3 ;;
-    throughput_large)  # FR3 cube, 16384 episodes in batches of 8192; CPU-only rate from 2048
-      BENCH_BATCH=8192 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+    throughput_large)  # FR3 cube, 16384 episodes in batches of 4096; CPU-only rate from 2048
+      BENCH_BATCH=4096 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 16384 "$R/throughput_large" fr3 ;;
+    throughput_bucket)  # the same 16384 in batches of 4096 of similar schedule lengths
+      BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/throughput_bucket" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
