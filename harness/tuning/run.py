@@ -37,6 +37,7 @@ from harness.tuning.grid import (
     current_setting,
     filter_key,
     load_inputs,
+    objective_tasks,
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
@@ -91,6 +92,7 @@ def tune(
 ) -> TuneResult:
     """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide."""
     tasks, axes, sweep_seed = load_inputs(paths)
+    tasks = objective_tasks(tasks, options.objective)
     sweep = tune_sweep(
         tasks,
         axes,
