@@ -8,13 +8,14 @@ without it. An evaluation is one (setting, seed) row. The rates are per core-hou
 this process's wall time); their ratio is measured in the same run. The unshared sample's rows
 are compared with the shared rows of the same setting and seed: they must be identical.
 
-End to end (issue 24): the same grid as a sweep, ``harness sweep --workers 1`` in a fresh
-interpreter (imports, expansion, preflight, the worker's start-up, row storage, export and the
-report all counted), one sweep per seed; its rate is rows per CPU-hour of the command and its
-worker together (``RUSAGE_CHILDREN``), beside the bench loop's rate on the same seed in this
-process (CPU time), and the ratio of the two (target: the end-to-end rate within 2x of the
-loop's). The sweep's rows are compared with the loop's, column by column (wall-time, identity
-and per-process columns aside): they must be identical.
+End to end (issue 24): the same grid with as many seeds per setting as one sweep, run as
+``harness sweep --workers 1`` in a fresh interpreter (imports, expansion, preflight, the
+worker's start-up, row storage, the export and the report all counted), three such sweeps (one
+in quick mode) on fresh sweep seeds; its rate is rows per CPU-hour of the command and its worker
+together (``RUSAGE_CHILDREN``), beside the bench loop's rate on the same tasks and seeds in this
+process (CPU time), and their ratio (target: the end-to-end rate within 2x of the loop's). The
+sweep's rows are compared with the loop's, column by column (wall-time, identity and
+per-process columns aside): they must be identical.
 """
 
 from __future__ import annotations
@@ -132,7 +133,8 @@ def _cpu_children() -> float:
 
 @dataclass
 class EndToEnd:
-    """Per seed: the sweep command's CPU seconds and rows, the loop's on the same seed."""
+    """Per sweep: the command's CPU seconds (parent and worker), wall seconds and rows, and the
+    bench loop's CPU seconds and rows on the same tasks and seeds."""
 
     robot: str
     sweep_cpu_s: list[float] = field(default_factory=list)
@@ -151,8 +153,8 @@ class EndToEnd:
         return [3600.0 * n / s for n, s in pairs if s > 0]
 
 
-def sweep_document(robot: str, seed: int) -> dict[str, Any]:
-    """The dense grid as a sweep of one seed (sweep seed ``seed``, no recordings)."""
+def sweep_document(robot: str, seeds: int, sweep_seed: int) -> dict[str, Any]:
+    """The dense grid as a sweep: ``seeds`` episodes per setting, no recordings."""
     return {
         "name": f"sharing-{robot}",
         "tasks": [str(repo_root() / "tasks" / "pick" / f"{robot}.yaml")],
@@ -160,8 +162,8 @@ def sweep_document(robot: str, seed: int) -> dict[str, Any]:
             "pick.approach_filter": [["downward", a] for a in APPROACH_DEG],
             "pick.facing_filter": [["forward", b] for b in FACING_DEG],
         },
-        "episodes_per_point": 1,
-        "seed": seed,
+        "episodes_per_point": seeds,
+        "seed": sweep_seed,
         "record": "none",
     }
 
@@ -172,49 +174,66 @@ def _comparable(row: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in data.items() if k not in NOT_COMPARED and not k.startswith("param.")}
 
 
-def end_to_end(robot: str, seeds: int) -> EndToEnd:
-    """Per seed: the grid as ``harness sweep`` (fresh interpreter, one worker, shared), then the
-    bench loop on the same tasks and seed in this process; rows compared."""
+def _run_sweep_command(document: dict[str, Any], folder: Path) -> tuple[float, float, Path]:
+    """``harness sweep`` of ``document`` in a fresh interpreter, one worker, shared: (CPU
+    seconds of the command and its worker, wall seconds, run directory)."""
     import yaml
 
+    path = folder / "sweep.yaml"
+    path.write_text(yaml.safe_dump(document), encoding="utf-8")
+    out = folder / "run"
+    main = "from harness.cli import main; raise SystemExit(main())"
+    command = [sys.executable, "-c", main, "sweep", str(path), "--out", str(out)]
+    command += ["--workers", "1", "--no-progress"]
+    cpu, start = _cpu_children(), time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True)
+    return _cpu_children() - cpu, time.perf_counter() - start, out
+
+
+def end_to_end(robot: str, sweeps: int, seeds: int) -> EndToEnd:
+    """``sweeps`` times: the grid with ``seeds`` episodes per setting as ``harness sweep``, then
+    the bench loop on the same tasks and seeds in this process; rows compared."""
     task = load_task(repo_root() / "tasks" / "pick" / f"{robot}.yaml")
     tasks = grid(task)
     scenes: dict[Any, Any] = {}
     run_episode(EpisodeSpec(task=tasks[0], seed=10**6), scenes)  # build the scene first
     result = EndToEnd(robot)
-    for sweep_seed in range(seeds):
+    for sweep_seed in range(sweeps):
         with tempfile.TemporaryDirectory(prefix="harness-sharing-") as folder:
-            path = Path(folder) / "sweep.yaml"
-            path.write_text(yaml.safe_dump(sweep_document(robot, sweep_seed)), encoding="utf-8")
-            out = Path(folder) / "run"
-            command = [sys.executable, "-c", "from harness.cli import main; raise SystemExit(main())",
-                       "sweep", str(path), "--out", str(out), "--workers", "1", "--no-progress"]  # fmt: skip
-            cpu, start = _cpu_children(), time.perf_counter()
-            subprocess.run(command, check=True, capture_output=True)
-            result.sweep_wall_s.append(time.perf_counter() - start)
-            result.sweep_cpu_s.append(_cpu_children() - cpu)
-            stored = {int(r["point_id"]): r for r in ResultStore(out).rows()}
+            document = sweep_document(robot, seeds, sweep_seed)
+            cpu, wall, out = _run_sweep_command(document, Path(folder))
+            stored = {(int(r["point_id"]), int(r["episode_index"])): r
+                      for r in ResultStore(out).rows()}  # fmt: skip
+        result.sweep_cpu_s.append(cpu)
+        result.sweep_wall_s.append(wall)
         result.sweep_n.append(len(stored))
-        seed = episode_seed(sweep_seed, 0)
-        cache = CandidateCache()
-        start = time.process_time()
-        rows = [run_episode(EpisodeSpec(task=t, seed=seed), scenes, cache).row for t in tasks]
+        start, count = time.process_time(), 0
+        rows: dict[tuple[int, int], dict[str, Any]] = {}
+        for index in range(seeds):
+            cache, seed = CandidateCache(), episode_seed(sweep_seed, index)
+            for point_id, configured in enumerate(tasks):
+                spec = EpisodeSpec(task=configured, seed=seed)
+                rows[(point_id, index)] = run_episode(spec, scenes, cache).row
+                count += 1
         result.loop_cpu_s.append(time.process_time() - start)
-        result.loop_n.append(len(rows))
-        for point_id, row in enumerate(rows):
-            mine, theirs = _comparable(row), stored.get(point_id, {})
-            result.mismatches += any(not _same(v, theirs.get(k)) for k, v in mine.items())
+        result.loop_n.append(count)
+        for key, row in rows.items():
+            theirs = stored.get(key, {})
+            result.mismatches += any(
+                not _same(v, theirs.get(k)) for k, v in _comparable(row).items()
+            )
     return result
 
 
-def end_to_end_figures(robot: str, measured: EndToEnd) -> list[Figure]:
+def end_to_end_figures(robot: str, measured: EndToEnd, seeds: int) -> list[Figure]:
     """The end-to-end rate, the loop's on the same seeds, and their ratio."""
     sweep, loop = measured.rates(end_to_end=True), measured.rates(end_to_end=False)
     wall = sum(measured.sweep_wall_s) / max(1, len(measured.sweep_wall_s))
     notes = (
-        f"{robot}: {sum(measured.sweep_n)} rows in {len(measured.sweep_n)} sweep(s) of the grid "
-        f"(one seed each, harness sweep --workers 1, fresh interpreter; {wall:.1f} s wall each); "
-        f"{measured.mismatches} rows differing from the loop's"
+        f"{robot}: {len(measured.sweep_n)} sweep(s) of the grid x {seeds} seed(s), "
+        f"{sum(measured.sweep_n)} rows (harness sweep --workers 1 in a fresh interpreter, CPU "
+        f"of the command and its worker; {wall:.1f} s wall each); {measured.mismatches} rows "
+        "differing from the loop's"
     )
     return [
         figure(SECTION, f"end to end: sweep rows per CPU-hour, shared ({robot})", sweep,
@@ -224,7 +243,7 @@ def end_to_end_figures(robot: str, measured: EndToEnd) -> list[Figure]:
         figure(SECTION, f"end to end / bench loop rate ({robot})",
                [s / lo for s, lo in zip(sweep, loop, strict=True) if lo > 0], "x",
                target=TARGET_END_TO_END, higher_is_better=True,
-               notes="per seed; target: within 2x of the loop (>= 0.5)"),
+               notes="per sweep; target: within 2x of the loop (>= 0.5)"),
     ]  # fmt: skip
 
 
@@ -274,5 +293,6 @@ def run(quick: bool) -> list[Figure]:
                 notes="per seed, both measured back to back in this process",
             )
         )
-        figures.extend(end_to_end_figures(robot, end_to_end(robot, seeds)))
+        sweeps = 1 if quick else 3
+        figures.extend(end_to_end_figures(robot, end_to_end(robot, sweeps, seeds), seeds))
     return figures
