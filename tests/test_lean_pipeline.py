@@ -131,3 +131,17 @@ def test_the_preflight_checks_each_task_physics_once(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(preflight, "check_task", lambda task: checked.append(task) or [])
     check_tasks(tasks)
     assert checked == [tasks[0], tasks[4]]
+
+
+def test_the_end_to_end_bench_sweeps_the_loop_grid_and_compares_outcome_columns() -> None:
+    from harness.benchmarks.sharing import APPROACH_DEG, FACING_DEG, _comparable, sweep_document
+    from harness.config import SweepConfig
+    from harness.runs.expansion import sweep_points
+
+    sweep = SweepConfig.model_validate(sweep_document("fr3", seeds=3, sweep_seed=5))
+    assert (sweep.episodes_per_point, sweep.seed, sweep.record) == (3, 5, "none")
+    assert len(sweep_points(sweep)) == len(APPROACH_DEG) * len(FACING_DEG) == 342
+    row = {"episode_id": "x", "point_id": 4, "seed": 9, "wall_time_s": 0.2, "success": True,
+           "param.pick.approach_filter": "[1]", "robustness_g": float("nan")}  # fmt: skip
+    kept = _comparable(row)
+    assert set(kept) == {"success", "robustness_g"} and math.isnan(kept["robustness_g"])
