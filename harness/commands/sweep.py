@@ -62,11 +62,7 @@ def main(args: argparse.Namespace) -> int:
     stats = outcome.stats
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
-    finish_run(outcome.run_dir)
-    if args.objective != "reference" or args.videos:  # rebuilt: ranked otherwise, or filmed
-        from harness.report import build_report
-
-        build_report(outcome.run_dir, objective=args.objective, videos=args.videos)
+    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos)  # built once
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(

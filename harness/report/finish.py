@@ -15,11 +15,12 @@ from harness.report.build import ReportPaths, build_report
 from harness.runs.rundir import RunDir
 
 
-def finish_run(run_dir: Path) -> ReportPaths:
-    """Build the report of a finalized run and its sweep overview recording (``recording.rrd``,
-    skipped without rerun-sdk). A full disk raises the run's one-line ``DiskFullError``."""
+def finish_run(run_dir: Path, objective: str = "reference", videos: bool = False) -> ReportPaths:
+    """Build the report of a finalized run (once: ``objective`` and ``videos`` as
+    ``build_report``'s) and its sweep overview recording (``recording.rrd``, skipped without
+    rerun-sdk). A full disk raises the run's one-line ``DiskFullError``."""
     try:
-        paths = build_report(run_dir)
+        paths = build_report(run_dir, objective=objective, videos=videos)
     except OSError as exc:
         if is_disk_full(exc):
             raise RunDir(run_dir).disk_full(str(exc)) from None

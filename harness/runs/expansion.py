@@ -222,13 +222,20 @@ def point_overrides(task: TaskConfig, point: dict[str, Any]) -> dict[str, Any]:
     return {**implied, **point}
 
 
-def check_filters(task: TaskConfig) -> None:
-    """Resolve the task's filters for its robot now, so clashes fail at expansion."""
+def check_filters(task: TaskConfig, conventions: dict[str, Any] | None = None) -> None:
+    """Resolve the task's filters for its robot now, so clashes fail at expansion.
+
+    ``conventions`` keeps each robot's gripper convention across the points of one expansion
+    (loading the robot reads its robot.yaml and URDF: ~40 ms, once per point before)."""
     from harness.grasps import resolve_filters
     from harness.robots import RobotModel
 
+    memo = {} if conventions is None else conventions
     try:
-        resolve_filters(task.pick, RobotModel.load(task.robot).convention)
+        convention = memo.get(str(task.robot))
+        if convention is None:
+            convention = memo[str(task.robot)] = RobotModel.load(task.robot).convention
+        resolve_filters(task.pick, convention)
     except ConfigError as exc:
         raise ConfigError(exc.message, key=f"pick.{exc.key}" if exc.key else "pick") from None
 
@@ -255,12 +262,13 @@ def expand(
     points = sweep_points(sweep)
     episodes: list[EpisodeSpec] = []
     report = ExpansionProgress(len(tasks) * len(points), enabled=progress)
+    conventions: dict[str, Any] = {}
     for task in tasks:
         for point_id, point in enumerate(points):
             report.advance()
             try:
                 configured = apply_overrides(task, point_overrides(task, point))
-                check_filters(configured)
+                check_filters(configured, conventions)
             except ConfigError as exc:
                 raise ConfigError(
                     f"point {point_id} {point} does not apply to task {task.name!r}: {exc.message}",

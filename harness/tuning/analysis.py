@@ -48,6 +48,22 @@ def point_parts(point: dict[str, Any]) -> tuple[str, str, str]:
     )
 
 
+def check_validity_ran(rated: pd.DataFrame) -> None:
+    """Refuse the valid objective on episodes run without the validity phase (``valid`` False
+    with no ``invalid_reason``: ``validity: off``, e.g. a tune run with ``--objective
+    reference``, which switches the phase off): every setting would rate 0."""
+    skipped = ~column(rated, "valid").astype(bool) & (
+        column(rated, "invalid_reason").astype(str) == ""
+    )
+    if bool(skipped.any()):
+        raise HarnessError(
+            f"objective valid: {int(skipped.sum())} of {len(rated)} episodes ran without the "
+            "validity phase (validity off; a tune with --objective reference skips it); decide "
+            "them with --objective reference, or run the tune again with --objective valid into "
+            "a new --out"
+        )
+
+
 def settings_frame(frame: pd.DataFrame, sweep: SweepConfig, objective: str) -> pd.DataFrame:
     """One row per rated episode: unit and setting columns, ``ok`` (the objective),
     ``reference`` (the reference success), ``fallback`` (the filter kept nothing)."""
@@ -56,6 +72,8 @@ def settings_frame(frame: pd.DataFrame, sweep: SweepConfig, objective: str) -> p
     if "param." + APPROACH_KEY not in frame.columns:
         raise HarnessError(f"not a tune run: the episodes have no param.{APPROACH_KEY} column")
     rated = frame_of(frame[column(frame, "failure_reason") != "error"])
+    if objective == "valid":
+        check_validity_ran(rated)
     parts = [point_parts(p) for p in sweep_points(sweep)]
     ids = column(rated, "point_id").astype(int)
     outcome = column(rated, "filter_outcome") if "filter_outcome" in rated else ""

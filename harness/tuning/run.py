@@ -37,6 +37,7 @@ from harness.tuning.grid import (
     current_setting,
     filter_key,
     load_inputs,
+    objective_tasks,
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
@@ -91,6 +92,7 @@ def tune(
 ) -> TuneResult:
     """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide."""
     tasks, axes, sweep_seed = load_inputs(paths)
+    tasks = objective_tasks(tasks, options.objective)
     sweep = tune_sweep(
         tasks,
         axes,
@@ -246,7 +248,13 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
         f"seeds (sweep seed {seed}); race of the current + {options.top} best on fresh seeds "
         f"(sweep seed {seed + 100_000}), blocks of {options.block} up to {options.max_seeds}; "
         f"exact one-sided McNemar, Holm over the racers, alpha {options.alpha} split over "
-        f"{max(1, options.max_seeds // options.block)} looks.",
+        f"{max(1, options.max_seeds // options.block)} looks"
+        + (
+            "; the validity phase is not run under reference semantics (nothing this objective"
+            " reads needs it: the rows' validity columns are empty, as with validity: off)."
+            if options.objective == "reference"
+            else "."
+        ),
         f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode-seconds"
         + ("; budget spent" if log.budget_spent else "")
         + ("; interrupted (run the tune again with the same --out)" if log.interrupted else ""),
