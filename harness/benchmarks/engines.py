@@ -118,6 +118,53 @@ def _batch_key(job: Any) -> str:
     return job.task.model_dump_json()
 
 
+class _Device:
+    """The device side of the GPU path: the engine, its scenes, the outcomes by episode index
+    and where its time went."""
+
+    def __init__(self, device: str) -> None:
+        from harness.engines.mjwarp_engine import MjwarpEngine
+
+        self.engine = MjwarpEngine(device)
+        self.scenes: dict[Any, Any] = {}
+        self.outcomes: dict[int, PickOutcome] = {}
+        self.totals = {
+            "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0,
+            "judge_s": 0.0, "tug_rounds": 0.0, "tug_rungs": 0.0,
+        }  # fmt: skip
+        self.counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
+        self.device_s = 0.0
+        self.compile_s = 0.0
+
+    def _scene(self, job: Any) -> Any:
+        from harness.episode.scene_cache import get_scene
+
+        return get_scene(job.task, self.scenes).scene
+
+    def load(self, jobs: list[Any]) -> None:
+        """Load (compile) the kernels of each task model among ``jobs``, off the clock."""
+        seen: set[str] = set()
+        for job in jobs:
+            if job is not None and _batch_key(job) not in seen:
+                seen.add(_batch_key(job))
+                clock = time.perf_counter()
+                self.engine.execute_many(self._scene(job), [job])
+                self.compile_s += time.perf_counter() - clock
+
+    def step(self, indices: list[int], jobs: list[Any]) -> None:
+        """One batch of worlds; its outcomes kept under the episodes' indices."""
+        clock = time.perf_counter()
+        result, timings = self.engine.execute_many(self._scene(jobs[0]), jobs)
+        for i, outcome in zip(indices, result, strict=True):
+            self.outcomes[i] = outcome
+        for key in self.totals:
+            self.totals[key] += getattr(timings, key)
+        self.counts["world_steps"] += timings.world_steps
+        self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
+        self.counts["batches"] += 1
+        self.device_s += time.perf_counter() - clock
+
+
 def run_gpu(
     all_specs: list[Any],
     workers: int,
@@ -132,49 +179,20 @@ def run_gpu(
     batches of ``batch``. ``bucket`` > 1 trades a later first batch for batches of similar
     schedule lengths (every world of a batch is stepped for its longest schedule). The
     outcomes and where the time went."""
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.episode.scene_cache import get_scene
-
-    engine = MjwarpEngine(device)
-    scenes: dict[Any, Any] = {}
-    outcomes: dict[int, PickOutcome] = {}
-    totals = {
-        "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0, "judge_s": 0.0,
-        "tug_rounds": 0.0, "tug_rungs": 0.0,
-    }  # fmt: skip
-    counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
-    device_s = 0.0
-
-    def step(indices: list[int], jobs: list[Any]) -> None:
-        nonlocal device_s
-        clock = time.perf_counter()
-        scene = get_scene(jobs[0].task, scenes).scene
-        result, timings = engine.execute_many(scene, jobs)
-        for i, outcome in zip(indices, result, strict=True):
-            outcomes[i] = outcome
-        for key in totals:
-            totals[key] += getattr(timings, key)
-        counts["world_steps"] += timings.world_steps
-        counts["max_batch"] = max(counts["max_batch"], len(jobs))
-        counts["batches"] += 1
-        device_s += time.perf_counter() - clock
-
+    gpu = _Device(device)
     planned: list[Any] = [None] * len(all_specs)
     indexed = list(enumerate(all_specs))
+
+    def steps_of(j: int) -> int:
+        return planned[j][1].schedule.steps
+
     with _pool(workers) as pool:
         # start the workers and build their scenes; one episode of each task among them
         firsts = {spec.task.model_dump_json(): spec for spec in reversed(all_specs)}
         warm = list(
             pool.map(_plan, (list(firsts.values()) + all_specs)[: max(workers, len(firsts))])
         )
-        compile_s = 0.0
-        seen: set[str] = set()
-        for _, job in warm:  # load (compile) each task model's kernels before the clock
-            if job is not None and _batch_key(job) not in seen:
-                seen.add(_batch_key(job))
-                clock = time.perf_counter()
-                engine.execute_many(get_scene(job.task, scenes).scene, [job])
-                compile_s += time.perf_counter() - clock
+        gpu.load([job for _, job in warm])
         start, wall_start = time.perf_counter(), time.time()
         futures = [
             pool.submit(_plan_chunk, indexed[k : k + chunk]) for k in range(0, len(indexed), chunk)
@@ -193,21 +211,20 @@ def run_gpu(
                 if len(group) >= bucket * batch:
                     # the `batch` shortest schedules of what waits: a lockstep batch is
                     # stepped for its longest schedule
-                    group.sort(key=lambda j: planned[j][1].schedule.steps)
-                    step(group[:batch], [planned[j][1] for j in group[:batch]])
+                    group.sort(key=steps_of)
+                    gpu.step(group[:batch], [planned[j][1] for j in group[:batch]])
                     del group[:batch]
         plan_s = finished - wall_start
     for group in waiting.values():
-        group.sort(key=lambda j: planned[j][1].schedule.steps)
+        group.sort(key=steps_of)
         for k in range(0, len(group), batch):
             part = group[k : k + batch]
-            step(part, [planned[j][1] for j in part])
+            gpu.step(part, [planned[j][1] for j in part])
     total_s = time.perf_counter() - start
     return {
-        "planned": planned, "outcomes": outcomes, "plan_s": plan_s, "device_s": device_s,
-        "total_s": total_s, "compile_s": compile_s, "workers": workers, "batch": batch,
-        "bucket": bucket,
-        **counts, **totals,
+        "planned": planned, "outcomes": gpu.outcomes, "plan_s": plan_s,
+        "device_s": gpu.device_s, "total_s": total_s, "compile_s": gpu.compile_s,
+        "workers": workers, "batch": batch, "bucket": bucket, **gpu.counts, **gpu.totals,
     }  # fmt: skip
 
 
