@@ -11,12 +11,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import fr3_device_jobs
 
 from harness.config import load_task
-from harness.engines import Execution, ExecutionJob, register_engine
 from harness.engines import device_service as service_module
 from harness.engines.device_service import DeviceReply, DeviceService
-from harness.episode import EpisodeSpec, run_episode
+from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
@@ -30,30 +30,11 @@ def fr3():
     return load_task(repo_root() / "tasks" / "pick" / "fr3.yaml")
 
 
-class _Keep:
-    """Keeps each job as a ``DeviceJob`` instead of executing it."""
-
-    name = "keep-device"
-
-    def __init__(self) -> None:
-        self.jobs: list[Any] = []
-
-    def execute(self, job: ExecutionJob) -> Execution:
-        from harness.engines.schedule import device_job
-
-        self.jobs.append(device_job(job))
-        return Execution(PickOutcome(failure_reason="error", message="kept"), False)
-
-
 @pytest.fixture(scope="module")
 def fr3_jobs() -> list[Any]:
-    keep = _Keep()
-    register_engine(keep)
-    cache: dict = {}
-    for seed in range(3):
-        run_episode(EpisodeSpec(task=fr3(), seed=seed, engine=keep.name), cache)
-    assert len(keep.jobs) == 3
-    return keep.jobs
+    jobs = fr3_device_jobs(3)
+    assert len(jobs) == 3
+    return jobs
 
 
 def _answers(service: DeviceService, jobs: list[Any]) -> list[DeviceReply]:

@@ -10,9 +10,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers import fr3_device_jobs
 
-from harness.config import load_task
-from harness.engines import Execution, ExecutionJob, register_engine
 from harness.engines.judge import _forces, _Judge, _tcp_error
 from harness.engines.signals import (
     EE_MAT,
@@ -28,9 +27,6 @@ from harness.engines.signals import (
     object_speed,
     unstable_reason,
 )
-from harness.episode import EpisodeSpec, run_episode
-from harness.objects.assets import repo_root
-from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import closing_terms, first_failure
 
 
@@ -82,28 +78,9 @@ class _LoopJudge(_Judge):
         return reached
 
 
-class _Keep:
-    name = "keep-judge"
-
-    def __init__(self) -> None:
-        self.jobs: list[Any] = []
-
-    def execute(self, job: ExecutionJob) -> Execution:
-        from harness.engines.schedule import device_job
-
-        self.jobs.append(device_job(job))
-        return Execution(PickOutcome(failure_reason="error", message="kept"), False)
-
-
 @pytest.fixture(scope="module")
 def jobs() -> list[Any]:
-    keep = _Keep()
-    register_engine(keep)
-    task = load_task(repo_root() / "tasks" / "pick" / "fr3.yaml")
-    cache: dict = {}
-    for seed in range(2):
-        run_episode(EpisodeSpec(task=task, seed=seed, engine=keep.name), cache)
-    return keep.jobs
+    return fr3_device_jobs(2)
 
 
 def _rows(rng: np.random.Generator, job: Any, n: int) -> np.ndarray:

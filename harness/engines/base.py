@@ -51,6 +51,14 @@ class Execution:
     warmup_unstable: str | None = None
     ctrl_log: list[tuple[int, np.ndarray]] | None = None
 
+    @classmethod
+    def of_batch(cls, outcome: PickOutcome, validity: bool) -> Execution:
+        """The ``Execution`` of a batched engine's outcome, which reports a warm-up that
+        diverged as ``sim_unstable`` before any control step."""
+        if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
+            return cls(None, validity, warmup_unstable=outcome.message)
+        return cls(outcome, validity)
+
 
 class ExecutionEngine(Protocol):
     """Executes chosen plans; ``name`` is the row's ``engine`` column."""

@@ -94,16 +94,9 @@ class PooledDeviceEngine:
             raise HarnessError(f"the parent answered a device request with {type(reply).__name__}")
         if reply.error is not None or reply.outcome is None:
             raise HarnessError(f"mjwarp device: {reply.error}")
-        return execution_of(reply.outcome, validity_enabled(job.task.pick))
+        from harness.engines.base import Execution
 
-
-def execution_of(outcome: PickOutcome, validity: bool) -> Execution:
-    """The ``Execution`` of a device outcome (a warm-up that diverged has no outcome)."""
-    from harness.engines.base import Execution
-
-    if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
-        return Execution(None, validity, warmup_unstable=outcome.message)
-    return Execution(outcome, validity)
+        return Execution.of_batch(reply.outcome, validity_enabled(job.task.pick))
 
 
 Answer = Callable[[DeviceReply], None]
@@ -194,13 +187,11 @@ class DeviceService:
 
     def _scene(self, task: Any) -> Any:
         """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
-        from harness.robots import RobotModel
         from harness.sim import Scene, scene_key
 
         key = scene_key(task)
         if key not in self._scenes:
-            robot = RobotModel.load(task.robot, task.gripper)
-            self._scenes[key] = Scene.build(robot, task.objects, task.physics, task.base_dir())
+            self._scenes[key] = Scene.for_task(task)
         return self._scenes[key]
 
     def _key(self, job: Any) -> tuple[Any, ...]:

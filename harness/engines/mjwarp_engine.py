@@ -70,10 +70,7 @@ class MjwarpEngine:
     def execute(self, job: ExecutionJob) -> Execution:
         packed = device_job(job)
         outcome = self.batch(job.scene, job.task).run([packed])[0]
-        validity = validity_enabled(job.task.pick)
-        if outcome.failure_reason == "sim_unstable" and outcome.control_steps == 0:
-            return Execution(None, validity, warmup_unstable=outcome.message)
-        return Execution(outcome, validity)
+        return Execution.of_batch(outcome, validity_enabled(job.task.pick))
 
     def execute_many(self, scene: Scene, jobs: list[DeviceJob]) -> tuple[list[PickOutcome], Any]:
         """Jobs of ``scene``'s task model in one batch; the outcomes and the batch's timings."""

@@ -17,7 +17,6 @@ from harness.grasps import EEPoses, GraspSet, load_grasp_file, post_process
 from harness.objects.assets import find_grasp_file
 from harness.planning.ik import WholeBodyIK
 from harness.planning.planner import PickPlanner
-from harness.robots import RobotModel
 from harness.sim import Scene, scene_key
 
 
@@ -71,9 +70,7 @@ def get_scene(task: TaskConfig, scene_cache: dict[Any, Any] | None) -> SceneBund
     key = scene_key(task)
     if scene_cache is not None and key in scene_cache:
         return scene_cache[key]
-    robot = RobotModel.load(task.robot, task.gripper)
-    scene = Scene.build(robot, task.objects, task.physics, task.base_dir())
-    bundle = SceneBundle(scene)
+    bundle = SceneBundle(Scene.for_task(task))
     if scene_cache is not None:
         scene_cache[key] = bundle
     return bundle

@@ -116,6 +116,12 @@ class Scene(SceneQueries):
     # -- construction ---------------------------------------------------------------------------
 
     @classmethod
+    def for_task(cls, task: TaskConfig) -> Scene:
+        """The scene of ``task``: its robot and gripper, its objects, its physics."""
+        robot = RobotModel.load(task.robot, task.gripper)
+        return cls.build(robot, task.objects, task.physics, task.base_dir())
+
+    @classmethod
     def build(
         cls,
         robot: RobotModel | str,
