@@ -33,6 +33,18 @@ for job in "$@"; do
     throughput_bucket)  # the same 16384 in batches of 4096 of similar schedule lengths
       BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 16384 "$R/throughput_bucket" fr3 ;;
+    tp_small)  # bucketed 16384 in batches of 4096 on the default (small) per-world buffers
+      BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/tp_small" fr3 ;;
+    tp_large)  # the same on the buffers used before (128 contacts, 768 rows per world)
+      BENCH_BUFFERS=128,768 BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 16384 "$R/tp_large" fr3 ;;
+    tp_small_8192)  # 16384 in batches of 8192 on the small buffers
+      BENCH_BATCH=8192 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/tp_small_8192" fr3 ;;
+    tp_small_32k)  # 32768 in bucketed batches of 8192 on the small buffers
+      BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_small_32k" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -214,3 +214,48 @@ def test_mjwarp_tug_rounds_give_the_24_rung_ladder() -> None:
         b.validity.valid,
         b.validity.invalid_reason,
     )
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_world_whose_rows_do_not_fit_runs_again_with_the_large_buffers(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """FR3 cube seed 0 on Warp's CPU device with room only for the rows of the scene's current
+    state (MJWarp's least; the settled cube, no grasp: a grasp asks for ~80): the overflow is seen, the world runs again with ``LARGE`` and its outcome is the one
+    ``LARGE`` gives directly; when ``LARGE`` is too small as well the episode ends
+    ``sim_unstable`` naming the full buffer, never as a silently wrong verdict."""
+    from harness.benchmarks.engines import _SCENES, _plan
+    from harness.engines import mjwarp_batch
+    from harness.engines.mjwarp_batch import LARGE, Buffers, WorldBatch
+    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+
+    task = fr3()
+    _, job = _plan(EpisodeSpec(task=task, seed=0))
+    assert job is not None
+    dm = MjwarpEngine("cpu").batch(get_scene(task, _SCENES).scene, task).dm
+    tiny = Buffers(nconmax=64, njmax=max(1, int(dm.template.nefc)))
+    retried = WorldBatch(dm, buffers=tiny)
+    direct = WorldBatch(dm, buffers=LARGE)
+    (a,) = retried.run([job])
+    (b,) = direct.run([job])
+    assert retried.timings.reruns == 1 and direct.timings.reruns == 0
+    assert tiny.njmax < direct.timings.peak_rows <= LARGE.njmax
+    assert a.success and _same(a, b)
+    monkeypatch.setattr(mjwarp_batch, "LARGE", tiny)
+    (c,) = WorldBatch(dm, buffers=tiny).run([job])
+    assert c.failure_reason == "sim_unstable"
+    assert "constraint buffer was full" in c.message
+
+
+def _same(a: object, b: object) -> bool:
+    """Dataclasses equal field by field (arrays by value, nested dataclasses recursively)."""
+    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
+        return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b

@@ -125,14 +125,18 @@ class _Device:
     def __init__(self, device: str) -> None:
         from harness.engines.mjwarp_engine import MjwarpEngine
 
-        self.engine = MjwarpEngine(device)
+        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_batch.SMALL)
+        sizes = os.environ.get("BENCH_BUFFERS")
+        buffers = tuple(int(v) for v in sizes.split(",")) if sizes else None
+        self.engine = MjwarpEngine(device, buffers)  # type: ignore[arg-type]
         self.scenes: dict[Any, Any] = {}
         self.outcomes: dict[int, PickOutcome] = {}
         self.totals = {
             "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0,
-            "judge_s": 0.0, "tug_rounds": 0.0, "tug_rungs": 0.0,
+            "judge_s": 0.0, "tug_rounds": 0.0, "tug_rungs": 0.0, "reruns": 0.0,
         }  # fmt: skip
         self.counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
+        self.peaks = {"peak_rows": 0.0, "peak_contacts": 0.0, "memory_high_gb": 0.0}
         self.device_s = 0.0
         self.compile_s = 0.0
 
@@ -163,6 +167,19 @@ class _Device:
         self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
         self.counts["batches"] += 1
         self.device_s += time.perf_counter() - clock
+        for key in ("peak_rows", "peak_contacts"):
+            self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
+        self.peaks["memory_high_gb"] = _memory_high_gb(self.engine.device)
+
+
+def _memory_high_gb(device: str) -> float:
+    """The most device memory Warp's pool has held (GB); 0 on the CPU or without a pool."""
+    import warp as wp
+
+    dev = wp.get_device(device)
+    if not dev.is_cuda or not wp.is_mempool_enabled(dev):
+        return 0.0
+    return wp.get_mempool_used_mem_high(dev) / 1e9
 
 
 def run_gpu(
@@ -225,6 +242,7 @@ def run_gpu(
         "planned": planned, "outcomes": gpu.outcomes, "plan_s": plan_s,
         "device_s": gpu.device_s, "total_s": total_s, "compile_s": gpu.compile_s,
         "workers": workers, "batch": batch, "bucket": bucket, **gpu.counts, **gpu.totals,
+        **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
     }  # fmt: skip
 
 
@@ -304,7 +322,13 @@ def figures(result: dict[str, Any]) -> list[Figure]:
         figure(
             SECTION, "physics world-steps per second (mjwarp)",
             [gpu["world_steps"] / max(gpu["physics_s"] + gpu["tug_s"], 1e-9)], "steps/s",
-            notes=f"largest batch {gpu['max_batch']} worlds",
+            notes=(
+                f"largest batch {gpu['max_batch']} worlds; buffers {gpu.get('buffers')}: peak "
+                f"{gpu.get('peak_rows', 0):.0f} constraint rows in a world, "
+                f"{gpu.get('peak_contacts', 0):.1f} contacts per world, "
+                f"{gpu.get('reruns', 0):.0f} worlds run again with the large buffers; "
+                f"device memory high {gpu.get('memory_high_gb', 0):.1f} GB"
+            ),
         ),
         figure(
             SECTION, "tug rung-worlds (mjwarp)", [gpu["tug_rungs"]], "worlds",

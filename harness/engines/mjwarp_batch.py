@@ -45,8 +45,24 @@ from harness.pick.validity import (
 )
 from harness.sim import Scene
 
-NCONMAX = 128  # contacts per world (a grasp holds ~10-40)
-NJMAX = 768  # constraint rows per world
+
+@dataclass(frozen=True)
+class Buffers:
+    """What MuJoCo Warp allocates per world: contacts (``nconmax``; pooled over the batch's
+    worlds) and constraint rows (``njmax``; no world may use more). Every solver kernel is
+    launched over ``njmax`` rows per world, so the rows cost step time and memory even unused."""
+
+    nconmax: int
+    njmax: int
+
+
+# Sized from the CPU engine's peak use (``MjData.maxuse_con`` / ``maxuse_efc``) over 12 seeds of
+# each canonical arm with the cube and the banana, tug included: at most 25 contacts and 106
+# constraint rows (elliptic cones) in a world; about 2.5x that room. Chosen, no public source
+# (MJWarp's own default for these models, ``io._default_nconmax`` / ``_default_njmax``, would be
+# 48 / 64). A world that asks for more is run again with ``LARGE``.
+SMALL = Buffers(nconmax=64, njmax=256)
+LARGE = Buffers(nconmax=128, njmax=768)  # the sizes used before; the fallback
 
 
 @dataclass
@@ -62,6 +78,44 @@ class BatchTimings:
     world_steps: int = 0
     tug_rounds: int = 0
     tug_rungs: int = 0
+    peak_rows: int = 0  # the most constraint rows a world asked for
+    peak_contacts: float = 0.0  # the most contacts per world of a batch, on average
+    reruns: int = 0  # worlds run again with the ``LARGE`` buffers (their rows did not fit)
+
+
+class BufferUse:
+    """Each world's peak constraint rows and the batch's peak contacts on the device
+    (``kernels.track_use`` after every physics step), and which worlds did not fit."""
+
+    def __init__(self, nworld: int) -> None:
+        self.rows = wp.zeros(nworld, dtype=wp.int32)
+        self.contacts = wp.zeros(1, dtype=wp.int32)
+
+    def track(self, d: mjw.Data) -> None:
+        wp.launch(
+            kernels.track_use, dim=d.nworld, inputs=[d.nefc, d.nacon, self.rows, self.contacts]
+        )
+
+    def overflowed(self, d: mjw.Data, buffers: Buffers, timings: BatchTimings) -> list[int]:
+        """The worlds whose rows or contacts did not fit (every world when the batch's contact
+        pool overflowed: which world lost a contact is not known); notes the peaks."""
+        rows = self.rows.numpy()
+        contacts = int(self.contacts.numpy()[0])
+        timings.peak_rows = max(timings.peak_rows, int(rows.max(initial=0)))
+        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, d.nworld))
+        if contacts > d.naconmax:
+            return list(range(d.nworld))
+        return [int(w) for w in np.flatnonzero(rows > buffers.njmax)]
+
+
+def _stepper(dm: DeviceModel, d: mjw.Data, use: BufferUse):  # type: ignore[no-untyped-def]
+    """One physics step of every world of ``d``, its buffer use noted."""
+
+    def step() -> None:
+        mjw.step(dm.model, d)
+        use.track(d)
+
+    return step
 
 
 class DeviceModel:
@@ -172,17 +226,47 @@ def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.nd
 class WorldBatch:
     """Runs jobs of one ``DeviceModel`` in lockstep and judges them (``run``)."""
 
-    def __init__(self, dm: DeviceModel, policy: RoundPolicy = DEFAULT_POLICY) -> None:
+    def __init__(
+        self,
+        dm: DeviceModel,
+        policy: RoundPolicy = DEFAULT_POLICY,
+        buffers: Buffers = SMALL,
+    ) -> None:
         self.dm = dm
         self.policy = policy  # which rungs each tug round runs
+        self.buffers = buffers
         self.timings = BatchTimings()
+        self._overflowed: set[int] = set()  # episode worlds whose tug round did not fit LARGE
 
-    def _data(self, nworld: int) -> mjw.Data:
+    def _data(self, nworld: int, buffers: Buffers) -> mjw.Data:
         return mjw.put_data(
-            self.dm.mj_model, self.dm.template, nworld=nworld, nconmax=NCONMAX, njmax=NJMAX
-        )
+            self.dm.mj_model, self.dm.template, nworld=nworld,
+            nconmax=buffers.nconmax, njmax=buffers.njmax,
+        )  # fmt: skip
 
     def run(self, jobs: list[DeviceJob]) -> list[PickOutcome]:
+        """The jobs' outcomes. Worlds whose contacts or constraint rows did not fit
+        ``self.buffers`` run again with ``LARGE``; those that do not fit it either end as
+        ``sim_unstable`` (the CPU scene's full-buffer test)."""
+        outcomes, over = self._run(jobs, self.buffers)
+        if over and self.buffers != LARGE:
+            self.timings.reruns += len(over)
+            again, over_again = self._run([jobs[i] for i in over], LARGE)
+            for i, outcome in zip(over, again, strict=True):
+                outcomes[i] = outcome
+            over = [over[k] for k in over_again]
+        for i in over:
+            outcomes[i] = PickOutcome(
+                failure_reason="sim_unstable",
+                message=(
+                    f"the contact or constraint buffer was full ({LARGE.nconmax} contacts, "
+                    f"{LARGE.njmax} constraint rows per world)"
+                ),
+            )
+        return outcomes
+
+    def _run(self, jobs: list[DeviceJob], buffers: Buffers) -> tuple[list[PickOutcome], list[int]]:
+        """The jobs on ``buffers``: their outcomes and the worlds that did not fit."""
         dm, device = self.dm, self.dm.device
         n = len(jobs)
         schedules = [job.schedule for job in jobs]
@@ -195,7 +279,7 @@ class WorldBatch:
         rows = int(spans.max())
         clock = time.perf_counter()
         with wp.ScopedDevice(device):
-            d = self._data(n)
+            d = self._data(n, buffers)
             for name, values in _world_arrays(jobs).items():
                 getattr(d, name).assign(values.astype(np.float32))
             table, last = _schedule_rows(schedules, rows)
@@ -209,10 +293,12 @@ class WorldBatch:
             nq, nv = dm.mj_model.nq, dm.mj_model.nv
             saved = [wp.zeros((n, slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
             first_row = wp.array(motion - 1, dtype=wp.int32)
+            use = BufferUse(n)
+            physics_step = _stepper(dm, d, use)
             wp.synchronize_device(device)
             self.timings.upload_s += time.perf_counter() - clock
             clock = time.perf_counter()
-            _replay(device, lambda: mjw.step(dm.model, d), schedules[0].warmup_steps)
+            _replay(device, physics_step, schedules[0].warmup_steps)
             pen_initial = dm.penetration_start(n)
             dm.record(d, zero, warm, pen_initial, baseline=True)
             chunk_sizes = schedules[0].chunk_sizes
@@ -224,7 +310,7 @@ class WorldBatch:
                         inputs=[table_d, step, chunk, len(chunk_sizes), last_d, d.ctrl],
                     )  # fmt: skip
                     for _ in range(size):
-                        mjw.step(dm.model, d)
+                        physics_step()
                 dm.record(d, step, out, pen_initial)
                 wp.launch(
                     kernels.save_state, dim=n,
@@ -237,19 +323,35 @@ class WorldBatch:
             self.timings.physics_s += time.perf_counter() - clock
             self.timings.world_steps += n * (schedules[0].warmup_steps + rows * sum(chunk_sizes))
             clock = time.perf_counter()
+            over = use.overflowed(d, buffers, self.timings)
             steps = out.numpy()
             warm_rows = warm.numpy()[:, 0]
             self.timings.download_s += time.perf_counter() - clock
+            self._overflowed = set(over)  # not judged: they run again, or end unstable
             windows: list[HoldWindow | None] = []
             tugged: list[int] = []
             for w, job in enumerate(jobs):
                 win = None
-                if validity[w] and schedules[w].verdict_step >= 0:
+                if validity[w] and schedules[w].verdict_step >= 0 and w not in self._overflowed:
                     win = hold_window(steps[w], int(motion[w]), hold_time, dt)
                     if needs_tug(steps[w], win, float(job.object_init_position[2])):
                         tugged.append(w)
                 windows.append(win)
-            rungs = self._tug(jobs, d, saved, motion, windows, steps, tugged)
+            rungs = self._tug(_RungStart(jobs, d, saved, motion, windows), steps, tugged, buffers)
+        return self._judge(jobs, steps, warm_rows, validity, windows, rungs), sorted(
+            self._overflowed
+        )
+
+    def _judge(
+        self,
+        jobs: list[DeviceJob],
+        steps: np.ndarray,
+        warm_rows: np.ndarray,
+        validity: list[bool],
+        windows: list[HoldWindow | None],
+        rungs: dict[int, dict[Rung, RungOutcome]],
+    ) -> list[PickOutcome]:
+        """The verdicts on the host, from the downloaded signal rows."""
         clock = time.perf_counter()
         outcomes = []
         for w, job in enumerate(jobs):
@@ -263,22 +365,19 @@ class WorldBatch:
 
     def _tug(
         self,
-        jobs: list[DeviceJob],
-        d: mjw.Data,
-        saved: list[wp.array],
-        motion: np.ndarray,
-        windows: list[HoldWindow | None],
+        start: _RungStart,
         steps: np.ndarray,
         tugged: list[int],
+        buffers: Buffers,
     ) -> dict[int, dict[Rung, RungOutcome]]:
-        """The tug ladders of the tugged worlds, in rounds (``self.policy``); by world, the
-        outcomes of the rungs its ladder asked for."""
+        """The tug ladders of the tugged worlds, in rounds (``self.policy``) on the batch's
+        ``buffers``; by world, the outcomes of the rungs its ladder asked for."""
         if not tugged:
             return {}
-        held = {w: held_in_tcp(steps[w], _window(windows[w])) for w in tugged}
+        held = {w: held_in_tcp(steps[w], _window(start.windows[w])) for w in tugged}
 
         def run(batch: list[tuple[int, Rung]]) -> list[RungOutcome]:
-            rows = self._rungs(jobs, d, saved, motion, windows, batch)
+            rows = self._rungs(start, batch, buffers)
             return [rung_outcome(row, held[w]) for (w, _), row in zip(batch, rows, strict=True)]
 
         known, stats = run_rounds(tugged, run, self.policy)
@@ -287,49 +386,64 @@ class WorldBatch:
         return known
 
     def _rungs(
-        self,
-        jobs: list[DeviceJob],
-        d: mjw.Data,
-        saved: list[wp.array],
-        motion: np.ndarray,
-        windows: list[HoldWindow | None],
-        batch: list[tuple[int, Rung]],
+        self, start: _RungStart, batch: list[tuple[int, Rung]], buffers: Buffers
     ) -> np.ndarray:
         """One round: a world per (world, rung), started from that world's held state with the
-        rung's pull; their end rows in ``batch`` order."""
+        rung's pull; their end rows in ``batch`` order. A round whose worlds did not fit
+        ``buffers`` runs again with ``LARGE``; the episodes of rungs that do not fit it either
+        are noted (``self._overflowed``)."""
         clock = time.perf_counter()
         dm = self.dm
         directions = dict(TUG_DIRECTIONS)
         source, slot, force = [], [], []
         for w, (name, k) in batch:
             source.append(w)
-            slot.append(_window(windows[w]).hold_end - (int(motion[w]) - 1))
+            slot.append(_window(start.windows[w]).hold_end - (int(start.motion[w]) - 1))
             force.append(np.asarray(directions[name]) * k * dm.weight)
         nt = len(batch)
-        td = self._data(nt)
+        td = self._data(nt, buffers)
+        d = start.d
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[
                 wp.array(np.asarray(source, dtype=np.int32), dtype=wp.int32),
                 wp.array(np.asarray(slot, dtype=np.int32), dtype=wp.int32),
-                *saved, d.ctrl, d.mocap_pos, d.mocap_quat,
+                *start.saved, d.ctrl, d.mocap_pos, d.mocap_quat,
                 wp.array(np.asarray(force, dtype=np.float32), dtype=wp.vec3), dm.obj_body,
                 td.qpos, td.qvel, td.qacc_warmstart, td.ctrl, td.mocap_pos, td.mocap_quat,
                 td.xfrc_applied,
             ],
         )  # fmt: skip
-        substeps = round(float(jobs[0].task.control_dt) / float(dm.mj_model.opt.timestep))
+        substeps = round(float(start.jobs[0].task.control_dt) / float(dm.mj_model.opt.timestep))
         substeps = max(1, substeps)
         rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
-        _replay(dm.device, lambda: mjw.step(dm.model, td), rung_steps * substeps)
+        use = BufferUse(nt)
+        _replay(dm.device, _stepper(dm, td, use), rung_steps * substeps)
         zero = wp.zeros(1, dtype=wp.int32)
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         # the rungs' penetration is not judged: each rung row measures its own start
         dm.record(td, zero, out, dm.penetration_start(nt), baseline=True)
         rows = out.numpy()[:, 0]
+        over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock
         self.timings.world_steps += nt * rung_steps * substeps
+        if over and buffers != LARGE:
+            self.timings.reruns += nt
+            return self._rungs(start, batch, LARGE)
+        self._overflowed.update(batch[r][0] for r in over)
         return rows
+
+
+@dataclass
+class _RungStart:
+    """Where a batch's tug rungs start from: its jobs, its worlds' data and saved validity
+    window states, each world's motion length and hold window."""
+
+    jobs: list[DeviceJob]
+    d: mjw.Data
+    saved: list[wp.array]
+    motion: np.ndarray
+    windows: list[HoldWindow | None]
 
 
 def _window(window: HoldWindow | None) -> HoldWindow:

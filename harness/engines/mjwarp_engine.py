@@ -51,21 +51,23 @@ class MjwarpEngine:
 
     name = "mjwarp"
 
-    def __init__(self, device: str | None = None) -> None:
+    def __init__(self, device: str | None = None, buffers: tuple[int, int] | None = None) -> None:
+        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_batch.SMALL``."""
         _import_warp()
         self.device = device or default_device()
+        self.buffers = buffers
         self._models: dict[tuple[int, str, str], Any] = {}
 
     def batch(self, scene: Scene, task: TaskConfig) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` (made once per model)."""
-        from harness.engines.mjwarp_batch import DeviceModel, WorldBatch
+        from harness.engines.mjwarp_batch import SMALL, Buffers, DeviceModel, WorldBatch
 
         # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
         key = (id(scene.model), task.arm, task.target_object.name)
         dm = self._models.get(key)
         if dm is None:
             dm = self._models[key] = DeviceModel(scene, task, self.device)
-        return WorldBatch(dm)
+        return WorldBatch(dm, buffers=Buffers(*self.buffers) if self.buffers else SMALL)
 
     def execute(self, job: ExecutionJob) -> Execution:
         packed = device_job(job)

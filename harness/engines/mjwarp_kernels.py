@@ -37,6 +37,22 @@ def set_ctrl(
 
 
 @wp.kernel
+def track_use(
+    nefc: wp.array(dtype=wp.int32),
+    nacon: wp.array(dtype=wp.int32),
+    peak_rows: wp.array(dtype=wp.int32),
+    peak_contacts: wp.array(dtype=wp.int32),
+):
+    """Keep each world's most constraint rows asked for (``nefc`` counts the rows that did not
+    fit ``njmax`` too) and the batch's most contacts (``nacon``, all worlds): after every physics
+    step, so an overflow anywhere in a control step is seen."""
+    w = wp.tid()
+    peak_rows[w] = wp.max(peak_rows[w], nefc[w])
+    if w == 0:
+        peak_contacts[0] = wp.max(peak_contacts[0], nacon[0])
+
+
+@wp.kernel
 def advance(step: wp.array(dtype=wp.int32)):
     step[0] = step[0] + 1
 
