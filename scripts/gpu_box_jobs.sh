@@ -45,6 +45,18 @@ for job in "$@"; do
     tp_small_32k)  # 32768 in bucketed batches of 8192 on the small buffers
       BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 32768 "$R/tp_small_32k" fr3 ;;
+    tp_slot1)  # bucketed 16384 in batches of 4096, one batch on the device at a time
+      BENCH_SLOTS=1 BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/tp_slot1" fr3 ;;
+    tp_slot2)  # the same with two batches in flight (two streams)
+      BENCH_SLOTS=2 BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/tp_slot2" fr3 ;;
+    tp_slot2_p16)  # two batches in flight, 16 planning processes (the device thread polls)
+      BENCH_PLANNERS=16 BENCH_SLOTS=2 BENCH_BATCH=4096 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 16384 "$R/tp_slot2_p16" fr3 ;;
+    tp_slot2_8192)  # two batches of 8192 in flight
+      BENCH_SLOTS=2 BENCH_BATCH=8192 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 16384 "$R/tp_slot2_8192" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -3,6 +3,7 @@ device's ``execute_many`` is a stub here; the real one is measured on the GPU bo
 
 from __future__ import annotations
 
+import threading
 from typing import Any, ClassVar
 
 import pytest
@@ -13,18 +14,34 @@ from harness.pick.outcome import PickOutcome
 
 
 class _Timings:
-    upload_s = physics_s = tug_s = download_s = judge_s = 0.0
-    world_steps = tug_rounds = tug_rungs = 0
+    upload_s = physics_s = tug_s = download_s = judge_s = peak_contacts = 0.0
+    world_steps = tug_rounds = tug_rungs = reruns = peak_rows = 0
 
 
 class _StubEngine:
     batches: ClassVar[list[int]] = []
     lengths: ClassVar[list[list[int]]] = []
+    slots_seen: ClassVar[list[Any]] = []
+    # set by a test: every timed batch waits here for the other slot's batch
+    barrier: ClassVar[threading.Barrier | None] = None
 
-    def __init__(self, device: str | None = None) -> None:
+    def __init__(self, device: str | None = None, buffers: Any = None) -> None:
         pass
 
-    def execute_many(self, scene: Any, jobs: list[Any]) -> tuple[list[PickOutcome], Any]:
+    def slots(self, count: int) -> list[Any]:
+        return [f"slot {k}" for k in range(count)]
+
+    def memory_high_gb(self) -> float:
+        return 0.0
+
+    def execute_many(
+        self, scene: Any, jobs: list[Any], slot: Any = None
+    ) -> tuple[list[PickOutcome], Any]:
+        barrier = _StubEngine.barrier
+        if slot is not None and barrier is not None and barrier.n_waiting + 1 <= barrier.parties:
+            _StubEngine.barrier = None if barrier.n_waiting + 1 == barrier.parties else barrier
+            barrier.wait(timeout=60)  # the first two timed batches are on the device at once
+        _StubEngine.slots_seen.append(slot)
         _StubEngine.batches.append(len(jobs))
         _StubEngine.lengths.append([job.schedule.steps for job in jobs])
         timings = _Timings()
@@ -36,7 +53,8 @@ def test_planned_jobs_are_stepped_in_batches_while_the_pool_plans(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _StubEngine)
-    _StubEngine.batches, _StubEngine.lengths = [], []
+    monkeypatch.setenv("BENCH_SLOTS", "1")  # one batch at a time: their order is checked
+    _StubEngine.batches, _StubEngine.lengths, _StubEngine.barrier = [], [], None
     specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 5)
     result = bench.run_gpu(specs, workers=2, device="stub", batch=2, chunk=2, bucket=2)
     executed = [i for i, (_, job) in enumerate(result["planned"]) if job is not None]
@@ -52,3 +70,29 @@ def test_planned_jobs_are_stepped_in_batches_while_the_pool_plans(
     assert len(triggered) == 2
     flushed = [length for batch in flush for length in batch]
     assert flushed == sorted(flushed) and len(flushed) == len(executed) - 2
+
+
+def test_two_slots_hold_two_batches_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """BENCH_SLOTS=2: two batches are on the device at the same time (the first two timed
+    batches wait at a barrier for each other: run one at a time, the barrier would time out and
+    the run fail), each on a slot of its own; every executed episode gets its outcome."""
+    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _StubEngine)
+    monkeypatch.setenv("BENCH_SLOTS", "2")
+    _StubEngine.batches, _StubEngine.lengths, _StubEngine.slots_seen = [], [], []
+    _StubEngine.barrier = threading.Barrier(2)
+    try:
+        specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 6)
+        result = bench.run_gpu(specs, workers=2, device="stub", batch=2, chunk=6, bucket=1)
+    finally:
+        _StubEngine.barrier = None
+    executed = [i for i, (_, job) in enumerate(result["planned"]) if job is not None]
+    assert len(executed) >= 4 and sorted(result["outcomes"]) == executed
+    assert result["slots"] == 2 and result["batches"] == -(-len(executed) // 2)
+    assert set(_StubEngine.slots_seen[1:]) == {"slot 0", "slot 1"}
+    assert 0.0 < result["device_s"] <= result["total_s"]
+
+
+def test_device_time_is_the_union_of_the_batches_spans() -> None:
+    assert bench._union_length([(0.0, 2.0), (1.0, 3.0), (5.0, 6.0)]) == pytest.approx(4.0)
+    assert bench._union_length([(0.0, 4.0), (1.0, 2.0)]) == pytest.approx(4.0)
+    assert bench._union_length([]) == 0.0

@@ -18,8 +18,10 @@ import json
 import math
 import multiprocessing
 import os
+import queue
+import threading
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -120,7 +122,9 @@ def _batch_key(job: Any) -> str:
 
 class _Device:
     """The device side of the GPU path: the engine, its scenes, the outcomes by episode index
-    and where its time went."""
+    and where its time went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2)
+    threads, each with a stream of its own (``DeviceSlot``): one batch's host work (upload,
+    tug rounds, judging) overlaps another's physics; ``drain`` waits for them all."""
 
     def __init__(self, device: str) -> None:
         from harness.engines.mjwarp_engine import MjwarpEngine
@@ -137,8 +141,20 @@ class _Device:
         }  # fmt: skip
         self.counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
         self.peaks = {"peak_rows": 0.0, "peak_contacts": 0.0, "memory_high_gb": 0.0}
-        self.device_s = 0.0
         self.compile_s = 0.0
+        self.slots: queue.Queue[Any] = queue.Queue()
+        for slot in self.engine.slots(int(os.environ.get("BENCH_SLOTS", "2"))):
+            self.slots.put(slot)
+        self.slot_count = self.slots.qsize()
+        self.threads = ThreadPoolExecutor(self.slot_count)
+        self.pending: list[Future[None]] = []
+        self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
+        self.lock = threading.Lock()
+
+    @property
+    def device_s(self) -> float:
+        """Wall time with at least one batch on the device."""
+        return _union_length(self.busy)
 
     def _scene(self, job: Any) -> Any:
         from harness.episode.scene_cache import get_scene
@@ -156,30 +172,45 @@ class _Device:
                 self.compile_s += time.perf_counter() - clock
 
     def step(self, indices: list[int], jobs: list[Any]) -> None:
-        """One batch of worlds; its outcomes kept under the episodes' indices."""
-        clock = time.perf_counter()
-        result, timings = self.engine.execute_many(self._scene(jobs[0]), jobs)
-        for i, outcome in zip(indices, result, strict=True):
-            self.outcomes[i] = outcome
-        for key in self.totals:
-            self.totals[key] += getattr(timings, key)
-        self.counts["world_steps"] += timings.world_steps
-        self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
-        self.counts["batches"] += 1
-        self.device_s += time.perf_counter() - clock
-        for key in ("peak_rows", "peak_contacts"):
-            self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
-        self.peaks["memory_high_gb"] = _memory_high_gb(self.engine.device)
+        """Queue one batch of worlds; its outcomes are kept under the episodes' indices."""
+        self._scene(jobs[0])  # made here, in one thread
+        self.pending.append(self.threads.submit(self._step, indices, jobs))
+
+    def drain(self) -> None:
+        for future in self.pending:
+            future.result()
+        self.pending.clear()
+
+    def _step(self, indices: list[int], jobs: list[Any]) -> None:
+        slot = self.slots.get()
+        try:
+            clock = time.perf_counter()
+            result, timings = self.engine.execute_many(self._scene(jobs[0]), jobs, slot)
+            span = (clock, time.perf_counter())
+        finally:
+            self.slots.put(slot)
+        with self.lock:
+            self.busy.append(span)
+            for i, outcome in zip(indices, result, strict=True):
+                self.outcomes[i] = outcome
+            for key in self.totals:
+                self.totals[key] += getattr(timings, key)
+            self.counts["world_steps"] += timings.world_steps
+            self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
+            self.counts["batches"] += 1
+            for key in ("peak_rows", "peak_contacts"):
+                self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
+            self.peaks["memory_high_gb"] = self.engine.memory_high_gb()
 
 
-def _memory_high_gb(device: str) -> float:
-    """The most device memory Warp's pool has held (GB); 0 on the CPU or without a pool."""
-    import warp as wp
-
-    dev = wp.get_device(device)
-    if not dev.is_cuda or not wp.is_mempool_enabled(dev):
-        return 0.0
-    return wp.get_mempool_used_mem_high(dev) / 1e9
+def _union_length(spans: list[tuple[float, float]]) -> float:
+    """The length of the union of the intervals."""
+    total, end = 0.0, float("-inf")
+    for start, stop in sorted(spans):
+        if stop > end:
+            total += stop - max(start, end)
+            end = stop
+    return total
 
 
 def run_gpu(
@@ -237,11 +268,13 @@ def run_gpu(
         for k in range(0, len(group), batch):
             part = group[k : k + batch]
             gpu.step(part, [planned[j][1] for j in part])
+    gpu.drain()
     total_s = time.perf_counter() - start
     return {
         "planned": planned, "outcomes": gpu.outcomes, "plan_s": plan_s,
         "device_s": gpu.device_s, "total_s": total_s, "compile_s": gpu.compile_s,
-        "workers": workers, "batch": batch, "bucket": bucket, **gpu.counts, **gpu.totals,
+        "workers": workers, "batch": batch, "bucket": bucket, "slots": gpu.slot_count,
+        **gpu.counts, **gpu.totals,
         **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
     }  # fmt: skip
 
@@ -286,9 +319,11 @@ def measure(
     cpu_n = min(len(all_specs), int(os.environ.get("BENCH_CPU_EPISODES", "0")) or len(all_specs))
     cpu_rows, cpu_s = run_cpu(all_specs[:cpu_n], workers)
     # one core less for planning on the GPU path: this process drives the device
+    # (BENCH_PLANNERS=k: k planning processes instead)
+    planners = int(os.environ.get("BENCH_PLANNERS", "0")) or max(1, workers - 1)
     batch = int(os.environ.get("BENCH_BATCH", "1024"))
     bucket = int(os.environ.get("BENCH_BUCKET", "1"))
-    gpu = run_gpu(all_specs, max(1, workers - 1), device, batch=batch, bucket=bucket)
+    gpu = run_gpu(all_specs, planners, device, batch=batch, bucket=bucket)
     records = agreement(cpu_rows, gpu)
     n = len(all_specs)
     return {"n": n, "cpu_n": cpu_n, "cpu_s": cpu_s, "records": records, "gpu": gpu}

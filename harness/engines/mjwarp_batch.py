@@ -25,6 +25,7 @@ import warp as wp
 
 from harness.config import TaskConfig
 from harness.engines import mjwarp_kernels as kernels
+from harness.engines.device_slot import DeviceSlot
 from harness.engines.judge import held_in_tcp, judge, needs_tug, rung_outcome
 from harness.engines.schedule import DeviceJob, ExecutionSchedule
 from harness.engines.signals import (
@@ -231,8 +232,11 @@ class WorldBatch:
         dm: DeviceModel,
         policy: RoundPolicy = DEFAULT_POLICY,
         buffers: Buffers = SMALL,
+        slot: DeviceSlot | None = None,
     ) -> None:
         self.dm = dm
+        # the stream this batch runs on (and the lock of the device's slots); own by default
+        self.slot = slot if slot is not None else DeviceSlot(dm.device)
         self.policy = policy  # which rungs each tug round runs
         self.buffers = buffers
         self.timings = BatchTimings()
@@ -248,6 +252,10 @@ class WorldBatch:
         """The jobs' outcomes. Worlds whose contacts or constraint rows did not fit
         ``self.buffers`` run again with ``LARGE``; those that do not fit it either end as
         ``sim_unstable`` (the CPU scene's full-buffer test)."""
+        with self.slot:  # every Warp call of the batch on its slot's stream
+            return self._run_fitted(jobs)
+
+    def _run_fitted(self, jobs: list[DeviceJob]) -> list[PickOutcome]:
         outcomes, over = self._run(jobs, self.buffers)
         if over and self.buffers != LARGE:
             self.timings.reruns += len(over)
@@ -295,7 +303,7 @@ class WorldBatch:
             first_row = wp.array(motion - 1, dtype=wp.int32)
             use = BufferUse(n)
             physics_step = _stepper(dm, d, use)
-            wp.synchronize_device(device)
+            self.slot.wait()
             self.timings.upload_s += time.perf_counter() - clock
             clock = time.perf_counter()
             _replay(device, physics_step, schedules[0].warmup_steps)
@@ -319,7 +327,7 @@ class WorldBatch:
                 wp.launch(kernels.advance, dim=1, inputs=[step])
 
             _replay(device, control_step, rows)
-            wp.synchronize_device(device)
+            self.slot.wait()
             self.timings.physics_s += time.perf_counter() - clock
             self.timings.world_steps += n * (schedules[0].warmup_steps + rows * sum(chunk_sizes))
             clock = time.perf_counter()
@@ -423,6 +431,7 @@ class WorldBatch:
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         # the rungs' penetration is not judged: each rung row measures its own start
         dm.record(td, zero, out, dm.penetration_start(nt), baseline=True)
+        self.slot.wait()
         rows = out.numpy()[:, 0]
         over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock

@@ -58,23 +58,45 @@ class MjwarpEngine:
         self.buffers = buffers
         self._models: dict[tuple[int, str, str], Any] = {}
 
-    def batch(self, scene: Scene, task: TaskConfig) -> Any:
-        """A ``WorldBatch`` on the device model of ``scene`` (made once per model)."""
+    def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
+        """A ``WorldBatch`` on the device model of ``scene`` (made once per model), on ``slot``
+        (a ``DeviceSlot``: its stream and its device's lock) when given."""
+        from harness.engines.device_slot import DeviceSlot
         from harness.engines.mjwarp_batch import SMALL, Buffers, DeviceModel, WorldBatch
 
+        slot = slot if slot is not None else DeviceSlot(self.device)
         # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
         key = (id(scene.model), task.arm, task.target_object.name)
         dm = self._models.get(key)
         if dm is None:
-            dm = self._models[key] = DeviceModel(scene, task, self.device)
-        return WorldBatch(dm, buffers=Buffers(*self.buffers) if self.buffers else SMALL)
+            with slot:
+                dm = self._models[key] = DeviceModel(scene, task, self.device)
+        buffers = Buffers(*self.buffers) if self.buffers else SMALL
+        return WorldBatch(dm, buffers=buffers, slot=slot)
+
+    def slots(self, count: int) -> list[Any]:
+        """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""
+        from harness.engines.device_slot import DeviceSlot
+
+        return DeviceSlot.several(self.device, count)
+
+    def memory_high_gb(self) -> float:
+        """The most device memory Warp's pool has held (GB); 0 on the CPU or without a pool."""
+        wp, _ = _import_warp()
+        device = wp.get_device(self.device)
+        if not device.is_cuda or not wp.is_mempool_enabled(device):
+            return 0.0
+        return wp.get_mempool_used_mem_high(device) / 1e9
 
     def execute(self, job: ExecutionJob) -> Execution:
         packed = device_job(job)
         outcome = self.batch(job.scene, job.task).run([packed])[0]
         return Execution.of_batch(outcome, validity_enabled(job.task.pick))
 
-    def execute_many(self, scene: Scene, jobs: list[DeviceJob]) -> tuple[list[PickOutcome], Any]:
-        """Jobs of ``scene``'s task model in one batch; the outcomes and the batch's timings."""
-        batch = self.batch(scene, jobs[0].task)
+    def execute_many(
+        self, scene: Scene, jobs: list[DeviceJob], slot: Any = None
+    ) -> tuple[list[PickOutcome], Any]:
+        """Jobs of ``scene``'s task model in one batch (on ``slot`` when given); the outcomes
+        and the batch's timings."""
+        batch = self.batch(scene, jobs[0].task, slot)
         return batch.run(jobs), batch.timings

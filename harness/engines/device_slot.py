@@ -1,0 +1,71 @@
+"""Several batches of worlds in flight on one device, each on its own CUDA stream.
+
+One batch alone leaves the GPU idle while the host uploads it, decides its tug rounds and judges
+it, and leaves the host idle while the GPU steps it. With two slots, one thread per slot, one
+batch's host work overlaps another's physics, and two batches' kernels can run side by side.
+
+Warp keeps one *current* stream per device for every thread, so the slots of a device share a
+lock: a slot's thread holds it while it issues Warp calls (with its own stream made current) and
+lets go of it only while it waits for its stream (``wait``), polling an event every 0.5 ms
+rather than spinning a core in a CUDA synchronize (the driver's default with fewer contexts than
+cores), a core the planning processes beside this one can use. On Warp's CPU device there are
+no streams: the slots take turns.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from types import TracebackType
+from typing import Any
+
+import warp as wp
+
+POLL_S = 0.0005
+
+
+class DeviceSlot:
+    """A stream of ``device`` (``None``: the device's current one) and the device's lock."""
+
+    def __init__(self, device: str, lock: Any = None, stream: Any = None) -> None:
+        self.device = device
+        self.lock = lock if lock is not None else threading.Lock()
+        self.stream = stream
+        self.cuda = wp.get_device(device).is_cuda
+
+    @classmethod
+    def several(cls, device: str, count: int) -> list[DeviceSlot]:
+        """``count`` slots of ``device`` sharing one lock, each with a stream of its own."""
+        lock = threading.Lock()
+        cuda = wp.get_device(device).is_cuda
+        return [cls(device, lock, wp.Stream(device) if cuda else None) for _ in range(count)]
+
+    def __enter__(self) -> DeviceSlot:
+        self.lock.acquire()
+        self._make_current()
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        self.lock.release()
+
+    def _make_current(self) -> None:
+        if self.stream is not None:
+            wp.set_stream(self.stream, self.device)
+
+    def wait(self) -> None:
+        """Wait (holding the lock on entry and on return) until this slot's queued work is done;
+        the other slots issue theirs meanwhile."""
+        if not self.cuda:
+            wp.synchronize_device(self.device)
+            return
+        event = wp.record_event()
+        while not event.is_complete:
+            self.lock.release()
+            time.sleep(POLL_S)
+            self.lock.acquire()
+        self._make_current()
