@@ -93,6 +93,8 @@ def test_two_slots_hold_two_batches_at_once(monkeypatch: pytest.MonkeyPatch) -> 
 
 
 def test_device_time_is_the_union_of_the_batches_spans() -> None:
-    assert bench._union_length([(0.0, 2.0), (1.0, 3.0), (5.0, 6.0)]) == pytest.approx(4.0)
-    assert bench._union_length([(0.0, 4.0), (1.0, 2.0)]) == pytest.approx(4.0)
-    assert bench._union_length([]) == 0.0
+    from harness.engines.busy_time import union_length
+
+    assert union_length([(0.0, 2.0), (1.0, 3.0), (5.0, 6.0)]) == pytest.approx(4.0)
+    assert union_length([(0.0, 4.0), (1.0, 2.0)]) == pytest.approx(4.0)
+    assert union_length([]) == 0.0

@@ -149,3 +149,38 @@ def test_a_pool_on_warps_cpu_device_gives_the_mujoco_verdicts(
         assert list(row) == list(twin)
         for key in ("success", "failure_reason", "valid", "invalid_reason"):
             assert row[key] == twin[key], key
+
+
+def test_a_second_batch_runs_while_the_first_is_on_the_device(fr3_jobs) -> None:
+    """Two slots: the job that arrives while the first batch is on the device runs as a batch
+    of its own at the same time (both wait at a barrier: one at a time, it would time out and
+    both batches fail), and each job gets its own outcome."""
+    barrier = threading.Barrier(2)
+    started = threading.Event()
+    batches: list[int] = []
+
+    def execute(scene: Any, jobs: list[Any]) -> list[PickOutcome]:
+        batches.append(len(jobs))
+        started.set()
+        barrier.wait(timeout=60)
+        return [PickOutcome(message=f"job {id(job)}") for job in jobs]
+
+    service = DeviceService(lambda: 2, execute=execute)
+    first, second = fr3_jobs[:2]
+    replies: list[DeviceReply] = []
+    done = threading.Semaphore(0)
+
+    def answer(reply: DeviceReply) -> None:
+        replies.append(reply)
+        done.release()
+
+    service.submit(first, answer)
+    assert started.wait(timeout=60)  # the first batch (the first job alone) is on the device
+    service.submit(second, answer)
+    assert done.acquire(timeout=90) and done.acquire(timeout=90)
+    service.stop()
+    assert batches == [1, 1]
+    assert sorted(r.outcome.message for r in replies if r.outcome) == sorted(
+        f"job {id(job)}" for job in (first, second)
+    )
+    assert service.stats.batches == 2 and not service.stats.errors

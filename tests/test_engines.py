@@ -223,8 +223,9 @@ def test_a_world_whose_rows_do_not_fit_runs_again_with_the_large_buffers(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """FR3 cube seed 0 on Warp's CPU device with room only for the rows of the scene's current
-    state (MJWarp's least; the settled cube, no grasp: a grasp asks for ~80): the overflow is seen, the world runs again with ``LARGE`` and its outcome is the one
-    ``LARGE`` gives directly; when ``LARGE`` is too small as well the episode ends
+    state (MJWarp's least; the settled cube, no grasp: a grasp asks for ~80): the overflow is
+    seen, the world runs again with ``LARGE`` and its outcome is the one ``LARGE`` gives
+    directly; when ``LARGE`` is too small as well the episode ends
     ``sim_unstable`` naming the full buffer, never as a silently wrong verdict."""
     from harness.benchmarks.engines import _SCENES, _plan
     from harness.engines import mjwarp_batch

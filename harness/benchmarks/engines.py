@@ -29,6 +29,7 @@ from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.config.robot_registry import available_robots, canonical_task_files
 from harness.engines import Execution, ExecutionJob, register_engine
+from harness.engines.busy_time import union_length
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
@@ -154,7 +155,7 @@ class _Device:
     @property
     def device_s(self) -> float:
         """Wall time with at least one batch on the device."""
-        return _union_length(self.busy)
+        return union_length(self.busy)
 
     def _scene(self, job: Any) -> Any:
         from harness.episode.scene_cache import get_scene
@@ -201,16 +202,6 @@ class _Device:
             for key in ("peak_rows", "peak_contacts"):
                 self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
             self.peaks["memory_high_gb"] = self.engine.memory_high_gb()
-
-
-def _union_length(spans: list[tuple[float, float]]) -> float:
-    """The length of the union of the intervals."""
-    total, end = 0.0, float("-inf")
-    for start, stop in sorted(spans):
-        if stop > end:
-            total += stop - max(start, end)
-            end = stop
-    return total
 
 
 def run_gpu(

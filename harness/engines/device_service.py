@@ -21,10 +21,12 @@ import queue
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING, Any
 
+from harness.engines.busy_time import union_length
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
@@ -40,6 +42,12 @@ DEVICE_WAIT_LIMIT_S = 1800.0
 # sent one. Chosen, no public source: several planning times of a typical episode (~50 ms),
 # short against one batch on the device (~0.5 s for a pick at pace 0.3).
 GATHER_S = 0.5
+
+
+# Batches on the device at once, each on a stream of its own (``harness.engines.device_slot``):
+# while one steps, the next gathers the jobs of the workers it answered. Chosen, no public
+# source (two hides one batch's host work behind the other's physics).
+SLOTS = 2
 
 
 @dataclass
@@ -59,7 +67,8 @@ class DeviceReply:
 
 @dataclass
 class DeviceStats:
-    """What the service did: batches, jobs, the largest batch, seconds on the device."""
+    """What the service did: batches, jobs, the largest batch, seconds with a batch on the
+    device (the union of the batches' spans: two may overlap)."""
 
     batches: int = 0
     jobs: int = 0
@@ -121,6 +130,12 @@ class DeviceService:
         self._queue: queue.Queue[tuple[Any, Answer] | None] = queue.Queue()
         self._engine: Any = None
         self._scenes: dict[Any, Any] = {}
+        self._lock = threading.Lock()  # the stats, the count of jobs in flight
+        self._in_flight = 0  # jobs handed to a slot and not yet answered
+        self._free = threading.Semaphore(SLOTS)
+        self._slots: queue.Queue[Any] = queue.Queue()
+        self._spans: list[tuple[float, float]] = []
+        self._pool = ThreadPoolExecutor(SLOTS, thread_name_prefix="mjwarp-slot")
         self._thread = threading.Thread(target=self._loop, name="mjwarp-device", daemon=True)
         self._thread.start()
 
@@ -141,7 +156,9 @@ class DeviceService:
             try:
                 item = self._queue.get_nowait()
             except queue.Empty:
-                if len(batch) >= max(1, self.waiting()) or time.monotonic() >= deadline:
+                with self._lock:
+                    may_send = self.waiting() - self._in_flight  # those in flight wait
+                if len(batch) >= max(1, may_send) or time.monotonic() >= deadline:
                     return batch
                 time.sleep(0.002)
                 continue
@@ -151,15 +168,22 @@ class DeviceService:
             batch.append(item)
 
     def _loop(self) -> None:
+        """Gather a batch as soon as a slot is free and hand it to the slot's thread."""
         while True:
             first = self._queue.get()
             if first is None:
+                self._pool.shutdown(wait=True)
                 return
-            self._run(self._gather(first))
+            self._free.acquire()
+            batch = self._gather(first)
+            groups = self._groups(batch)
+            with self._lock:
+                self._in_flight += len(batch)
+            self._pool.submit(self._run, groups, len(batch))
 
-    def _run(self, batch: list[tuple[Any, Answer]]) -> None:
-        """Each task model's jobs as one batch of worlds; every job answered, error or not."""
-        clock = time.perf_counter()
+    def _groups(self, batch: list[tuple[Any, Answer]]) -> list[list[tuple[Any, Answer]]]:
+        """The jobs by batch key (scenes are built here, in one thread); a job whose scene
+        cannot be built is answered with its error."""
         groups: dict[tuple[Any, ...], list[tuple[Any, Answer]]] = {}
         for item in batch:
             try:
@@ -168,22 +192,39 @@ class DeviceService:
                 item[1](DeviceReply(None, f"{type(exc).__name__}: {exc}"))
                 continue
             groups.setdefault(key, []).append(item)
-        for items in groups.values():
-            jobs = [job for job, _ in items]
-            try:
-                outcomes = self._execute(jobs)
-            except Exception as exc:
-                message = f"batch of {len(jobs)} failed: {type(exc).__name__}: {exc}"
+        return list(groups.values())
+
+    def _run(self, groups: list[list[tuple[Any, Answer]]], count: int) -> None:
+        """(A slot's thread) each group as one batch of worlds; every job answered, error or
+        not; the slot is free again afterwards."""
+        clock = time.perf_counter()
+        try:
+            for items in groups:
+                self._run_group(items)
+        finally:
+            with self._lock:
+                self._in_flight -= count
+                self._spans.append((clock, time.perf_counter()))
+                self.stats.device_s = union_length(self._spans)
+            self._free.release()
+
+    def _run_group(self, items: list[tuple[Any, Answer]]) -> None:
+        jobs = [job for job, _ in items]
+        try:
+            outcomes = self._execute(jobs)
+        except Exception as exc:
+            message = f"batch of {len(jobs)} failed: {type(exc).__name__}: {exc}"
+            with self._lock:
                 self.stats.errors.append(message)
-                for _, answer in items:
-                    answer(DeviceReply(None, message))
-                continue
-            for (_, answer), outcome in zip(items, outcomes, strict=True):
-                answer(DeviceReply(outcome))
+            for _, answer in items:
+                answer(DeviceReply(None, message))
+            return
+        for (_, answer), outcome in zip(items, outcomes, strict=True):
+            answer(DeviceReply(outcome))
+        with self._lock:
             self.stats.batches += 1
             self.stats.jobs += len(jobs)
             self.stats.largest = max(self.stats.largest, len(jobs))
-        self.stats.device_s += time.perf_counter() - clock
 
     def _scene(self, task: Any) -> Any:
         """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
@@ -211,7 +252,14 @@ class DeviceService:
             return self._execute_batch(scene, jobs)
         from harness.engines.mjwarp_engine import MjwarpEngine
 
-        if self._engine is None:
-            self._engine = MjwarpEngine(self.device)
-        outcomes, _ = self._engine.execute_many(scene, jobs)
+        with self._lock:
+            if self._engine is None:
+                self._engine = MjwarpEngine(self.device)
+                for slot in self._engine.slots(SLOTS):
+                    self._slots.put(slot)
+        slot = self._slots.get()
+        try:
+            outcomes, _ = self._engine.execute_many(scene, jobs, slot)
+        finally:
+            self._slots.put(slot)
         return outcomes
