@@ -177,46 +177,51 @@ class CollisionChecker:
         ncon = d.ncon
         if ncon == 0:
             return []
-        geoms = d.contact.geom[:ncon]
-        g1, g2 = geoms[:, 0], geoms[:, 1]
         limit = -(self.tolerance if tolerance is None else tolerance)
-        dist = d.contact.dist[:ncon]
-        if self.table_clearance > 0.0:
-            table = self.scene.table_geom
-            deep = dist < np.where((g1 == table) | (g2 == table), self.table_clearance, limit)
-        else:
-            deep = dist < limit
-        robot, moving = self.robot, self.moving
-        obj = self.geom_object
-        env_hit = (moving[g1] & ~robot[g2]) | (moving[g2] & ~robot[g1])
+        geoms = d.contact.geom[:ncon].tolist()
+        dists = d.contact.dist[:ncon].tolist()
+        return [
+            (a, b)
+            for (a, b), dist in zip(geoms, dists, strict=True)
+            if self._offends(a, b, dist, limit, phase, carried) and (a, b) not in self.allowed
+        ]
+
+    def _offends(
+        self, a: int, b: int, dist: float, limit: float, phase: Phase, carried: bool
+    ) -> bool:
+        """Whether the contact of geoms ``a`` and ``b`` at distance ``dist`` is a collision for
+        ``phase`` (module doc). One contact at a time in Python: a query has a few contacts,
+        and whole-array numpy on so few costs more than the loop."""
+        table = self.scene.table_geom
+        if self.table_clearance > 0.0 and (a == table or b == table):
+            limit = self.table_clearance
+        if not dist < limit:  # not deep enough to count
+            return False
+        robot, moving, obj, target = self.robot, self.moving, self.geom_object, self.target_index
+        env_hit = (moving[a] and not robot[b]) or (moving[b] and not robot[a])
         if phase == "approach" and self.check_target:
-            fingers_on_target = (self.finger[g1] & (obj[g2] == self.target_index)) | (
-                self.finger[g2] & (obj[g1] == self.target_index)
-            )
-            env_hit &= ~fingers_on_target
+            fingers = self.finger
+            if (fingers[a] and obj[b] == target) or (fingers[b] and obj[a] == target):
+                env_hit = False  # the fingers may touch the target object
         if phase == "carry" or not self.check_target:
-            on_target = (robot[g1] & (obj[g2] == self.target_index)) | (
-                robot[g2] & (obj[g1] == self.target_index)
-            )
-            env_hit &= ~on_target
-        env_hit &= ~(self.ignored_geom[g1] | self.ignored_geom[g2])
-        if not self.robot_pairs_all:  # the planned arm's self-collision model only
-            robot_pair = self.arm_geom[g1] & self.arm_geom[g2]
-        else:
-            robot_pair = robot[g1] & robot[g2]
-        hits = deep & (env_hit | robot_pair)
-        if carried:  # the attached target against the environment (not the robot)
-            target1 = obj[g1] == self.target_index
-            target2 = obj[g2] == self.target_index
-            outside = ~robot & ~self.ignored_geom & (obj != self.target_index)
-            hits |= deep & ((target1 & outside[g2]) | (target2 & outside[g1]))
-        out = []
-        for i in np.flatnonzero(hits):
-            a, b = int(g1[i]), int(g2[i])
-            if (a, b) in self.allowed:
-                continue
-            out.append((a, b))
-        return out
+            if (robot[a] and obj[b] == target) or (robot[b] and obj[a] == target):
+                env_hit = False  # nothing of the robot is checked against the target
+        ignored = self.ignored_geom
+        if ignored[a] or ignored[b]:
+            env_hit = False
+        if self.robot_pairs_all:
+            robot_pair = robot[a] and robot[b]
+        else:  # the planned arm's self-collision model only
+            robot_pair = self.arm_geom[a] and self.arm_geom[b]
+        if env_hit or robot_pair:
+            return True
+        if not carried:
+            return False
+        # The attached target against the environment (not the robot).
+        def outside(g: int) -> bool:
+            return not robot[g] and not ignored[g] and obj[g] != target
+
+        return (obj[a] == target and outside(b)) or (obj[b] == target and outside(a))
 
     def collides(self, q_active: np.ndarray, phase: Phase) -> bool:
         return bool(self.contacts(q_active, phase))
