@@ -114,7 +114,7 @@ class PickExecutor:
         self.post: str | None = None  # the phase label once the list is empty
         self.failed_term = ""  # the name of the verdict term that failed the episode
         self.forces: tuple[float, float] = (0.0, 0.0)
-        self.penetration = TablePenetration(scene)
+        self.penetration = self._table_penetration(scene)
 
     @property
     def time(self) -> float:
@@ -375,6 +375,10 @@ class PickExecutor:
         return (invert_T(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
 
     # -- the validity phase (harness.pick.validity) ----------------------------------------------
+
+    def _table_penetration(self, scene: Scene) -> TablePenetration:
+        """What measures the table penetration (a hook: the schedule's lean run measures none)."""
+        return TablePenetration(scene)
 
     def _track_penetration(self) -> None:
         depth = self.penetration.depth(self.data)

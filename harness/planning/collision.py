@@ -32,6 +32,7 @@ import numpy as np
 
 from harness.planning.world import ATTACH_OFFSET, PlanningWorld
 from harness.sim.masks import TABLE_BIT, refresh_body_masks
+from harness.sim.queries import T_from_pos_mat
 from harness.sim.scene import Scene
 
 Phase = Literal["transport", "approach", "carry"]
@@ -197,16 +198,12 @@ class CollisionChecker:
             limit = self.table_clearance
         if not dist < limit:  # not deep enough to count
             return False
-        robot, moving, obj, target = self.robot, self.moving, self.geom_object, self.target_index
+        robot, moving, ignored = self.robot, self.moving, self.ignored_geom
         env_hit = (moving[a] and not robot[b]) or (moving[b] and not robot[a])
-        if phase == "approach" and self.check_target:
-            fingers = self.finger
-            if (fingers[a] and obj[b] == target) or (fingers[b] and obj[a] == target):
-                env_hit = False  # the fingers may touch the target object
-        if phase == "carry" or not self.check_target:
-            if (robot[a] and obj[b] == target) or (robot[b] and obj[a] == target):
-                env_hit = False  # nothing of the robot is checked against the target
-        ignored = self.ignored_geom
+        if phase == "approach" and self.check_target and self._on_target(self.finger, a, b):
+            env_hit = False  # the fingers may touch the target object
+        if (phase == "carry" or not self.check_target) and self._on_target(robot, a, b):
+            env_hit = False  # nothing of the robot is checked against the target
         if ignored[a] or ignored[b]:
             env_hit = False
         if self.robot_pairs_all:
@@ -215,13 +212,22 @@ class CollisionChecker:
             robot_pair = self.arm_geom[a] and self.arm_geom[b]
         if env_hit or robot_pair:
             return True
-        if not carried:
-            return False
-        # The attached target against the environment (not the robot).
-        def outside(g: int) -> bool:
-            return not robot[g] and not ignored[g] and obj[g] != target
+        return carried and self._target_meets_world(a, b)
 
-        return (obj[a] == target and outside(b)) or (obj[b] == target and outside(a))
+    def _on_target(self, part: np.ndarray, a: int, b: int) -> bool:
+        """One geom of the pair is the target object's, the other in ``part`` (a geom mask)."""
+        obj, target = self.geom_object, self.target_index
+        return bool((part[a] and obj[b] == target) or (part[b] and obj[a] == target))
+
+    def _target_meets_world(self, a: int, b: int) -> bool:
+        """One geom of the pair is the target object's, the other the world's (not the robot's,
+        an ignored object's or the target's): the attached target's collisions in a carry."""
+        obj, target = self.geom_object, self.target_index
+        for mine, other in ((a, b), (b, a)):
+            world = not (self.robot[other] or self.ignored_geom[other] or obj[other] == target)
+            if obj[mine] == target and world:
+                return True
+        return False
 
     def collides(self, q_active: np.ndarray, phase: Phase) -> bool:
         return bool(self.contacts(q_active, phase))
@@ -251,20 +257,14 @@ class CollisionChecker:
 
 
 def _body_T(data: mujoco.MjData, body: int) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = data.xmat[body].reshape(3, 3)
-    T[:3, 3] = data.xpos[body]
-    return T
+    return T_from_pos_mat(data.xpos[body], data.xmat[body])
 
 
 def _qpos_T(qpos: np.ndarray) -> np.ndarray:
     """A free joint's 7 qpos values (position, wxyz) as a 4x4 transform."""
-    T = np.eye(4)
     mat = np.empty(9)
     mujoco.mju_quat2Mat(mat, np.asarray(qpos[3:7], dtype=float))
-    T[:3, :3] = mat.reshape(3, 3)
-    T[:3, 3] = qpos[:3]
-    return T
+    return T_from_pos_mat(qpos[:3], mat)
 
 
 def _van_der_corput_order(n: int) -> list[int]:
