@@ -10,6 +10,8 @@ shape ``(..., 4)`` and rotations of shape ``(..., 3, 3)``, and never loops in Py
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -101,6 +103,49 @@ def matrix_to_quat(R: ArrayLike) -> FloatArray:
     q = np.take_along_axis(candidates, best, axis=-2)[..., 0, :]
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return np.where(q[..., :1] < 0.0, -q, q)
+
+
+Quat = tuple[float, float, float, float]
+
+
+def rotation_quat(R: np.ndarray) -> Quat:
+    """``matrix_to_quat`` of one rotation matrix (the top-left 3x3 of ``R``) as Python floats.
+
+    The same operations in the same order as the vectorised function (so the same bits: each
+    is one IEEE operation, and numpy sums a 4-vector left to right), without its ~40 us of
+    numpy calls on tiny arrays: the executor tests poses with it every control step.
+    """
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R[:3, :3].tolist()
+    trace = r00 + r11 + r22
+    pivots = (trace, r00, r11, r22)
+    best = 0  # the first largest pivot, as np.argmax picks it
+    for index in (1, 2, 3):
+        if pivots[index] > pivots[best]:
+            best = index
+    if best == 0:
+        q = (1.0 + trace, r21 - r12, r02 - r20, r10 - r01)
+    elif best == 1:
+        q = (r21 - r12, 1.0 + r00 - r11 - r22, r01 + r10, r02 + r20)
+    elif best == 2:
+        q = (r02 - r20, r01 + r10, 1.0 - r00 + r11 - r22, r12 + r21)
+    else:
+        q = (r10 - r01, r02 + r20, r12 + r21, 1.0 - r00 - r11 + r22)
+    w, x, y, z = _normalised(q)
+    return (-w, -x, -y, -z) if w < 0.0 else (w, x, y, z)
+
+
+def _normalised(q: Quat) -> Quat:
+    """``q / np.linalg.norm(q)`` in Python floats (the squares summed left to right)."""
+    w, x, y, z = q
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    return (w / norm, x / norm, y / norm, z / norm)
+
+
+def quat_angle(q1: Quat, q2: Quat) -> float:
+    """``quat_angle_between`` of two wxyz quaternions given as Python floats (same bits)."""
+    a, b = _normalised(q1), _normalised(q2)
+    dot = abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3])
+    return 2.0 * float(np.arccos(min(dot, 1.0)))
 
 
 def make_T(R: ArrayLike, p: ArrayLike) -> FloatArray:

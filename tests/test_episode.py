@@ -307,6 +307,21 @@ def test_trace_holds_what_a_viewer_needs(cube: Path, cache: dict) -> None:
     assert np.all(np.diff(trace.planned_time) >= 0)
 
 
+def test_an_episode_without_its_trace_has_the_same_row(cube: Path, cache: dict) -> None:
+    """``EpisodeSpec.trace`` False (the engines benchmark's planning workers) skips the viewers'
+    trace and nothing else: the row is the one of the episode with its trace."""
+    task = make_task("fr3", "left", cube)
+    with_trace = episode(task, 5, cache)
+    without = episode(task, 5, cache, trace=False)
+    assert with_trace.trace is not None and without.trace is None
+    timing = {"wall_time_s", "ik_time_s", "plan_time_s"}
+    for key, value in with_trace.row.items():
+        if key not in timing:
+            other = without.row[key]
+            assert value == other or (value != value and other != other), key
+    assert set(without.row) == set(with_trace.row)
+
+
 # --------------------------------------------------------------------------------------------
 # harness run
 

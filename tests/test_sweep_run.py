@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 import pytest
@@ -278,3 +279,33 @@ def test_resume_with_retry_errors_reruns_only_the_error_rows(tmp_path: Path, mon
     assert retried.stats.finished == 1 and retried.skipped_existing == 3
     frame = rows(first.run_dir).set_index("episode_id")
     assert len(frame) == 4 and (frame["failure_reason"] != "error").all()
+
+
+def test_a_worker_makes_no_trace_where_no_recording_can_be_wanted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Under ``--record none`` (and no sampled recording) the worker's episode makes no viewers'
+    trace; its row is the one a worker that may record it writes."""
+    import harness.episode as episode_module
+    from harness.config import load_task
+    from harness.episode import EpisodeSpec
+    from harness.runs import worker
+
+    real = episode_module.run_episode
+    traces: list[bool] = []
+
+    def run_episode(spec: EpisodeSpec, *args: Any, **kwargs: Any) -> Any:
+        result = real(spec, *args, **kwargs)
+        traces.append(result.trace is not None)
+        return result
+
+    monkeypatch.setattr(episode_module, "run_episode", run_episode)
+    spec = EpisodeSpec(task=load_task(ROOT / "tasks" / "pick" / "fr3.yaml"), seed=3)
+    policies = ("none", "failures")
+    rows = [worker.execute(spec, str(tmp_path), policy, share=False) for policy in policies]
+    assert traces == [False, True]
+    varying = {"wall_time_s", "ik_time_s", "plan_time_s", "worker_peak_rss_mb"}
+    assert set(rows[0]) == set(rows[1])
+    for key in set(rows[0]) - varying:
+        a, b = rows[0][key], rows[1][key]
+        assert a == b or (a != a and b != b), key

@@ -107,3 +107,23 @@ def test_quat_multiply_composes_rotations() -> None:
         tf.quat_to_matrix(a) @ tf.quat_to_matrix(b),
         atol=1e-12,
     )
+
+
+def test_rotation_quat_and_quat_angle_give_the_vectorised_results_bit_for_bit() -> None:
+    """The executor's scalar pose tests (``rotation_quat``, ``quat_angle``) give exactly the
+    floats of ``matrix_to_quat`` and ``quat_angle_between`` (the control schedules depend on
+    them): random rotations, half turns, ties between pivots, rounded matrices."""
+    rng = np.random.default_rng(4)
+    q = rng.normal(size=(3000, 4))
+    q[:4] = [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [0, np.sqrt(0.5), np.sqrt(0.5), 0]]
+    q[4:8] = [[1, 0, 0, 0], [1, 1e-9, 0, 0], [np.sqrt(0.5), 0, np.sqrt(0.5), 0], [1, 1, 1, 1]]
+    R = tf.quat_to_matrix(q)
+    R[8:1000] = np.round(R[8:1000], 2)  # ties and near-ties between the diagonal pivots
+    T = np.zeros((len(R), 4, 4))
+    T[:, :3, :3] = R
+    quats = tf.matrix_to_quat(R)
+    scalar = np.array([tf.rotation_quat(t) for t in T])
+    assert np.array_equal(scalar, quats)
+    angles = tf.quat_angle_between(quats[:-1], quats[1:])
+    pairs = zip(scalar[:-1].tolist(), scalar[1:].tolist(), strict=True)
+    assert np.array_equal([tf.quat_angle(a, b) for a, b in pairs], angles)

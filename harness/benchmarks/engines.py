@@ -64,12 +64,13 @@ _SCENES: dict[Any, Any] = {}
 
 
 def _plan(spec: Any) -> tuple[dict[str, Any], Any]:
-    """Worker: plan one episode; its row (when it ended before execution) and its job."""
+    """Worker: plan one episode; its row (when it ended before execution) and its job (no
+    viewer trace: nothing reads it here)."""
     from harness.episode import run_episode
 
     register_engine(_COLLECTOR)
     _COLLECTOR.jobs.clear()
-    row = run_episode(dataclasses.replace(spec, engine="collect"), _SCENES).row
+    row = run_episode(dataclasses.replace(spec, engine="collect", trace=False), _SCENES).row
     return row, (_COLLECTOR.jobs[0] if _COLLECTOR.jobs else None)
 
 

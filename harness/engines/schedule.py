@@ -12,8 +12,9 @@ What this timing difference does to the outcomes is measured (docs/engines.md, a
 
 The kinematic run computes only what the schedule depends on (``lean``): the pose tests that pop
 commands. It skips what the executor measures for its row and nobody reads here (the device
-measures them itself): the table penetration, the joint and object speeds; and it runs
-``mj_kinematics`` only when a pose is read (once per control step, not once per servo chunk).
+measures them itself): the table penetration, the joint and object speeds; and it moves the
+joints to their setpoints and runs ``mj_kinematics`` only when a pose is read (once per control
+step, not once per servo chunk).
 ``lean=False`` runs the executor's every measurement, for the test that the schedule is the same.
 """
 
@@ -29,6 +30,7 @@ import numpy as np
 from harness.config import TaskConfig
 from harness.engines.base import ExecutionJob
 from harness.pick.executor import PickExecutor
+from harness.pick.penetration import TablePenetration
 from harness.pick.semantics import Semantics
 from harness.pick.verdict import VerdictTerm
 from harness.sim import Scene
@@ -62,8 +64,12 @@ class ExecutionSchedule:
         return self.ctrl[-1, -1]
 
 
-class _NoPenetration:
-    """A ``TablePenetration`` that measures nothing (the device measures the depth)."""
+class _NoPenetration(TablePenetration):
+    """A ``TablePenetration`` that measures nothing (the device measures the depth), and costs
+    nothing to make (no per-geom tables)."""
+
+    def __init__(self) -> None:
+        pass
 
     def depth(self, data: mujoco.MjData) -> float:
         return 0.0
@@ -75,6 +81,9 @@ class _ScheduleExecutor(PickExecutor):
     close_step = -1
     verdict_step = -1
     lean = True
+
+    def _table_penetration(self, scene: Scene) -> TablePenetration:
+        return _NoPenetration() if self.lean else super()._table_penetration(scene)
 
     def _track_penetration(self) -> None:
         if not self.lean:
@@ -99,11 +108,19 @@ class _ScheduleExecutor(PickExecutor):
         return done
 
 
+class _MeasuringScheduleExecutor(_ScheduleExecutor):
+    """The schedule's executor with every measurement of the CPU executor (``lean=False``)."""
+
+    lean = False
+
+
 def kinematic_scene(scene: Scene, lean: bool = True) -> Scene:
     """A copy of the scene on its own MjData whose ``step`` moves the arm joints to their servo
-    setpoints (no dynamics, no contacts: no forces, never unstable). ``lean``: the body poses
-    are brought up to date when ``T_world_body`` reads one (the same poses: ``mj_kinematics``
-    is a function of ``qpos``, which only ``step`` changes), and the joint speed reads 0."""
+    setpoints (no dynamics, no contacts: no forces, never unstable). ``lean``: the joints are
+    moved and the body poses brought up to date when ``T_world_body`` reads one (the same
+    poses: the executor sets ``ctrl`` only before a ``step``, so the setpoints then are those
+    of the last ``step``, and ``mj_kinematics`` is a function of ``qpos``), and the joint
+    speed reads 0."""
     kin = copy.copy(scene)
     data = copy.copy(scene.data)
     kin.data = data
@@ -111,12 +128,15 @@ def kinematic_scene(scene: Scene, lean: bool = True) -> Scene:
     arms = list(scene.arms.values())
     stale = [False]
 
-    def step(nstep: int) -> None:
+    def to_setpoints() -> None:
         for handles in arms:
             data.qpos[handles.active_qpos] = data.ctrl[handles.active_actuators]
+
+    def step(nstep: int) -> None:
         if lean:
             stale[0] = True
         else:
+            to_setpoints()
             mujoco.mj_kinematics(model, data)
 
     kin.step = step  # type: ignore[method-assign]
@@ -126,6 +146,7 @@ def kinematic_scene(scene: Scene, lean: bool = True) -> Scene:
 
         def T_world_body(body: int) -> np.ndarray:
             if stale[0]:
+                to_setpoints()
                 mujoco.mj_kinematics(model, data)
                 stale[0] = False
             return T_from_pos_mat(data.xpos[body], data.xmat[body])
@@ -139,13 +160,11 @@ def build_schedule(job: ExecutionJob, lean: bool = True) -> ExecutionSchedule:
     """Run the executor kinematically from the job's start state; see the module doc."""
     scene = kinematic_scene(job.scene, lean)
     warmup_ctrl = scene.data.ctrl.copy()
-    executor = _ScheduleExecutor(
+    executor_type = _ScheduleExecutor if lean else _MeasuringScheduleExecutor
+    executor = executor_type(
         scene, job.task, job.targets, job.object_init_position, job.lift_offset, None,
         record=False, log_ctrl=True, semantics=job.semantics,
     )  # fmt: skip
-    executor.lean = lean
-    if lean:
-        executor.penetration = _NoPenetration()  # type: ignore[assignment]
     validity = executor.validity
     executor.validity = False
     executor.run()

@@ -50,9 +50,9 @@ def execute_chosen(planning: Planning, choice: Choice) -> ExecutedOutcome:
 
 def _execution_plan(
     planning: Planning, choice: Choice
-) -> tuple[PickTargets, tuple[np.ndarray, np.ndarray, np.ndarray], MotionColumns]:
-    """4. The executed plan, timed: its targets, the planned TCP path (for the trace) and the
-    motion's duration."""
+) -> tuple[PickTargets, tuple[np.ndarray, np.ndarray, np.ndarray] | None, MotionColumns]:
+    """4. The executed plan, timed: its targets, the planned TCP path (for the trace; None
+    when the spec wants no trace) and the motion's duration."""
     setup = planning.setup
     task, scene, arm = setup.task, setup.scene, setup.arm
     try:
@@ -72,14 +72,16 @@ def _execution_plan(
     planning.record_plan_time()
     motion = MotionColumns(traj_duration_s=sum(s.duration for s in segments.values()))
     targets = PickTargets(plan.T_world_pregrasp, plan.T_world_grasp, plan.T_world_lift, segments)
-    planned = planned_tcp(setup.planner.ik, scene, arm, segments, task.control_dt)
+    planned = None
+    if setup.spec.trace:
+        planned = planned_tcp(setup.planner.ik, scene, arm, segments, task.control_dt)
     return targets, planned, motion
 
 
 def _execute(
     planning: Planning,
     targets: PickTargets,
-    planned: tuple[np.ndarray, np.ndarray, np.ndarray],
+    planned: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
 ) -> tuple[tuple[RowRecord, ...], tuple[str, str] | None]:
     """5. The reference's 10 warm-up steps (robot holding its home), then execute and judge:
     the measured columns and, when the verdict failed, its reason and message."""

@@ -58,6 +58,9 @@ class Planning:
         planned: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
     ) -> None:
         setup = self.setup
+        if not setup.spec.trace:
+            setup.result.trace = None
+            return
         setup.result.trace = make_trace(
             setup.scene, setup.arm, self.selection, self.poses.T_world_base, self.verdicts,
             self.chosen, outcome, targets, planned, self.T_world_object_start,

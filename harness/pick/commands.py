@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 
 from harness.config import PickConfig
-from harness.transforms import matrix_to_quat, quat_angle_between
+from harness.transforms import quat_angle, rotation_quat
 
 IDLE_POP_STEPS = 10  # the reference pops a command after more than 10 idle steps
 REPLAN_EPS = 5e-3  # the controller re-plans (and resets its idle count) for targets this far
@@ -88,15 +88,14 @@ def pose_reached(T_ee: np.ndarray, T_target: np.ndarray, t_eps: float, o_eps: fl
     ``2 acos(min(|q . q*|, 1)) < o_eps``, both strict."""
     if float(np.linalg.norm(T_ee[:3, 3] - T_target[:3, 3])) >= t_eps:
         return False
-    quats = matrix_to_quat(np.stack([T_ee[:3, :3], T_target[:3, :3]]))
-    return float(quat_angle_between(quats[0], quats[1])) < o_eps
+    return quat_angle(rotation_quat(T_ee), rotation_quat(T_target)) < o_eps
 
 
 def target_moved(T_from: np.ndarray, T_to: np.ndarray) -> bool:
     """The controller's re-plan test: translation or quaternion difference norm > 5e-3."""
     if float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3])) > REPLAN_EPS:
         return True
-    q_from, q_to = matrix_to_quat(np.stack([T_from[:3, :3], T_to[:3, :3]]))
+    q_from, q_to = np.array(rotation_quat(T_from)), np.array(rotation_quat(T_to))
     if float(np.dot(q_from, q_to)) < 0.0:  # same rotation, opposite sign: compare like for like
         q_to = -q_to
     return float(np.linalg.norm(q_to - q_from)) > REPLAN_EPS

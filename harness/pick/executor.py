@@ -114,7 +114,7 @@ class PickExecutor:
         self.post: str | None = None  # the phase label once the list is empty
         self.failed_term = ""  # the name of the verdict term that failed the episode
         self.forces: tuple[float, float] = (0.0, 0.0)
-        self.penetration = TablePenetration(scene)
+        self.penetration = self._table_penetration(scene)
 
     @property
     def time(self) -> float:
@@ -200,16 +200,21 @@ class PickExecutor:
         recorder = self.recorder
         phase = self._phase_label() if recorder is not None else ""
         forces = (0.0, 0.0)
+        # Locals for the chunk loop (it runs ~5 times a control step, on every episode's
+        # schedule): the ctrl view is the MjData buffer itself, valid across steps.
+        ctrl, log, last = d.ctrl, self.ctrl_log, len(self.chunk_sizes) - 1
+        arm_rows = arm_plan[self.arm_row] if arm_plan is not None else None
+        gripper_rows = gripper_plan[self.gripper_row] if gripper_plan is not None else None
         for chunk, size in enumerate(self.chunk_sizes):
-            if arm_plan is not None:
-                d.ctrl[h.active_actuators] = arm_plan[self.arm_row, chunk]
-            if gripper_plan is not None:
-                d.ctrl[h.gripper_actuator] = gripper_plan[self.gripper_row, chunk]
-            if self.ctrl_log is not None:
-                self.ctrl_log.append((size, d.ctrl.copy()))
+            if arm_rows is not None:
+                ctrl[h.active_actuators] = arm_rows[chunk]
+            if gripper_rows is not None:
+                ctrl[h.gripper_actuator] = gripper_rows[chunk]
+            if log is not None:
+                log.append((size, ctrl.copy()))
             self.scene.step(size)
             out.sim_steps += size
-            if recorder is not None or chunk == len(self.chunk_sizes) - 1:
+            if recorder is not None or chunk == last:
                 forces = self.scene.finger_forces(self.arm, self.object_name)
             if recorder is not None:  # one trace row per servo chunk (~10 ms)
                 recorder.record(self.time, phase, forces)
@@ -375,6 +380,10 @@ class PickExecutor:
         return (invert_T(T_tcp) @ np.append(self.data.xpos[self.obj.body_id], 1.0))[:3]
 
     # -- the validity phase (harness.pick.validity) ----------------------------------------------
+
+    def _table_penetration(self, scene: Scene) -> TablePenetration:
+        """What measures the table penetration (a hook: the schedule's lean run measures none)."""
+        return TablePenetration(scene)
 
     def _track_penetration(self) -> None:
         depth = self.penetration.depth(self.data)

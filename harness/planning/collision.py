@@ -32,6 +32,7 @@ import numpy as np
 
 from harness.planning.world import ATTACH_OFFSET, PlanningWorld
 from harness.sim.masks import TABLE_BIT, refresh_body_masks
+from harness.sim.queries import T_from_pos_mat
 from harness.sim.scene import Scene
 
 Phase = Literal["transport", "approach", "carry"]
@@ -177,46 +178,56 @@ class CollisionChecker:
         ncon = d.ncon
         if ncon == 0:
             return []
-        geoms = d.contact.geom[:ncon]
-        g1, g2 = geoms[:, 0], geoms[:, 1]
         limit = -(self.tolerance if tolerance is None else tolerance)
-        dist = d.contact.dist[:ncon]
-        if self.table_clearance > 0.0:
-            table = self.scene.table_geom
-            deep = dist < np.where((g1 == table) | (g2 == table), self.table_clearance, limit)
-        else:
-            deep = dist < limit
-        robot, moving = self.robot, self.moving
-        obj = self.geom_object
-        env_hit = (moving[g1] & ~robot[g2]) | (moving[g2] & ~robot[g1])
-        if phase == "approach" and self.check_target:
-            fingers_on_target = (self.finger[g1] & (obj[g2] == self.target_index)) | (
-                self.finger[g2] & (obj[g1] == self.target_index)
-            )
-            env_hit &= ~fingers_on_target
-        if phase == "carry" or not self.check_target:
-            on_target = (robot[g1] & (obj[g2] == self.target_index)) | (
-                robot[g2] & (obj[g1] == self.target_index)
-            )
-            env_hit &= ~on_target
-        env_hit &= ~(self.ignored_geom[g1] | self.ignored_geom[g2])
-        if not self.robot_pairs_all:  # the planned arm's self-collision model only
-            robot_pair = self.arm_geom[g1] & self.arm_geom[g2]
-        else:
-            robot_pair = robot[g1] & robot[g2]
-        hits = deep & (env_hit | robot_pair)
-        if carried:  # the attached target against the environment (not the robot)
-            target1 = obj[g1] == self.target_index
-            target2 = obj[g2] == self.target_index
-            outside = ~robot & ~self.ignored_geom & (obj != self.target_index)
-            hits |= deep & ((target1 & outside[g2]) | (target2 & outside[g1]))
-        out = []
-        for i in np.flatnonzero(hits):
-            a, b = int(g1[i]), int(g2[i])
-            if (a, b) in self.allowed:
-                continue
-            out.append((a, b))
-        return out
+        geoms = d.contact.geom[:ncon].tolist()
+        dists = d.contact.dist[:ncon].tolist()
+        return [
+            (a, b)
+            for (a, b), dist in zip(geoms, dists, strict=True)
+            if self._offends(a, b, dist, limit, phase, carried) and (a, b) not in self.allowed
+        ]
+
+    def _offends(
+        self, a: int, b: int, dist: float, limit: float, phase: Phase, carried: bool
+    ) -> bool:
+        """Whether the contact of geoms ``a`` and ``b`` at distance ``dist`` is a collision for
+        ``phase`` (module doc). One contact at a time in Python: a query has a few contacts,
+        and whole-array numpy on so few costs more than the loop."""
+        table = self.scene.table_geom
+        if self.table_clearance > 0.0 and (a == table or b == table):
+            limit = self.table_clearance
+        if not dist < limit:  # not deep enough to count
+            return False
+        robot, moving, ignored = self.robot, self.moving, self.ignored_geom
+        env_hit = (moving[a] and not robot[b]) or (moving[b] and not robot[a])
+        if phase == "approach" and self.check_target and self._on_target(self.finger, a, b):
+            env_hit = False  # the fingers may touch the target object
+        if (phase == "carry" or not self.check_target) and self._on_target(robot, a, b):
+            env_hit = False  # nothing of the robot is checked against the target
+        if ignored[a] or ignored[b]:
+            env_hit = False
+        if self.robot_pairs_all:
+            robot_pair = robot[a] and robot[b]
+        else:  # the planned arm's self-collision model only
+            robot_pair = self.arm_geom[a] and self.arm_geom[b]
+        if env_hit or robot_pair:
+            return True
+        return carried and self._target_meets_world(a, b)
+
+    def _on_target(self, part: np.ndarray, a: int, b: int) -> bool:
+        """One geom of the pair is the target object's, the other in ``part`` (a geom mask)."""
+        obj, target = self.geom_object, self.target_index
+        return bool((part[a] and obj[b] == target) or (part[b] and obj[a] == target))
+
+    def _target_meets_world(self, a: int, b: int) -> bool:
+        """One geom of the pair is the target object's, the other the world's (not the robot's,
+        an ignored object's or the target's): the attached target's collisions in a carry."""
+        obj, target = self.geom_object, self.target_index
+        for mine, other in ((a, b), (b, a)):
+            world = not (self.robot[other] or self.ignored_geom[other] or obj[other] == target)
+            if obj[mine] == target and world:
+                return True
+        return False
 
     def collides(self, q_active: np.ndarray, phase: Phase) -> bool:
         return bool(self.contacts(q_active, phase))
@@ -246,20 +257,14 @@ class CollisionChecker:
 
 
 def _body_T(data: mujoco.MjData, body: int) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = data.xmat[body].reshape(3, 3)
-    T[:3, 3] = data.xpos[body]
-    return T
+    return T_from_pos_mat(data.xpos[body], data.xmat[body])
 
 
 def _qpos_T(qpos: np.ndarray) -> np.ndarray:
     """A free joint's 7 qpos values (position, wxyz) as a 4x4 transform."""
-    T = np.eye(4)
     mat = np.empty(9)
     mujoco.mju_quat2Mat(mat, np.asarray(qpos[3:7], dtype=float))
-    T[:3, :3] = mat.reshape(3, 3)
-    T[:3, 3] = qpos[:3]
-    return T
+    return T_from_pos_mat(qpos[:3], mat)
 
 
 def _van_der_corput_order(n: int) -> list[int]:

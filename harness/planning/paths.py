@@ -99,26 +99,43 @@ def shortcut(
     return path
 
 
+class PoseLine:
+    """The line between two poses: linear position, slerp orientation (``at(s)``, ``s`` in
+    [0, 1]). What does not depend on ``s`` (the relative rotation's angle and axis) is found
+    once per line: a Cartesian path asks for one pose per step along it."""
+
+    def __init__(self, T_a: np.ndarray, T_b: np.ndarray) -> None:
+        self.T_a, self.T_b = T_a, T_b
+        R_rel = T_a[:3, :3].T @ T_b[:3, :3]
+        self.angle = float(np.arccos(np.clip(0.5 * (np.trace(R_rel) - 1.0), -1.0, 1.0)))
+        self.axis: np.ndarray | None = None  # None: no rotation to interpolate
+        if self.angle < 1e-9:
+            return
+        axis = np.array(
+            [R_rel[2, 1] - R_rel[1, 2], R_rel[0, 2] - R_rel[2, 0], R_rel[1, 0] - R_rel[0, 1]]
+        )
+        norm = np.linalg.norm(axis)
+        if norm < 1e-12:  # angle ~ pi: pick the axis from the symmetric part
+            w, v = np.linalg.eigh(R_rel)
+            self.axis = v[:, int(np.argmax(w))]
+        else:
+            self.axis = axis / norm
+
+    def at(self, s: float) -> np.ndarray:
+        """The pose at ``s`` (``T_a`` at 0, ``T_b`` at 1)."""
+        T_a, T_b = self.T_a, self.T_b
+        out = np.eye(4)
+        out[:3, 3] = T_a[:3, 3] + (T_b[:3, 3] - T_a[:3, 3]) * s
+        if self.axis is None:
+            out[:3, :3] = T_a[:3, :3] if s < 0.5 else T_b[:3, :3]
+        else:
+            out[:3, :3] = T_a[:3, :3] @ _axis_angle(self.axis, self.angle * s)
+        return out
+
+
 def interpolate_pose(T_a: np.ndarray, T_b: np.ndarray, s: float) -> np.ndarray:
     """Linear position and slerp orientation between two poses, ``s`` in [0, 1]."""
-    out = np.eye(4)
-    out[:3, 3] = T_a[:3, 3] + (T_b[:3, 3] - T_a[:3, 3]) * s
-    R_rel = T_a[:3, :3].T @ T_b[:3, :3]
-    angle = float(np.arccos(np.clip(0.5 * (np.trace(R_rel) - 1.0), -1.0, 1.0)))
-    if angle < 1e-9:
-        out[:3, :3] = T_a[:3, :3] if s < 0.5 else T_b[:3, :3]
-        return out
-    axis = np.array(
-        [R_rel[2, 1] - R_rel[1, 2], R_rel[0, 2] - R_rel[2, 0], R_rel[1, 0] - R_rel[0, 1]]
-    )
-    norm = np.linalg.norm(axis)
-    if norm < 1e-12:  # angle ~ pi: pick the axis from the symmetric part
-        w, v = np.linalg.eigh(R_rel)
-        axis = v[:, int(np.argmax(w))]
-    else:
-        axis = axis / norm
-    out[:3, :3] = T_a[:3, :3] @ _axis_angle(axis, angle * s)
-    return out
+    return PoseLine(T_a, T_b).at(s)
 
 
 def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:

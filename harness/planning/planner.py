@@ -31,7 +31,7 @@ import numpy as np
 
 from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
-from harness.planning.paths import interpolate_pose, rrt_connect, shortcut
+from harness.planning.paths import PoseLine, rrt_connect, shortcut
 from harness.planning.plans import CandidateVerdict, ChainPlan, FailurePoint
 from harness.planning.world import PlanningWorld
 from harness.sim.scene import Scene
@@ -179,8 +179,9 @@ class PickPlanner:
         count = max(1, int(np.ceil(distance / s.cartesian_step)))
         waypoints = [q_start]
         q = q_start
+        line = PoseLine(T_from, T_to)
         for k in range(1, count + 1):
-            T = interpolate_pose(T_from, T_to, k / count)
+            T = line.at(k / count)
             result = self.ik.solve(T, q, None, s.ik)
             if not result.success:
                 self._note(result.q)

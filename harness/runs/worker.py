@@ -7,6 +7,7 @@ a lost worker) gets an ``error_row`` from the executor instead.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from pathlib import Path
@@ -40,7 +41,8 @@ def execute(
     With ``share`` the episode uses this process's candidate cache
     (``harness.episode.candidate_cache``).
     An episode answered partly from it has no trace; when its recording is wanted it runs
-    again without the cache (same row) to make one.
+    again without the cache (same row) to make one. An episode that no recording policy can
+    want (``--record none``, or not sampled) makes no trace at all (the same row, cheaper).
     Never raises for episode-level problems: ``run_episode`` turns them into failure reasons,
     and anything that escapes it becomes an ``error`` row here. The episode runs under its
     task's limits (``limits.wall_time_s``, ``limits.sim_steps``: past them it ends as
@@ -53,6 +55,8 @@ def execute(
     start = time.perf_counter()
     log_mujoco_to(Path(run_dir))
     _inject_fault(episode.resolved_id)
+    if not _may_record(episode, record_policy):  # nothing will read the viewers' trace
+        episode = dataclasses.replace(episode, trace=False)
     limits = episode.task.limits
     try:
         cache = _candidate_cache() if share else None
@@ -82,6 +86,11 @@ def invalid_success(row: dict[str, Any]) -> bool:
     """A reference success whose validity phase judged it not physically valid."""
     reason = str(row.get("invalid_reason") or "")
     return bool(row.get("success")) and not bool(row.get("valid")) and reason not in ("", "not_run")
+
+
+def _may_record(episode: EpisodeSpec, record_policy: str) -> bool:
+    """Whether ``_wants_recording`` can hold for the episode, whatever its row."""
+    return episode.record or record_policy in ("failures", "invalid")
 
 
 def _wants_recording(episode: EpisodeSpec, row: dict[str, Any], record_policy: str) -> bool:

@@ -188,6 +188,14 @@ def with_object_defaults(obj: ObjectConfig) -> ObjectConfig:
 
 
 @per_task
+def object_configs(task: TaskConfig) -> dict[str, ObjectConfig]:
+    """The task's objects with their defaults (``with_object_defaults``) by name, made once per
+    task: each reset reads them, and each default object costs a file lookup and a validation.
+    Read-only: the dict is shared by every call for the task."""
+    return {config.name: with_object_defaults(config) for config in task.objects}
+
+
+@per_task
 def scene_key(task: TaskConfig) -> str:
     """Cache key of the scene a task needs: the robot and its gripper (variant, grip physics),
     each object's resolved mesh file and physical properties, and the physics options (not

@@ -16,7 +16,10 @@ from harness.transforms import invert_T
 
 
 def T_from_pos_mat(pos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
+    """The 4x4 pose of a MuJoCo position and flat rotation matrix (``zeros`` and one 1 costs
+    half of ``np.eye``: this runs every control step)."""
+    T = np.zeros((4, 4))
+    T[3, 3] = 1.0
     T[:3, :3] = np.asarray(xmat).reshape(3, 3)
     T[:3, 3] = pos
     return T

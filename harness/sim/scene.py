@@ -33,7 +33,7 @@ from harness.errors import HarnessError
 from harness.objects.assets import ObjectAsset
 from harness.robots.model import RobotModel
 from harness.sim.budget import check_deadline, spend
-from harness.sim.composition import TABLE_NAME, compose, with_object_defaults
+from harness.sim.composition import TABLE_NAME, compose, object_configs
 from harness.sim.index import (
     ArmHandles,
     SceneObject,
@@ -222,7 +222,7 @@ class Scene(SceneQueries):
         arm = self.robot.arm(task.arm)
         T_world_objects: dict[str, np.ndarray] = {}
         choice: int | None = None
-        configs = {config.name: with_object_defaults(config) for config in task.objects}
+        configs = object_configs(task)
         footprints: list[tuple[np.ndarray, float]] = []  # (xy, radius) of the objects placed
         for obj in self.objects.values():
             # The task's placement and orientations (the scene may have been built for another

@@ -16,6 +16,7 @@ import numpy as np
 import toppra as ta
 import toppra.algorithm as ta_algo
 import toppra.constraint as ta_constraint
+import toppra.solverwrapper as ta_solverwrapper
 from toppra.algorithm.algorithm import ParameterizationReturnCode
 
 from harness.planning.timing.errors import TimingError
@@ -32,6 +33,12 @@ from harness.planning.timing.trajectory import Samples, Trajectory
 # Automatic TOPP-RA grid: toppra's interpolation-error threshold, and a cap on the grid size.
 GRID_MAX_ERROR = 1e-3
 GRID_MAX_POINTS = 1000
+
+# Every TOPPRA instance asks ``available_solvers`` which optional solvers are installed: two
+# ``importlib`` searches of sys.path, ~0.15 ms each, six per episode (three timed paths). The
+# answer cannot change while the process runs, so it is asked once; the solver it leads to
+# (``seidel``, first and always available) is the same.
+ta_solverwrapper.available_solvers = functools.cache(ta_solverwrapper.available_solvers)
 
 
 class ConstAccelPathProfile:
