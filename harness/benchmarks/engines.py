@@ -75,10 +75,10 @@ def _plan(spec: Any) -> tuple[dict[str, Any], Any]:
 
 
 def _cpu(spec: Any) -> dict[str, Any]:
-    """Worker: one whole episode on the mujoco engine."""
+    """Worker: one whole episode on the mujoco engine (no viewer trace, as on the GPU path)."""
     from harness.episode import run_episode
 
-    return run_episode(spec, _SCENES).row
+    return run_episode(dataclasses.replace(spec, trace=False), _SCENES).row
 
 
 def tasks(arms: tuple[str, ...] = ARMS, objects: tuple[str, ...] = OBJECTS) -> list[TaskConfig]:
