@@ -240,7 +240,9 @@ class WorldBatch:
         self.policy = policy  # which rungs each tug round runs
         self.buffers = buffers
         self.timings = BatchTimings()
-        self._overflowed: set[int] = set()  # episode worlds whose tug round did not fit LARGE
+        # the worlds of the current ``_run`` that did not fit: their steps, or a tug round of
+        # theirs even on ``LARGE``
+        self._overflowed: set[int] = set()
 
     def _data(self, nworld: int, buffers: Buffers) -> mjw.Data:
         return mjw.put_data(
