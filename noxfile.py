@@ -15,14 +15,38 @@ nox.options.reuse_venv = "yes"
 nox.options.sessions = ["lint", "tests"]
 
 PYTHON = "3.11"
+# Bytecode compiled at install (uv: UV_COMPILE_BYTECODE; pip does it anyway) and for the
+# project's own modules: where the environment sets PYTHONDONTWRITEBYTECODE=1 (as these build
+# machines do) no .pyc is ever written on import, so every new interpreter (each command, each
+# worker process, each test subprocess) compiled its imports again, ~3-4 s a process
+# (docs/performance.md). Reading .pyc files is not affected by the variable.
+COMPILE_ENV = {"UV_COMPILE_BYTECODE": "1"}
 # Offscreen MuJoCo rendering without a display: EGL on Mesa, unless the user chose otherwise.
 RENDER_ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+
+# Compiles the project's modules, and once per venv (a marker file in it) the installed packages
+# (a venv installed before without bytecode); later installs compile their own (COMPILE_ENV).
+COMPILE = """
+import compileall, os, sys, sysconfig
+marker = os.path.join(sys.prefix, ".harness-bytecode")
+if not os.path.exists(marker):
+    compileall.compile_dir(sysconfig.get_paths()["purelib"], quiet=1, workers=0)
+    open(marker, "w").close()
+compileall.compile_dir("harness", quiet=1, workers=0)
+"""
+
+
+def _install(session: nox.Session, *args: str) -> None:
+    """Install ``args`` with bytecode, and compile the project's modules (``harness``)."""
+    session.install(*args, env=COMPILE_ENV)
+    session.run_install("python", "-c", COMPILE, silent=True)
 
 
 @nox.session(python=PYTHON)
 def tests(session: nox.Session) -> None:
     """Run the test suite. Pass pytest arguments after ``--`` (e.g. ``-m "not slow"``)."""
-    session.install("-e", ".[dev,ray]")
+    _install(session, "-e", ".[dev,ray]")
     args = session.posargs or ["-q"]
     session.run("pytest", *args, env=RENDER_ENV)
 
@@ -34,7 +58,7 @@ def demo(session: nox.Session) -> None:
     seeds, a decision per robot, arm and object, tuned.yaml).
 
     Arguments after ``--`` replace the sweep's (the tune is then skipped)."""
-    session.install("-e", ".")
+    _install(session, "-e", ".")
     if session.posargs:
         session.run("harness", "sweep", *session.posargs, env=RENDER_ENV)
         return
@@ -47,7 +71,7 @@ def demo(session: nox.Session) -> None:
 @nox.session(python=PYTHON)
 def benchmark(session: nox.Session) -> None:
     """Measure speed (``harness bench``); writes reports/bench.json."""
-    session.install("-e", ".")
+    _install(session, "-e", ".")
     args = session.posargs or ["--json", "reports/bench.json"]
     session.run("harness", "bench", *args, env=RENDER_ENV)
 
@@ -56,7 +80,7 @@ def benchmark(session: nox.Session) -> None:
 def lint(session: nox.Session) -> None:
     """ruff check, ruff format --check, and pyright (basic mode, pyrightconfig.json)."""
     # The gpu extra too, so that pyright checks the mjwarp engine against MuJoCo Warp's API.
-    session.install("-e", ".[dev,ray,gpu]", "pyright[nodejs]>=1.1.400")
+    _install(session, "-e", ".[dev,ray,gpu]", "pyright[nodejs]>=1.1.400")
     session.run("ruff", "check", "harness", "tests", "robots", "noxfile.py")
     session.run("ruff", "format", "--check", "harness", "tests", "robots", "noxfile.py")
     python = os.path.join(session.virtualenv.location, "bin", "python")
