@@ -66,6 +66,8 @@ class DeviceSlot:
         event = wp.record_event()
         while not event.is_complete:
             self.lock.release()
-            time.sleep(POLL_S)
-            self.lock.acquire()
+            try:
+                time.sleep(POLL_S)
+            finally:  # held again whatever happens, as ``__exit__`` expects
+                self.lock.acquire()
         self._make_current()
