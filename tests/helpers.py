@@ -6,8 +6,9 @@
   task on one (:func:`make_task`), so the pick tests do not depend on the default object set;
 - a scene with its planner, and a top-down grasp pose, for the planning tests;
 - the installed ``harness`` console script run as a user runs it;
-- :func:`fr3_device_jobs`: the execution jobs (``DeviceJob``) of planned FR3 episodes, kept by
-  an engine that executes nothing, for the batched-engine tests.
+- :func:`fr3_device_jobs`: the execution jobs (``DeviceJob``) of planned FR3 episodes, made by
+  the engines bench's planning worker (its engine executes nothing), for the batched-engine
+  tests.
 """
 
 from __future__ import annotations
@@ -238,33 +239,13 @@ def flatten(values: list) -> list[str]:
     return out
 
 
-class _DeviceJobKeeper:
-    """An engine that keeps each job as a ``DeviceJob`` instead of executing it."""
-
-    name = "keep-device-jobs"
-
-    def __init__(self) -> None:
-        self.jobs: list[Any] = []
-
-    def execute(self, job: Any) -> Any:
-        from harness.engines import Execution
-        from harness.engines.schedule import device_job
-        from harness.pick.outcome import PickOutcome
-
-        self.jobs.append(device_job(job))
-        return Execution(PickOutcome(failure_reason="error", message="kept"), False)
-
-
 def fr3_device_jobs(seeds: int) -> list[Any]:
-    """The ``DeviceJob`` of each of FR3 seeds 0..seeds-1 that reaches its execution."""
+    """The ``DeviceJob`` of each of FR3 seeds 0..seeds-1 that reaches its execution (planned
+    by the engines bench's planning worker, ``harness.benchmarks.engines._plan``)."""
+    from harness.benchmarks.engines import _plan
     from harness.config import load_task
-    from harness.engines import register_engine
-    from harness.episode import EpisodeSpec, run_episode
+    from harness.episode import EpisodeSpec
 
-    keeper = _DeviceJobKeeper()
-    register_engine(keeper)
     task = load_task(PROJECT_ROOT / "tasks" / "pick" / "fr3.yaml")
-    cache: dict[Any, Any] = {}
-    for seed in range(seeds):
-        run_episode(EpisodeSpec(task=task, seed=seed, engine=keeper.name), cache)
-    return keeper.jobs
+    jobs = [_plan(EpisodeSpec(task=task, seed=seed))[1] for seed in range(seeds)]
+    return [job for job in jobs if job is not None]

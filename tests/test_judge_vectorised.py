@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from helpers import fr3_device_jobs
 
-from harness.engines.judge import _forces, _Judge, _tcp_error
+from harness.engines.judge import _Judge
 from harness.engines.signals import (
     EE_MAT,
     JOINT_SPEED,
@@ -23,15 +23,16 @@ from harness.engines.signals import (
     PENETRATION,
     SIGNALS,
     TCP_MAT,
-    object_pose_in_tcp,
     object_speed,
     unstable_reason,
 )
-from harness.pick.verdict import closing_terms, first_failure
+from harness.pick.verdict import first_failure
 
 
 class _LoopJudge(_Judge):
-    """The row-by-row walk, as the batch judge had it (the oracle)."""
+    """The row-by-row walk the batch judge had (the oracle). The measurements at the closing
+    and at the end of the list are the judge's own (``closing``, ``finish``): the walk's order
+    and where it stops are what is compared."""
 
     def motion(self) -> bool:
         out, schedule, steps = self.out, self.schedule, self.steps
@@ -48,34 +49,14 @@ class _LoopJudge(_Judge):
             if reason is not None:
                 out.failure_reason, out.message = "sim_unstable", reason
                 break
-            if step == schedule.close_step:
-                forces = _forces(row)
-                out.tcp_grasp_error_m = _tcp_error(self.job, row)
-                out.contact_during_close = max(forces) > 0.0
-                out.finger_force_left_n, out.finger_force_right_n = forces
-                out.T_tcp_object_closed = object_pose_in_tcp(row)
-                if self.job.semantics.check_closing_forces and self.fail(
-                    first_failure(closing_terms(self.pick, forces))
-                ):
-                    break
+            if step == schedule.close_step and self.closing(row):
+                break
             if step == schedule.verdict_step:
                 self.measure(row)
                 if not self.job.semantics.hold_after_list:
                     self.fail(first_failure(self.job.semantics.verdict_terms(self.pick, out)))
                 reached = True
-        if not reached and not out.failure_reason:
-            out.failure_reason = "timeout"
-            out.message = (
-                f"episode length limit ({self.job.task.max_episode_length} control steps) reached"
-            )
-        out.control_steps = step + 1
-        out.sim_steps = out.control_steps * self.substeps
-        out.sim_time_s = out.sim_steps * self.timestep
-        out.object_z_after = float(steps[step][OBJ_POS][2])
-        if not math.isfinite(out.lift_height_m):
-            self.measure(steps[step])
-        out.success = not out.failure_reason
-        return reached
+        return self.finish(step, reached)
 
 
 @pytest.fixture(scope="module")

@@ -133,8 +133,11 @@ class _Device:
 
         # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_batch.SMALL)
         sizes = os.environ.get("BENCH_BUFFERS")
-        buffers = tuple(int(v) for v in sizes.split(",")) if sizes else None
-        self.engine = MjwarpEngine(device, buffers)  # type: ignore[arg-type]
+        buffers = None
+        if sizes:
+            contacts, rows = (int(v) for v in sizes.split(","))
+            buffers = (contacts, rows)
+        self.engine = MjwarpEngine(device, buffers)
         self.scenes: dict[Any, Any] = {}
         self.outcomes: dict[int, PickOutcome] = {}
         self.totals = {

@@ -95,17 +95,8 @@ class _Judge:
         reached = False
         stopped_at_closing = False
         close = schedule.close_step
-        if 0 <= close <= end and close != unstable_at:
-            row = steps[close]
-            forces = _forces(row)
-            out.tcp_grasp_error_m = _tcp_error(self.job, row)
-            out.contact_during_close = max(forces) > 0.0
-            out.finger_force_left_n, out.finger_force_right_n = forces
-            out.T_tcp_object_closed = object_pose_in_tcp(row)
-            if self.job.semantics.check_closing_forces and self.fail(
-                first_failure(closing_terms(self.pick, forces))
-            ):
-                end, stopped_at_closing = close, True
+        if 0 <= close <= end and close != unstable_at and self.closing(steps[close]):
+            end, stopped_at_closing = close, True
         if not stopped_at_closing:
             if unstable_at >= 0:
                 reason = unstable_reason(steps[unstable_at])
@@ -120,7 +111,25 @@ class _Judge:
         speeds = np.linalg.norm(walked[:, OBJ_VEL], axis=1)
         out.max_object_vel = running_peak(out.max_object_vel, speeds)
         out.table_penetration_m = running_peak(out.table_penetration_m, walked[:, PENETRATION])
-        step = end
+        return self.finish(end, reached)
+
+    def closing(self, row: np.ndarray) -> bool:
+        """The executor's measurements at the end of the closing window (``row``); True when a
+        closing term failed (the command list stops there)."""
+        out = self.out
+        forces = _forces(row)
+        out.tcp_grasp_error_m = _tcp_error(self.job, row)
+        out.contact_during_close = max(forces) > 0.0
+        out.finger_force_left_n, out.finger_force_right_n = forces
+        out.T_tcp_object_closed = object_pose_in_tcp(row)
+        return self.job.semantics.check_closing_forces and self.fail(
+            first_failure(closing_terms(self.pick, forces))
+        )
+
+    def finish(self, step: int, reached: bool) -> bool:
+        """The end of the command list at row ``step``: the timeout when the verdict was not
+        reached, the step counts, the object's height; returns ``reached``."""
+        out, steps = self.out, self.steps
         if not reached and not out.failure_reason:
             out.failure_reason = "timeout"
             out.message = (
