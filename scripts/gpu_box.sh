@@ -10,7 +10,7 @@ SITE=/tmp/site
 case "${1:-}" in
   stash)
     mkdir -p /tmp/parts
-    cp "$2"/part.* /tmp/parts/
+    cp "$2"/part.* "$2"/warpcache.* /tmp/parts/ 2>/dev/null || cp "$2"/part.* /tmp/parts/
     ls -la /tmp/parts
     ;;
   setup)
@@ -18,6 +18,10 @@ case "${1:-}" in
       mkdir -p "$SITE"
       cat /tmp/parts/part.* | xz -d -T0 | tar -x -i -C "$SITE"
       touch "$SITE/.done"
+    fi
+    # kernels compiled by an earlier sitting (scripts/gpu_box_jobs.sh cache), when carried
+    if [ -f /tmp/parts/warpcache.tar.xz ] && [ ! -d /tmp/warpcache ]; then
+      mkdir -p /tmp/warpcache && xz -d -T0 < /tmp/parts/warpcache.tar.xz | tar -x -C /tmp/warpcache
     fi
     ;;
   env)

@@ -14,6 +14,10 @@ if [ "${1:-}" = "pack" ]; then
   tar -C "$R" --exclude='*.rrd' --exclude='videos' -cJf "$2/results.tar.xz" . && ls -la "$2"
   exit 0
 fi
+if [ "${1:-}" = "cache" ]; then  # the compiled kernels (reused by a later sitting's box)
+  tar -C "$WARP_CACHE_PATH" -cf - . | xz -T0 -6 > "$2/warpcache.tar.xz" && ls -la "$2"
+  exit 0
+fi
 for job in "$@"; do
   echo "$job started $(date -u +%T)" >> "$R/status"
   case "$job" in
@@ -57,6 +61,17 @@ for job in "$@"; do
     tp_slot2_8192)  # two batches of 8192 in flight
       BENCH_SLOTS=2 BENCH_BATCH=8192 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 16384 "$R/tp_slot2_8192" fr3 ;;
+    profile)  # device time by kernel and solver iterations, 512 FR3 cube plans tiled
+      python3 -m harness.benchmarks.device_profile "$R/profile" --worlds 4096 8192 16384 ;;
+    profile_solver)  # the same at 4096 worlds with solver settings: cost and outcomes changed
+      python3 -m harness.benchmarks.device_profile "$R/profile_solver" --worlds 4096 \
+        --iterations 10 25 --tolerance 1e-6 1e-5 ;;
+    tp_16k)  # 32768 in bucketed batches of 16384, two slots
+      BENCH_BATCH=16384 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_16k" fr3 ;;
+    tp_8k)  # 32768 in bucketed batches of 8192, two slots
+      BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_8k" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
