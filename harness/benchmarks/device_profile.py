@@ -69,9 +69,10 @@ STAGES: tuple[tuple[str, str], ...] = (
 
 
 def kernel_name(raw: str) -> str:
-    """A Warp kernel's name without the hashes and closure decorations Warp adds:
-    ``_solve_init_dof__locals__kernel_92449250`` -> ``_solve_init_dof``."""
-    name = raw.split("__locals__")[0]
+    """A Warp kernel's name without the timing's prefix and the hashes and closure decorations
+    Warp adds: ``forward kernel _solve_init_dof__locals__kernel_92449250`` ->
+    ``_solve_init_dof``."""
+    name = re.sub(r"^(forward|backward) kernel ", "", raw).split("__locals__")[0]
     return re.sub(r"_[0-9a-f]{7,8}$", "", name)
 
 
