@@ -72,6 +72,12 @@ for job in "$@"; do
     tp_8k)  # 32768 in bucketed batches of 8192, two slots
       BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 32768 "$R/tp_8k" fr3 ;;
+    tp_8k_feed)  # 32768; a free slot takes up to 8192 of the shortest waiting, from 4096 up
+      BENCH_BATCH=8192 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_8k_feed" fr3 ;;
+    tp_16k_feed)  # the same with batches of up to 16384
+      BENCH_BATCH=16384 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_16k_feed" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

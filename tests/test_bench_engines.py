@@ -4,6 +4,7 @@ device's ``execute_many`` is a stub here; the real one is measured on the GPU bo
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any, ClassVar
 
 import pytest
@@ -15,7 +16,10 @@ from harness.pick.outcome import PickOutcome
 
 class _Timings:
     upload_s = physics_s = tug_s = download_s = judge_s = peak_contacts = 0.0
-    world_steps = tug_rounds = tug_rungs = reruns = peak_rows = 0
+    world_steps = motion_steps = span_steps = tug_rounds = tug_rungs = reruns = peak_rows = 0
+
+
+_COUNT = threading.Lock()
 
 
 class _StubEngine:
@@ -24,6 +28,10 @@ class _StubEngine:
     slots_seen: ClassVar[list[Any]] = []
     # set by a test: every timed batch waits here for the other slot's batch
     barrier: ClassVar[threading.Barrier | None] = None
+    # set by a test: each batch takes this long, and the most batches at once are counted
+    delay_s: ClassVar[float] = 0.0
+    running: ClassVar[int] = 0
+    most_running: ClassVar[int] = 0
 
     def __init__(self, device: str | None = None, buffers: Any = None) -> None:
         pass
@@ -41,6 +49,12 @@ class _StubEngine:
         if slot is not None and barrier is not None and barrier.n_waiting + 1 <= barrier.parties:
             _StubEngine.barrier = None if barrier.n_waiting + 1 == barrier.parties else barrier
             barrier.wait(timeout=60)  # the first two timed batches are on the device at once
+        with _COUNT:
+            _StubEngine.running += 1
+            _StubEngine.most_running = max(_StubEngine.most_running, _StubEngine.running)
+        time.sleep(_StubEngine.delay_s)
+        with _COUNT:
+            _StubEngine.running -= 1
         _StubEngine.slots_seen.append(slot)
         _StubEngine.batches.append(len(jobs))
         _StubEngine.lengths.append([job.schedule.steps for job in jobs])
@@ -90,6 +104,30 @@ def test_two_slots_hold_two_batches_at_once(monkeypatch: pytest.MonkeyPatch) -> 
     assert result["slots"] == 2 and result["batches"] == -(-len(executed) // 2)
     assert set(_StubEngine.slots_seen[1:]) == {"slot 0", "slot 1"}
     assert 0.0 < result["device_s"] <= result["total_s"]
+
+
+def test_a_free_slot_takes_the_shortest_waiting_jobs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """min_batch: a batch runs as soon as the device has a free slot and min_batch jobs wait
+    (never more batches at once than slots), each of at most `batch` jobs, the shortest
+    waiting; what waits when planning ends runs shortest first."""
+    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _StubEngine)
+    monkeypatch.setenv("BENCH_SLOTS", "1")
+    _StubEngine.batches, _StubEngine.lengths, _StubEngine.barrier = [], [], None
+    _StubEngine.delay_s, _StubEngine.most_running = 0.3, 0
+    try:
+        specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 8)
+        result = bench.run_gpu(specs, workers=2, device="stub", batch=3, chunk=1, min_batch=1)
+    finally:
+        _StubEngine.delay_s = 0.0
+    executed = [i for i, (_, job) in enumerate(result["planned"]) if job is not None]
+    assert len(executed) >= 6 and sorted(result["outcomes"]) == executed
+    _, *timed = _StubEngine.batches
+    assert sum(timed) == len(executed) and max(timed) <= 3 and result["min_batch"] == 1
+    assert _StubEngine.most_running == 1
+    # the first batch ran before planning ended: from the one job then waiting
+    assert timed[0] < len(executed)
+    for lengths in _StubEngine.lengths[1:]:
+        assert lengths == sorted(lengths)
 
 
 def test_device_time_is_the_union_of_the_batches_spans() -> None:

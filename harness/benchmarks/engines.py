@@ -144,7 +144,9 @@ class _Device:
             "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0,
             "judge_s": 0.0, "tug_rounds": 0.0, "tug_rungs": 0.0, "reruns": 0.0,
         }  # fmt: skip
-        self.counts = {"world_steps": 0, "max_batch": 0, "batches": 0}
+        self.counts = {
+            "world_steps": 0, "motion_steps": 0, "span_steps": 0, "max_batch": 0, "batches": 0,
+        }  # fmt: skip
         self.peaks = {"peak_rows": 0.0, "peak_contacts": 0.0, "memory_high_gb": 0.0}
         self.compile_s = 0.0
         self.slots: queue.Queue[Any] = queue.Queue()
@@ -181,6 +183,10 @@ class _Device:
         self._scene(jobs[0])  # made here, in one thread
         self.pending.append(self.threads.submit(self._step, indices, jobs))
 
+    def in_flight(self) -> int:
+        """Batches handed to the slots and not finished."""
+        return sum(not future.done() for future in self.pending)
+
     def drain(self) -> None:
         for future in self.pending:
             future.result()
@@ -200,7 +206,8 @@ class _Device:
                 self.outcomes[i] = outcome
             for key in self.totals:
                 self.totals[key] += getattr(timings, key)
-            self.counts["world_steps"] += timings.world_steps
+            for key in ("world_steps", "motion_steps", "span_steps"):
+                self.counts[key] += getattr(timings, key)
             self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
             self.counts["batches"] += 1
             for key in ("peak_rows", "peak_contacts"):
@@ -215,13 +222,17 @@ def run_gpu(
     batch: int = 1024,
     chunk: int = 8,
     bucket: int = 1,
+    min_batch: int = 0,
 ) -> dict[str, Any]:
     """Plan on the pool while the device steps what is planned: as soon as ``bucket * batch``
     jobs of one task model wait, the ``batch`` shortest of them run as one batch of worlds (the
     pool keeps planning meanwhile); the rest run once planning is done, shortest first, in
     batches of ``batch``. ``bucket`` > 1 trades a later first batch for batches of similar
-    schedule lengths (every world of a batch is stepped for its longest schedule). The
-    outcomes and where the time went."""
+    schedule lengths (every world of a batch is stepped for its longest schedule).
+    ``min_batch`` > 0 feeds the device when it has a free slot instead: then the (up to)
+    ``batch`` shortest of the jobs waiting run, once at least ``min_batch`` wait, so that the
+    device starts early and the waiting pool a batch is sorted from grows while the device is
+    the slower side. The outcomes and where the time went."""
     gpu = _Device(device)
     planned: list[Any] = [None] * len(all_specs)
     indexed = list(enumerate(all_specs))
@@ -251,7 +262,7 @@ def run_gpu(
                     continue
                 group = waiting.setdefault(_batch_key(job), [])
                 group.append(i)
-                if len(group) >= bucket * batch:
+                if _ready(gpu, len(group), batch, bucket, min_batch):
                     # the `batch` shortest schedules of what waits: a lockstep batch is
                     # stepped for its longest schedule
                     group.sort(key=steps_of)
@@ -268,10 +279,18 @@ def run_gpu(
     return {
         "planned": planned, "outcomes": gpu.outcomes, "plan_s": plan_s,
         "device_s": gpu.device_s, "total_s": total_s, "compile_s": gpu.compile_s,
-        "workers": workers, "batch": batch, "bucket": bucket, "slots": gpu.slot_count,
+        "workers": workers, "batch": batch, "bucket": bucket, "min_batch": min_batch,
+        "slots": gpu.slot_count,
         **gpu.counts, **gpu.totals,
         **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
     }  # fmt: skip
+
+
+def _ready(gpu: _Device, waiting: int, batch: int, bucket: int, min_batch: int) -> bool:
+    """Whether a batch runs now from ``waiting`` planned jobs of one task model."""
+    if min_batch > 0:
+        return waiting >= min_batch and gpu.in_flight() < gpu.slot_count
+    return waiting >= bucket * batch
 
 
 def agreement(cpu_rows: list[dict[str, Any]], gpu: dict[str, Any]) -> list[dict[str, Any]]:
@@ -318,7 +337,9 @@ def measure(
     planners = int(os.environ.get("BENCH_PLANNERS", "0")) or max(1, workers - 1)
     batch = int(os.environ.get("BENCH_BATCH", "1024"))
     bucket = int(os.environ.get("BENCH_BUCKET", "1"))
-    gpu = run_gpu(all_specs, planners, device, batch=batch, bucket=bucket)
+    # BENCH_MIN_BATCH=k: feed the device when a slot is free, from k waiting jobs up
+    min_batch = int(os.environ.get("BENCH_MIN_BATCH", "0"))
+    gpu = run_gpu(all_specs, planners, device, batch, bucket=bucket, min_batch=min_batch)
     records = agreement(cpu_rows, gpu)
     n = len(all_specs)
     return {"n": n, "cpu_n": cpu_n, "cpu_s": cpu_s, "records": records, "gpu": gpu}
@@ -357,7 +378,9 @@ def figures(result: dict[str, Any]) -> list[Figure]:
                 f"{gpu.get('peak_rows', 0):.0f} constraint rows in a world, "
                 f"{gpu.get('peak_contacts', 0):.1f} contacts per world, "
                 f"{gpu.get('reruns', 0):.0f} worlds run again with the large buffers; "
-                f"device memory high {gpu.get('memory_high_gb', 0):.1f} GB"
+                f"device memory high {gpu.get('memory_high_gb', 0):.1f} GB; padding "
+                f"{1 - gpu.get('span_steps', 0) / max(1, gpu.get('motion_steps', 0)):.1%} of "
+                f"the motion's {gpu.get('motion_steps', 0):.3g} world-steps"
             ),
         ),
         figure(

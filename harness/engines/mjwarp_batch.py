@@ -83,7 +83,9 @@ class BatchTimings:
     tug_s: float = 0.0
     download_s: float = 0.0
     judge_s: float = 0.0  # the verdicts on the host (``judge``), after the download
-    world_steps: int = 0
+    world_steps: int = 0  # every world-step stepped: the motion's (padding included) and the tug's
+    motion_steps: int = 0  # the motion's world-steps: every world stepped for the longest span
+    span_steps: int = 0  # of those, the ones within each world's own span (the rest: padding)
     tug_rounds: int = 0
     tug_rungs: int = 0
     peak_rows: int = 0  # the most constraint rows a world asked for
@@ -338,7 +340,10 @@ class WorldBatch:
             _replay(device, control_step, rows)
             self.slot.wait()
             self.timings.physics_s += time.perf_counter() - clock
-            self.timings.world_steps += n * (schedules[0].warmup_steps + rows * sum(chunk_sizes))
+            warmup, substeps = schedules[0].warmup_steps, sum(chunk_sizes)
+            self.timings.world_steps += n * (warmup + rows * substeps)
+            self.timings.motion_steps += n * (warmup + rows * substeps)
+            self.timings.span_steps += n * warmup + int(spans.sum()) * substeps
             clock = time.perf_counter()
             over = use.overflowed(d, buffers, self.timings)
             steps = out.numpy()
