@@ -12,7 +12,9 @@ def test_kernel_names_lose_warps_hashes_and_closure_decorations() -> None:
         "_linesearch_iterative_kernel"
     )
     assert kernel_name("record") == "record"
-    assert kernel_name("forward kernel _update_gradient_JTCJ_dense") == "_update_gradient_JTCJ_dense"
+    assert (
+        kernel_name("forward kernel _update_gradient_JTCJ_dense") == "_update_gradient_JTCJ_dense"
+    )
 
 
 def test_stages_group_kernels_by_prefix_and_average_per_physics_step() -> None:

@@ -260,3 +260,59 @@ def _same(a: object, b: object) -> bool:
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
     return a == b
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_worlds_that_leave_the_motion_early_keep_the_lockstep_rows() -> None:
+    """Three worlds (FR3 cube seed 0's job cut to 10, 4 and 7 control steps, a validity window
+    of 3) on Warp's CPU device, once in lockstep and once in segments (each world leaves at the
+    end of its span, the others carried into a smaller data): each world's signal rows over its
+    span, its warm-up row and its saved window states are the same bit for bit, and the
+    segments step no world past its span."""
+    import mujoco_warp as mjw
+
+    from harness.benchmarks.engines import _SCENES, _plan
+    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp_motion import MotionRun
+    from harness.engines.mjwarp_steps import SMALL, BatchTimings
+    from harness.engines.retirement import segments
+    from harness.episode.scene_cache import get_scene
+
+    task = fr3()
+    _, job = _plan(EpisodeSpec(task=task, seed=0))
+    assert job is not None
+    jobs = [
+        dataclasses.replace(
+            job, schedule=dataclasses.replace(job.schedule, ctrl=job.schedule.ctrl[:k])
+        )
+        for k in (10, 4, 7)
+    ]
+    window = 3
+    spans = np.array([10, 4, 7]) + window
+    dm = MjwarpEngine("cpu").batch(get_scene(task, _SCENES).scene, task).dm
+
+    def make(k: int) -> object:
+        return mjw.put_data(
+            dm.mj_model, dm.template, nworld=k, nconmax=SMALL.nconmax, njmax=SMALL.njmax
+        )
+
+    results = []
+    for retire in (0.0, 0.3):
+        plan = segments(spans, retire, min_worlds=1)
+        timings = BatchTimings()
+        run = MotionRun(dm, jobs, spans, window, make)
+        assert run.run(plan, SMALL, timings, lambda: None) == []
+        results.append((plan, timings, run.out.numpy(), run.warm.numpy(), run.saved))
+    (lock_plan, lock_t, lock_out, lock_warm, lock_saved) = results[0]
+    (seg_plan, seg_t, seg_out, seg_warm, seg_saved) = results[1]
+    assert [s.end for s in lock_plan] == [13] and [s.end for s in seg_plan] == [7, 10, 13]
+    for w, span in enumerate(spans):
+        np.testing.assert_array_equal(seg_out[w, :span], lock_out[w, :span])
+        assert not np.any(seg_out[w, span:])  # a world that left records nothing after
+    np.testing.assert_array_equal(seg_warm, lock_warm)
+    for a, b in zip(seg_saved, lock_saved, strict=True):
+        np.testing.assert_array_equal(a.numpy(), b.numpy())
+    # here every world leaves at the end of its own span: no padding at all
+    assert seg_t.motion_steps == seg_t.span_steps == lock_t.span_steps < lock_t.motion_steps

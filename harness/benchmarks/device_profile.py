@@ -128,7 +128,7 @@ def _stats(values: list[int] | list[float]) -> dict[str, float]:
 
 
 class Profiler:
-    """Replaces ``mjwarp_batch._replay`` and ``_stepper`` while active (``installed``): the
+    """Replaces ``mjwarp_steps.replay`` and ``stepper`` while active (``installed``): the
     control steps whose index is in ``rows`` run eagerly under kernel timing, the rest as
     replays of the captured graph, as the engine runs them."""
 
@@ -139,19 +139,19 @@ class Profiler:
 
     @contextmanager
     def installed(self) -> Iterator[Profile]:
-        from harness.engines import mjwarp_batch
+        from harness.engines import mjwarp_steps
 
-        replay, stepper = mjwarp_batch._replay, mjwarp_batch._stepper
-        mjwarp_batch._replay = self._replay(replay)
-        mjwarp_batch._stepper = self._stepper(stepper)
+        replay, stepper = mjwarp_steps.replay, mjwarp_steps.stepper
+        mjwarp_steps.replay = self._replay(replay)
+        mjwarp_steps.stepper = self._stepper(stepper)
         try:
             yield self.profile
         finally:
-            mjwarp_batch._replay, mjwarp_batch._stepper = replay, stepper
+            mjwarp_steps.replay, mjwarp_steps.stepper = replay, stepper
 
     def _stepper(self, original: Callable[..., Any]) -> Callable[..., Any]:
-        def make(dm: Any, d: Any, use: Any) -> Callable[[], None]:
-            step = original(dm, d, use)
+        def make(model: Any, d: Any, use: Any) -> Callable[[], None]:
+            step = original(model, d, use)
 
             def profiled() -> None:
                 step()

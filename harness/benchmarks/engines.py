@@ -131,7 +131,7 @@ class _Device:
     def __init__(self, device: str) -> None:
         from harness.engines.mjwarp_engine import MjwarpEngine
 
-        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_batch.SMALL)
+        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_steps.SMALL)
         sizes = os.environ.get("BENCH_BUFFERS")
         buffers = None
         if sizes:

@@ -25,9 +25,13 @@ import warp as wp
 
 from harness.config import TaskConfig
 from harness.engines import mjwarp_kernels as kernels
+from harness.engines import mjwarp_steps as steps
 from harness.engines.device_slot import DeviceSlot
 from harness.engines.judge import held_in_tcp, judge, needs_tug, rung_outcome
-from harness.engines.schedule import DeviceJob, ExecutionSchedule
+from harness.engines.mjwarp_motion import MotionRun
+from harness.engines.mjwarp_steps import LARGE, SMALL, BatchTimings, Buffers
+from harness.engines.retirement import MIN_WORLDS, RETIRE, segments
+from harness.engines.schedule import DeviceJob
 from harness.engines.signals import (
     SIGNALS,
     HoldWindow,
@@ -46,86 +50,12 @@ from harness.pick.validity import (
 )
 from harness.sim import Scene
 
-
-@dataclass(frozen=True)
-class Buffers:
-    """What MuJoCo Warp allocates per world: contacts (``nconmax``; pooled over the batch's
-    worlds) and constraint rows (``njmax``; no world may use more). Every solver kernel is
-    launched over ``njmax`` rows per world, so the rows cost step time and memory even unused."""
-
-    nconmax: int
-    njmax: int
-
-
-# Sized from the CPU engine's peak use (``MjData.maxuse_con`` / ``maxuse_efc``) over 12 seeds of
-# each canonical arm with the cube and the banana, tug included: at most 25 contacts and 106
-# constraint rows (elliptic cones) in a world; about 2.5x that room. Chosen, no public source
-# (MJWarp's own default for these models, ``io._default_nconmax`` / ``_default_njmax``, would be
-# 48 / 64). A world that asks for more is run again with ``LARGE``.
-SMALL = Buffers(nconmax=64, njmax=256)
-LARGE = Buffers(nconmax=128, njmax=768)  # the sizes used before; the fallback
-
 # The most rung-worlds stepped at once: a round of a large batch (six rungs per tugged world:
 # ~98,000 worlds for a batch of 16,384) runs in parts of at most this many, so that its device
 # memory stays within a batch of this size whatever the batch. Chosen, no public source: the
 # first round of an 8,192-world batch (~46,000 rung-worlds) ran in one part on an H100 80GB
 # with a 25 GB high-water mark.
 MAX_RUNG_WORLDS = 32_768
-
-
-@dataclass
-class BatchTimings:
-    """Where a batch's wall time went (s), its world-steps, and its tug rounds and rung-worlds
-    (one world per rung run)."""
-
-    upload_s: float = 0.0
-    physics_s: float = 0.0
-    tug_s: float = 0.0
-    download_s: float = 0.0
-    judge_s: float = 0.0  # the verdicts on the host (``judge``), after the download
-    world_steps: int = 0  # every world-step stepped: the motion's (padding included) and the tug's
-    motion_steps: int = 0  # the motion's world-steps: every world stepped for the longest span
-    span_steps: int = 0  # of those, the ones within each world's own span (the rest: padding)
-    tug_rounds: int = 0
-    tug_rungs: int = 0
-    peak_rows: int = 0  # the most constraint rows a world asked for
-    peak_contacts: float = 0.0  # the most contacts per world of a batch, on average
-    reruns: int = 0  # worlds run again with the ``LARGE`` buffers (their rows did not fit)
-
-
-class BufferUse:
-    """Each world's peak constraint rows and the batch's peak contacts on the device
-    (``kernels.track_use`` after every physics step), and which worlds did not fit."""
-
-    def __init__(self, nworld: int) -> None:
-        self.rows = wp.zeros(nworld, dtype=wp.int32)
-        self.contacts = wp.zeros(1, dtype=wp.int32)
-
-    def track(self, d: mjw.Data) -> None:
-        wp.launch(
-            kernels.track_use, dim=d.nworld, inputs=[d.nefc, d.nacon, self.rows, self.contacts]
-        )
-
-    def overflowed(self, d: mjw.Data, buffers: Buffers, timings: BatchTimings) -> list[int]:
-        """The worlds whose rows or contacts did not fit (every world when the batch's contact
-        pool overflowed: which world lost a contact is not known); notes the peaks."""
-        rows = self.rows.numpy()
-        contacts = int(self.contacts.numpy()[0])
-        timings.peak_rows = max(timings.peak_rows, int(rows.max(initial=0)))
-        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, d.nworld))
-        if contacts > d.naconmax:
-            return list(range(d.nworld))
-        return [int(w) for w in np.flatnonzero(rows > buffers.njmax)]
-
-
-def _stepper(dm: DeviceModel, d: mjw.Data, use: BufferUse):  # type: ignore[no-untyped-def]
-    """One physics step of every world of ``d``, its buffer use noted."""
-
-    def step() -> None:
-        mjw.step(dm.model, d)
-        use.track(d)
-
-    return step
 
 
 class DeviceModel:
@@ -172,65 +102,28 @@ class DeviceModel:
         step: wp.array,
         out: wp.array,
         pen_initial: wp.array,
+        world_of: wp.array,
         baseline: bool = False,
     ) -> None:
-        """Launch the signal kernels for the current state into ``out[:, step]``; ``baseline``:
-        this state is the start the penetration is counted from (``TablePenetration.depth``'s
-        first call), its row's penetration is 0."""
+        """Launch the signal kernels for the current state into ``out[world_of[w], step]`` for
+        each world ``w`` of ``d``; ``baseline``: this state is the start the penetration is
+        counted from (``TablePenetration.depth``'s first call), its row's penetration is 0."""
         wp.launch(
             kernels.record, dim=d.nworld,
             inputs=[
                 d.qpos, d.qvel, d.xpos, d.xmat, d.geom_xpos, d.geom_xmat, self.robot_dof,
                 self.obj_body, self.obj_dof, self.ee_body, self.tcp_body, self.pen_geom,
                 self.pen_box, self.pen_radial, self.pen_round, self.pen_offset, self.table,
-                self.table_half, pen_initial, int(baseline), step, out,
+                self.table_half, pen_initial, int(baseline), step, world_of, out,
             ],
         )  # fmt: skip
         wp.launch(
             kernels.finger_forces, dim=d.naconmax,
             inputs=[
                 d.nacon, d.contact.geom, d.contact.worldid, d.contact.efc_address, d.efc.force,
-                self.finger_side, self.object_geom, step, out,
+                self.finger_side, self.object_geom, step, world_of, out,
             ],
         )  # fmt: skip
-
-
-def _replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def]
-    """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
-    one captured CUDA graph (on the CPU device: eagerly)."""
-    if times <= 0:
-        return
-    fn()
-    if times == 1:
-        return
-    if not wp.get_device(device).is_cuda:
-        for _ in range(times - 1):
-            fn()
-        return
-    with wp.ScopedCapture(device=device) as capture:
-        fn()
-    graph = capture.graph
-    assert graph is not None
-    for _ in range(times - 1):
-        wp.capture_launch(graph)
-
-
-def _world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
-    return {name: np.stack([job.state[name] for job in jobs]) for name in jobs[0].state}
-
-
-def _schedule_rows(schedules: list[ExecutionSchedule], rows: int) -> tuple[np.ndarray, np.ndarray]:
-    """(world, rows * chunks, nu) controls, each world's padded with its held controls."""
-    nchunks = len(schedules[0].chunk_sizes)
-    nu = schedules[0].ctrl.shape[2]
-    table = np.empty((len(schedules), rows * nchunks, nu), dtype=np.float32)
-    last = np.empty(len(schedules), dtype=np.int32)
-    for w, schedule in enumerate(schedules):
-        flat = schedule.ctrl.reshape(-1, nu)
-        table[w, : len(flat)] = flat
-        table[w, len(flat) :] = schedule.hold_ctrl
-        last[w] = len(flat) - 1
-    return table, last
 
 
 class WorldBatch:
@@ -248,6 +141,8 @@ class WorldBatch:
         self.slot = slot if slot is not None else DeviceSlot(dm.device)
         self.policy = policy  # which rungs each tug round runs
         self.buffers = buffers
+        # when worlds leave the motion (``retirement.segments``); retire 0: lockstep
+        self.retire, self.min_worlds = RETIRE, MIN_WORLDS
         self.timings = BatchTimings()
         # the worlds of the current ``_run`` that did not fit: their steps, or a tug round of
         # theirs even on ``LARGE``
@@ -287,7 +182,6 @@ class WorldBatch:
     def _run(self, jobs: list[DeviceJob], buffers: Buffers) -> tuple[list[PickOutcome], list[int]]:
         """The jobs on ``buffers``: their outcomes and the worlds that did not fit."""
         dm, device = self.dm, self.dm.device
-        n = len(jobs)
         schedules = [job.schedule for job in jobs]
         validity = [validity_enabled(job.task.pick) for job in jobs]
         dt = schedules[0].control_dt
@@ -295,59 +189,18 @@ class WorldBatch:
         window = window_steps(hold_time, dt)
         motion = np.array([s.steps for s in schedules], dtype=np.int32)
         spans = motion + np.where(validity, window, 0)
-        rows = int(spans.max())
         clock = time.perf_counter()
         with wp.ScopedDevice(device):
-            d = self._data(n, buffers)
-            for name, values in _world_arrays(jobs).items():
-                getattr(d, name).assign(values.astype(np.float32))
-            table, last = _schedule_rows(schedules, rows)
-            table_d = wp.array(table, dtype=wp.float32)
-            last_d = wp.array(last, dtype=wp.int32)
-            step = wp.zeros(1, dtype=wp.int32)
-            out = wp.zeros((n, rows, SIGNALS), dtype=wp.float32)
-            warm = wp.zeros((n, 1, SIGNALS), dtype=wp.float32)
-            zero = wp.zeros(1, dtype=wp.int32)
-            slots = window + 1
-            nq, nv = dm.mj_model.nq, dm.mj_model.nv
-            saved = [wp.zeros((n, slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
-            first_row = wp.array(motion - 1, dtype=wp.int32)
-            use = BufferUse(n)
-            physics_step = _stepper(dm, d, use)
+            run = MotionRun(dm, jobs, spans, window, lambda k: self._data(k, buffers))
             self.slot.wait()
             self.timings.upload_s += time.perf_counter() - clock
             clock = time.perf_counter()
-            _replay(device, physics_step, schedules[0].warmup_steps)
-            pen_initial = dm.penetration_start(n)
-            dm.record(d, zero, warm, pen_initial, baseline=True)
-            chunk_sizes = schedules[0].chunk_sizes
-
-            def control_step() -> None:
-                for chunk, size in enumerate(chunk_sizes):
-                    wp.launch(
-                        kernels.set_ctrl, dim=(n, d.ctrl.shape[1]),
-                        inputs=[table_d, step, chunk, len(chunk_sizes), last_d, d.ctrl],
-                    )  # fmt: skip
-                    for _ in range(size):
-                        physics_step()
-                dm.record(d, step, out, pen_initial)
-                wp.launch(
-                    kernels.save_state, dim=n,
-                    inputs=[d.qpos, d.qvel, d.qacc_warmstart, first_row, slots, step, *saved],
-                )  # fmt: skip
-                wp.launch(kernels.advance, dim=1, inputs=[step])
-
-            _replay(device, control_step, rows)
-            self.slot.wait()
+            plan = segments(spans, self.retire, self.min_worlds)
+            over = run.run(plan, buffers, self.timings, self.slot.wait)
             self.timings.physics_s += time.perf_counter() - clock
-            warmup, substeps = schedules[0].warmup_steps, sum(chunk_sizes)
-            self.timings.world_steps += n * (warmup + rows * substeps)
-            self.timings.motion_steps += n * (warmup + rows * substeps)
-            self.timings.span_steps += n * warmup + int(spans.sum()) * substeps
             clock = time.perf_counter()
-            over = use.overflowed(d, buffers, self.timings)
-            steps = out.numpy()
-            warm_rows = warm.numpy()[:, 0]
+            steps = run.out.numpy()
+            warm_rows = run.warm.numpy()[:, 0]
             self.timings.download_s += time.perf_counter() - clock
             self._overflowed = set(over)  # not judged: they run again, or end unstable
             windows: list[HoldWindow | None] = []
@@ -359,7 +212,8 @@ class WorldBatch:
                     if needs_tug(steps[w], win, float(job.object_init_position[2])):
                         tugged.append(w)
                 windows.append(win)
-            rungs = self._tug(_RungStart(jobs, d, saved, motion, windows), steps, tugged, buffers)
+            start = _RungStart(jobs, run.saved, run.hold_ctrl, run.state, motion, windows)
+            rungs = self._tug(start, steps, tugged, buffers)
         return self._judge(jobs, steps, warm_rows, validity, windows, rungs), sorted(
             self._overflowed
         )
@@ -430,13 +284,16 @@ class WorldBatch:
             force.append(np.asarray(directions[name]) * k * dm.weight)
         nt = len(batch)
         td = self._data(nt, buffers)
-        d = start.d
+        mocap = [
+            wp.array(start.state[name], dtype=kind)
+            for name, kind in (("mocap_pos", wp.vec3), ("mocap_quat", wp.quat))
+        ]
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[
                 wp.array(np.asarray(source, dtype=np.int32), dtype=wp.int32),
                 wp.array(np.asarray(slot, dtype=np.int32), dtype=wp.int32),
-                *start.saved, d.ctrl, d.mocap_pos, d.mocap_quat,
+                *start.saved, start.hold_ctrl, *mocap,
                 wp.array(np.asarray(force, dtype=np.float32), dtype=wp.vec3), dm.obj_body,
                 td.qpos, td.qvel, td.qacc_warmstart, td.ctrl, td.mocap_pos, td.mocap_quat,
                 td.xfrc_applied,
@@ -445,12 +302,13 @@ class WorldBatch:
         substeps = round(float(start.jobs[0].task.control_dt) / float(dm.mj_model.opt.timestep))
         substeps = max(1, substeps)
         rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
-        use = BufferUse(nt)
-        _replay(dm.device, _stepper(dm, td, use), rung_steps * substeps)
+        use = steps.BufferUse(nt)
+        steps.replay(dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps)
         zero = wp.zeros(1, dtype=wp.int32)
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
+        identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)
         # the rungs' penetration is not judged: each rung row measures its own start
-        dm.record(td, zero, out, dm.penetration_start(nt), baseline=True)
+        dm.record(td, zero, out, dm.penetration_start(nt), identity, baseline=True)
         self.slot.wait()
         rows = out.numpy()[:, 0]
         over = use.overflowed(td, buffers, self.timings)
@@ -465,12 +323,13 @@ class WorldBatch:
 
 @dataclass
 class _RungStart:
-    """Where a batch's tug rungs start from: its jobs, its worlds' data and saved validity
-    window states, each world's motion length and hold window."""
+    """Where a batch's tug rungs start from: its jobs, its worlds' saved validity window states
+    and held controls, their start states, each world's motion length and hold window."""
 
     jobs: list[DeviceJob]
-    d: mjw.Data
     saved: list[wp.array]
+    hold_ctrl: wp.array  # (world, nu): the controls each world holds after its schedule
+    state: dict[str, np.ndarray]  # the jobs' start states (their mocap poses)
     motion: np.ndarray
     windows: list[HoldWindow | None]
 

@@ -52,7 +52,7 @@ class MjwarpEngine:
     name = "mjwarp"
 
     def __init__(self, device: str | None = None, buffers: tuple[int, int] | None = None) -> None:
-        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_batch.SMALL``."""
+        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_steps.SMALL``."""
         _import_warp()
         self.device = device or default_device()
         self.buffers = buffers

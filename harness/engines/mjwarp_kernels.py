@@ -24,16 +24,18 @@ SIG_OBJ_MAT = 36
 
 @wp.kernel
 def set_ctrl(
-    schedule: wp.array3d(dtype=wp.float32),  # (world, rows, nu): chunk rows, then held
+    schedule: wp.array3d(dtype=wp.float32),  # (batch world, rows, nu): chunk rows, then held
     step: wp.array(dtype=wp.int32),
     chunk: int,
     nchunks: int,
     last_row: wp.array(dtype=wp.int32),
+    world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     ctrl: wp.array2d(dtype=wp.float32),
 ):
     w, a = wp.tid()
-    row = wp.min(step[0] * nchunks + chunk, last_row[w])
-    ctrl[w, a] = schedule[w, row, a]
+    o = world_of[w]
+    row = wp.min(step[0] * nchunks + chunk, last_row[o])
+    ctrl[w, a] = schedule[o, row, a]
 
 
 @wp.kernel
@@ -117,34 +119,37 @@ def record(
     pen_offset: wp.array(dtype=wp.vec3),
     table: wp.vec3,  # the slab's centre
     table_half: wp.vec3,  # the slab's half sizes
-    pen_initial: wp.array2d(dtype=wp.float32),  # (world, geom): depth at the start
+    pen_initial: wp.array2d(dtype=wp.float32),  # (batch world, geom): depth at the start
     baseline: int,  # 1: this call measures the start (writes pen_initial, records 0)
     step: wp.array(dtype=wp.int32),
-    out: wp.array3d(dtype=wp.float32),
+    world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
+    out: wp.array3d(dtype=wp.float32),  # (batch world, row, signal)
 ):
-    """One signal row per world (finger forces zeroed here, added by ``finger_forces``)."""
-    w = wp.tid()
+    """One signal row per world (finger forces zeroed here, added by ``finger_forces``):
+    stepped world ``w`` reads its state at ``w`` and writes its batch world's row."""
+    w_state = wp.tid()
+    w = world_of[w_state]
     s = step[0]
     out[w, s, SIG_FORCE] = 0.0
     out[w, s, SIG_FORCE + 1] = 0.0
-    p = xpos[w, obj_body]
+    p = xpos[w_state, obj_body]
     for i in range(3):
         out[w, s, SIG_OBJ_POS + i] = p[i]
-        out[w, s, SIG_OBJ_VEL + i] = qvel[w, obj_dof + i]
+        out[w, s, SIG_OBJ_VEL + i] = qvel[w_state, obj_dof + i]
     joint = wp.float32(0.0)
     for i in range(robot_dof.shape[0]):
-        joint = wp.max(joint, wp.abs(qvel[w, robot_dof[i]]))
+        joint = wp.max(joint, wp.abs(qvel[w_state, robot_dof[i]]))
     out[w, s, SIG_JOINT_SPEED] = joint
     fastest = wp.float32(0.0)
     bad = wp.float32(0.0)
     for i in range(qvel.shape[1]):
-        v = qvel[w, i]
+        v = qvel[w_state, i]
         if not wp.isfinite(v):
             bad = wp.float32(1.0)
         else:
             fastest = wp.max(fastest, wp.abs(v))
     for i in range(qpos.shape[1]):
-        if not wp.isfinite(qpos[w, i]):
+        if not wp.isfinite(qpos[w_state, i]):
             bad = wp.float32(1.0)
     out[w, s, SIG_MAX_QVEL] = fastest
     out[w, s, SIG_NONFINITE] = bad
@@ -154,7 +159,7 @@ def record(
     for i in range(pen_geom.shape[0]):
         g = pen_geom[i]
         inside = slab_depth(
-            geom_xpos[w, g], geom_xmat[w, g], pen_box[i], pen_radial[i], pen_round[i],
+            geom_xpos[w_state, g], geom_xmat[w_state, g], pen_box[i], pen_radial[i], pen_round[i],
             pen_offset[i], table, table_half,
         )  # fmt: skip
         if baseline == 1:
@@ -162,9 +167,9 @@ def record(
         else:
             deepest = wp.max(deepest, inside - pen_initial[w, i])
     out[w, s, SIG_PENETRATION] = deepest
-    _pose(out, w, s, SIG_EE, xpos[w, ee_body], xmat[w, ee_body])
-    _pose(out, w, s, SIG_TCP, xpos[w, tcp_body], xmat[w, tcp_body])
-    R_obj = xmat[w, obj_body]
+    _pose(out, w, s, SIG_EE, xpos[w_state, ee_body], xmat[w_state, ee_body])
+    _pose(out, w, s, SIG_TCP, xpos[w_state, tcp_body], xmat[w_state, tcp_body])
+    R_obj = xmat[w_state, obj_body]
     for i in range(3):
         for j in range(3):
             out[w, s, SIG_OBJ_MAT + 3 * i + j] = R_obj[i, j]
@@ -180,6 +185,7 @@ def finger_forces(
     finger_side: wp.array(dtype=wp.int32),  # (ngeom,) 0 left, 1 right, -1 other
     object_geom: wp.array(dtype=wp.int32),  # (ngeom,) 1 for the target object's geoms
     step: wp.array(dtype=wp.int32),
+    world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     out: wp.array3d(dtype=wp.float32),
 ):
     """``Scene.finger_forces``: the summed normal force of each finger's contacts with the
@@ -197,7 +203,7 @@ def finger_forces(
     if side < 0 or adr < 0:
         return
     w = contact_world[c]
-    wp.atomic_add(out, w, step[0], SIG_FORCE + side, wp.abs(efc_force[w, adr]))
+    wp.atomic_add(out, world_of[w], step[0], SIG_FORCE + side, wp.abs(efc_force[w, adr]))
 
 
 @wp.kernel
@@ -205,23 +211,58 @@ def save_state(
     qpos: wp.array2d(dtype=wp.float32),
     qvel: wp.array2d(dtype=wp.float32),
     warm: wp.array2d(dtype=wp.float32),
-    first_row: wp.array(dtype=wp.int32),  # per world: the row whose state is saved first
+    first_row: wp.array(dtype=wp.int32),  # per batch world: the row whose state is saved first
     slots: int,
     step: wp.array(dtype=wp.int32),
+    world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     saved_qpos: wp.array3d(dtype=wp.float32),
     saved_qvel: wp.array3d(dtype=wp.float32),
     saved_warm: wp.array3d(dtype=wp.float32),
 ):
     """Keep the states of the validity window (the tug starts from the end of the hold)."""
     w = wp.tid()
-    slot = step[0] - first_row[w]
+    o = world_of[w]
+    slot = step[0] - first_row[o]
     if slot < 0 or slot >= slots:
         return
     for i in range(qpos.shape[1]):
-        saved_qpos[w, slot, i] = qpos[w, i]
+        saved_qpos[o, slot, i] = qpos[w, i]
     for i in range(qvel.shape[1]):
-        saved_qvel[w, slot, i] = qvel[w, i]
-        saved_warm[w, slot, i] = warm[w, i]
+        saved_qvel[o, slot, i] = qvel[w, i]
+        saved_warm[o, slot, i] = warm[w, i]
+
+
+@wp.kernel
+def carry_state(
+    pick: wp.array(dtype=wp.int32),  # per world of the new data: its world in the old
+    time: wp.array(dtype=wp.float32),
+    qpos: wp.array2d(dtype=wp.float32),
+    qvel: wp.array2d(dtype=wp.float32),
+    act: wp.array2d(dtype=wp.float32),
+    warm: wp.array2d(dtype=wp.float32),
+    ctrl: wp.array2d(dtype=wp.float32),
+    time_out: wp.array(dtype=wp.float32),
+    qpos_out: wp.array2d(dtype=wp.float32),
+    qvel_out: wp.array2d(dtype=wp.float32),
+    act_out: wp.array2d(dtype=wp.float32),
+    warm_out: wp.array2d(dtype=wp.float32),
+    ctrl_out: wp.array2d(dtype=wp.float32),
+):
+    """Carry the worlds that go on stepping into a smaller data: the state ``mj_step`` reads
+    from the last step (time, qpos, qvel, act, qacc_warmstart, ctrl; the mocap poses are the
+    jobs', set from the host)."""
+    w = wp.tid()
+    b = pick[w]
+    time_out[w] = time[b]
+    for i in range(qpos.shape[1]):
+        qpos_out[w, i] = qpos[b, i]
+    for i in range(qvel.shape[1]):
+        qvel_out[w, i] = qvel[b, i]
+        warm_out[w, i] = warm[b, i]
+    for i in range(act.shape[1]):
+        act_out[w, i] = act[b, i]
+    for i in range(ctrl.shape[1]):
+        ctrl_out[w, i] = ctrl[b, i]
 
 
 @wp.kernel

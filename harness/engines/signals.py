@@ -53,7 +53,7 @@ def window_steps(hold_time: float, control_dt: float) -> int:
 def unstable_reason(row: np.ndarray) -> str | None:
     """The CPU scene's instability test (``Scene.unstable``) on one signal row; MJWarp keeps no
     per-world warning counters, so the bad-acceleration test is not made (the full-buffer test
-    is: ``mjwarp_batch.BufferUse``)."""
+    is: ``mjwarp_steps.BufferUse``)."""
     if row[NONFINITE] > 0 or not np.all(np.isfinite(row)):
         return "NaN in the simulation state"
     if row[MAX_QVEL] > MAX_SANE_SPEED:
