@@ -33,7 +33,7 @@ class _StubEngine:
     running: ClassVar[int] = 0
     most_running: ClassVar[int] = 0
 
-    def __init__(self, device: str | None = None, buffers: Any = None) -> None:
+    def __init__(self, device: str | None = None, buffers: Any = None, retire: Any = None) -> None:
         pass
 
     def slots(self, count: int) -> list[Any]:

@@ -4,6 +4,8 @@ of its worlds has ended, and nothing retires below the floor of worlds."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -55,5 +57,5 @@ def test_every_world_steps_its_whole_span_and_leaves_once(
         assert plan[inside[-1]].end >= span  # stepped at least to its span's end
         if inside[-1] > 0:
             assert plan[inside[-1] - 1].end < span  # and left at the first end past it
-    for before, after in zip(plan, plan[1:], strict=False):
+    for before, after in itertools.pairwise(plan):
         assert len(before.worlds) > min_worlds and len(after.worlds) < len(before.worlds)

@@ -137,7 +137,9 @@ class _Device:
         if sizes:
             contacts, rows = (int(v) for v in sizes.split(","))
             buffers = (contacts, rows)
-        self.engine = MjwarpEngine(device, buffers)
+        # BENCH_RETIRE=share: when finished worlds leave a batch's motion (0: lockstep)
+        retire = os.environ.get("BENCH_RETIRE")
+        self.engine = MjwarpEngine(device, buffers, float(retire) if retire else None)
         self.scenes: dict[Any, Any] = {}
         self.outcomes: dict[int, PickOutcome] = {}
         self.totals = {
@@ -283,6 +285,7 @@ def run_gpu(
         "slots": gpu.slot_count,
         **gpu.counts, **gpu.totals,
         **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
+        "retire": os.environ.get("BENCH_RETIRE", "default"),
     }  # fmt: skip
 
 

@@ -51,11 +51,19 @@ class MjwarpEngine:
 
     name = "mjwarp"
 
-    def __init__(self, device: str | None = None, buffers: tuple[int, int] | None = None) -> None:
-        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_steps.SMALL``."""
+    def __init__(
+        self,
+        device: str | None = None,
+        buffers: tuple[int, int] | None = None,
+        retire: float | None = None,
+    ) -> None:
+        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_steps.SMALL``;
+        ``retire``: the share of a batch's stepping worlds whose spans end a segment of its
+        motion (``harness.engines.retirement``; 0: lockstep), else ``retirement.RETIRE``."""
         _import_warp()
         self.device = device or default_device()
         self.buffers = buffers
+        self.retire = retire
         self._models: dict[tuple[int, str, str], Any] = {}
 
     def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
@@ -72,7 +80,10 @@ class MjwarpEngine:
             with slot:
                 dm = self._models[key] = DeviceModel(scene, task, self.device)
         buffers = Buffers(*self.buffers) if self.buffers else SMALL
-        return WorldBatch(dm, buffers=buffers, slot=slot)
+        batch = WorldBatch(dm, buffers=buffers, slot=slot)
+        if self.retire is not None:
+            batch.retire = self.retire
+        return batch
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""
