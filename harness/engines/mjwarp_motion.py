@@ -3,12 +3,14 @@
 Lockstep steps every world of a batch until the longest span in it ends (a world's span: its
 control schedule, then the validity window). FR3 cube schedules run 101-277 control steps, so
 even batches of similar lengths stepped 18% of their motion's world-steps past the worlds' own
-spans, and batches fed from a short queue 44% (H100, 32,768 episodes, 2026-11-26). Here the
-motion runs in segments (``harness.engines.retirement``): when a share of the stepping worlds has
-reached the end of its span, the others go on in a smaller MuJoCo Warp ``Data``, their state
-carried over (``kernels.carry_state``: what ``mj_step`` reads from the last step; the mocap poses
-are the jobs'). The signal rows, the saved validity-window states and the control schedule stay in
-arrays of the whole batch, which each segment's kernels index through its world map
+spans, and batches fed from a short queue 44% (H100, 32,768 episodes, 2026-11-26). With a
+retirement share above 0 (``retirement.RETIRE``, ``MjwarpEngine(retire=...)``, the bench's
+``BENCH_RETIRE``; the default is lockstep, see ``retirement.RETIRE`` for why) the motion runs in
+segments: when that share of the stepping worlds has reached the end of its span, the others go
+on in a smaller MuJoCo Warp ``Data``, their state carried over (``kernels.carry_state``: what
+``mj_step`` reads from the last step; the mocap poses are the jobs'). The signal rows, the saved
+validity-window states and the control schedule stay in arrays of the whole batch, which each
+segment's kernels index through its world map
 (``world_of``: the batch world of each stepped world). A world's physics does not read the other
 worlds of its data, so its rows are the lockstep run's (``tests/test_engines.py`` compares both
 on Warp's CPU device).

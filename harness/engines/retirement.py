@@ -11,11 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# A segment ends when this share of its worlds has reached the end of its span. Chosen, no
-# public source: each retirement costs a new data and a new CUDA graph (host time while the
-# device waits for this batch), so a batch of 8,192 retires in ~8 steps rather than at every
-# world's end.
-RETIRE = 0.25
+# The share of a segment's worlds whose spans end it; 0: lockstep (one segment), the default.
+# Measured on an H100 (FR3 cube, 32,768 episodes, batches fed from 4,096 up to 8,192 worlds,
+# 2026-11-26, docs/engines.md "Retiring finished worlds"): 0.25 cut the motion's world-steps
+# from 208 M to 130 M (padding 44% -> 10%) but not the device time (134 s against 129 s on
+# another box in lockstep): the smaller segments stepped 1.54 M world-steps/s against 1.88 M,
+# and each retirement makes a new data and captures a new graph while its batch holds the
+# device's lock. So the engine keeps lockstep until a retirement that reuses its data pays.
+RETIRE = 0.0
 # No retirement below this many stepping worlds: a step of up to ~1,000 worlds is bound by
 # latency on an H100 (1.56 M world-steps/s at 1,024 worlds, ~0.66 ms a step, against ~2.6 ms
 # at 16,384; docs/engines.md), so fewer worlds would not step faster. Chosen, from that
