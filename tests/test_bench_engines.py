@@ -34,10 +34,11 @@ class _StubEngine:
     most_running: ClassVar[int] = 0
 
     def __init__(self, device: str | None = None, buffers: Any = None, retire: Any = None) -> None:
-        pass
+        self.device = device
 
     def slots(self, count: int) -> list[Any]:
-        return [f"slot {k}" for k in range(count)]
+        prefix = "" if self.device in (None, "stub") else f"{self.device} "
+        return [f"{prefix}slot {k}" for k in range(count)]
 
     def memory_high_gb(self) -> float:
         return 0.0
@@ -104,6 +105,24 @@ def test_two_slots_hold_two_batches_at_once(monkeypatch: pytest.MonkeyPatch) -> 
     assert result["slots"] == 2 and result["batches"] == -(-len(executed) // 2)
     assert set(_StubEngine.slots_seen[1:]) == {"slot 0", "slot 1"}
     assert 0.0 < result["device_s"] <= result["total_s"]
+
+
+def test_two_devices_each_load_the_kernels_and_take_batches_in_turn(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """device "a,b": one engine per device, both load the task model before the clock, and
+    the batches go to both devices' slots; every executed episode gets its outcome."""
+    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _StubEngine)
+    monkeypatch.setenv("BENCH_SLOTS", "1")
+    _StubEngine.batches, _StubEngine.lengths, _StubEngine.slots_seen = [], [], []
+    _StubEngine.barrier = None
+    specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 6)
+    result = bench.run_gpu(specs, workers=2, device="a,b", batch=2, chunk=6, bucket=1)
+    executed = [i for i, (_, job) in enumerate(result["planned"]) if job is not None]
+    assert sorted(result["outcomes"]) == executed and result["slots"] == 2
+    loads, timed = _StubEngine.slots_seen[:2], _StubEngine.slots_seen[2:]
+    assert loads == [None, None]  # each device's engine loaded the kernels, off the clock
+    assert set(timed) == {"a slot 0", "b slot 0"}
 
 
 def test_a_free_slot_takes_the_shortest_waiting_jobs(monkeypatch: pytest.MonkeyPatch) -> None:

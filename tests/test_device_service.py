@@ -151,6 +151,57 @@ def test_a_pool_on_warps_cpu_device_gives_the_mujoco_verdicts(
             assert row[key] == twin[key], key
 
 
+class _TwoDeviceEngine:
+    """A stand-in ``MjwarpEngine``: its slots are names; every batch waits at a barrier."""
+
+    barrier: threading.Barrier | None = None
+    entered = threading.Semaphore(0)  # released by each batch as it reaches the device
+
+    def __init__(self, device: str | None = None) -> None:
+        self.device = device or "?"
+
+    def slots(self, count: int) -> list[str]:
+        return [f"{self.device} slot {k}" for k in range(count)]
+
+    def execute_many(self, scene: Any, jobs: list[Any], slot: Any = None) -> tuple[list, None]:
+        assert slot is not None and slot.startswith(self.device)
+        assert _TwoDeviceEngine.barrier is not None
+        _TwoDeviceEngine.entered.release()
+        _TwoDeviceEngine.barrier.wait(timeout=60)
+        return [PickOutcome(message=f"{slot}") for _ in jobs], None
+
+
+def test_two_devices_run_two_batches_each_at_once(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two devices of two slots each: four batches are on the devices at the same time (each
+    waits at a barrier of four: fewer at once would time out), two on each device, each on a
+    slot of its own device."""
+    from harness.engines import mjwarp_engine
+
+    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _TwoDeviceEngine)
+    _TwoDeviceEngine.barrier = threading.Barrier(4)
+    service = DeviceService(lambda: 1, devices=["cuda:0", "cuda:1"])
+    replies: list[DeviceReply] = []
+    done = threading.Semaphore(0)
+
+    def answer(reply: DeviceReply) -> None:
+        replies.append(reply)
+        done.release()
+
+    for _ in range(4):  # one job at a time, each sent once the one before is on a device
+        service.submit(fr3_jobs[0], answer)
+        assert _TwoDeviceEngine.entered.acquire(timeout=60)
+    for _ in range(4):
+        assert done.acquire(timeout=60)
+    service.stop()
+    assert all(r.outcome is not None for r in replies), [r.error for r in replies]
+    slots = sorted(r.outcome.message for r in replies if r.outcome)
+    assert slots == ["cuda:0 slot 0", "cuda:0 slot 1", "cuda:1 slot 0", "cuda:1 slot 1"]
+    assert service.stats.by_device == {"cuda:0": 2, "cuda:1": 2}
+    assert service.stats.batches == 4 and not service.stats.errors
+
+
 def test_a_second_batch_runs_while_the_first_is_on_the_device(fr3_jobs) -> None:
     """Two slots: the job that arrives while the first batch is on the device runs as a batch
     of its own at the same time (both wait at a barrier: one at a time, it would time out and

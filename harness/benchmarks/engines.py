@@ -123,10 +123,12 @@ def _batch_key(job: Any) -> str:
 
 
 class _Device:
-    """The device side of the GPU path: the engine, its scenes, the outcomes by episode index
-    and where its time went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2)
-    threads, each with a stream of its own (``DeviceSlot``): one batch's host work (upload,
-    tug rounds, judging) overlaps another's physics; ``drain`` waits for them all."""
+    """The device side of the GPU path: one engine per device (``device``: one name, or
+    several separated by commas), its scenes, the outcomes by episode index and where its time
+    went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each
+    with a stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one
+    batch's host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits
+    for them all."""
 
     def __init__(self, device: str) -> None:
         from harness.engines.mjwarp_engine import MjwarpEngine
@@ -139,7 +141,11 @@ class _Device:
             buffers = (contacts, rows)
         # BENCH_RETIRE=share: when finished worlds leave a batch's motion (0: lockstep)
         retire = os.environ.get("BENCH_RETIRE")
-        self.engine = MjwarpEngine(device, buffers, float(retire) if retire else None)
+        # one engine per device ("cuda:0,cuda:1": several)
+        self.engines = [
+            MjwarpEngine(name, buffers, float(retire) if retire else None)
+            for name in device.split(",")
+        ]
         self.scenes: dict[Any, Any] = {}
         self.outcomes: dict[int, PickOutcome] = {}
         self.totals = {
@@ -151,9 +157,13 @@ class _Device:
         }  # fmt: skip
         self.peaks = {"peak_rows": 0.0, "peak_contacts": 0.0, "memory_high_gb": 0.0}
         self.compile_s = 0.0
-        self.slots: queue.Queue[Any] = queue.Queue()
-        for slot in self.engine.slots(int(os.environ.get("BENCH_SLOTS", "2"))):
-            self.slots.put(slot)
+        self.slots: queue.Queue[tuple[Any, Any]] = queue.Queue()  # (engine, slot), free
+        per_device = [
+            engine.slots(int(os.environ.get("BENCH_SLOTS", "2"))) for engine in self.engines
+        ]
+        for k in range(len(per_device[0])):  # in turn across the devices
+            for engine, slots in zip(self.engines, per_device, strict=True):
+                self.slots.put((engine, slots[k]))
         self.slot_count = self.slots.qsize()
         self.threads = ThreadPoolExecutor(self.slot_count)
         self.pending: list[Future[None]] = []
@@ -177,7 +187,8 @@ class _Device:
             if job is not None and _batch_key(job) not in seen:
                 seen.add(_batch_key(job))
                 clock = time.perf_counter()
-                self.engine.execute_many(self._scene(job), [job])
+                for engine in self.engines:
+                    engine.execute_many(self._scene(job), [job])
                 self.compile_s += time.perf_counter() - clock
 
     def step(self, indices: list[int], jobs: list[Any]) -> None:
@@ -195,13 +206,13 @@ class _Device:
         self.pending.clear()
 
     def _step(self, indices: list[int], jobs: list[Any]) -> None:
-        slot = self.slots.get()
+        engine, slot = self.slots.get()
         try:
             clock = time.perf_counter()
-            result, timings = self.engine.execute_many(self._scene(jobs[0]), jobs, slot)
+            result, timings = engine.execute_many(self._scene(jobs[0]), jobs, slot)
             span = (clock, time.perf_counter())
         finally:
-            self.slots.put(slot)
+            self.slots.put((engine, slot))
         with self.lock:
             self.busy.append(span)
             for i, outcome in zip(indices, result, strict=True):
@@ -214,7 +225,7 @@ class _Device:
             self.counts["batches"] += 1
             for key in ("peak_rows", "peak_contacts"):
                 self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
-            self.peaks["memory_high_gb"] = self.engine.memory_high_gb()
+            self.peaks["memory_high_gb"] = sum(e.memory_high_gb() for e in self.engines)
 
 
 def run_gpu(
@@ -396,11 +407,11 @@ def figures(result: dict[str, Any]) -> list[Figure]:
 
 
 def run(quick: bool) -> list[Figure]:
-    from harness.engines.mjwarp_engine import default_device
+    from harness.engines.mjwarp_engine import default_devices
 
     seeds = 2 if quick else 32
     workers = os.cpu_count() or 1
-    return figures(measure(seeds, workers, default_device()))
+    return figures(measure(seeds, workers, ",".join(default_devices())))
 
 
 def main() -> None:
@@ -408,13 +419,14 @@ def main() -> None:
     every record written (agreement.jsonl, summary.json)."""
     import sys
 
-    from harness.engines.mjwarp_engine import default_device
+    from harness.engines.mjwarp_engine import default_devices
 
     seeds, out = int(sys.argv[1]), Path(sys.argv[2])
     arms = tuple(sys.argv[3:]) or ARMS
     objects = tuple(os.environ.get("BENCH_OBJECTS", ",".join(OBJECTS)).split(","))
     out.mkdir(parents=True, exist_ok=True)
-    result = measure(seeds, os.cpu_count() or 1, default_device(), arms, objects)
+    devices = ",".join(default_devices())
+    result = measure(seeds, os.cpu_count() or 1, devices, arms, objects)
     with (out / "agreement.jsonl").open("w") as f:
         for record in result["records"]:
             f.write(json.dumps(record, default=float) + "\n")

@@ -69,10 +69,15 @@ def main(args: argparse.Namespace) -> int:
         f"{stats.finished} episode(s) in {stats.wall_time_s:.1f} s"
         + (f", {stats.crashed} worker crash(es) recorded as errors" if stats.crashed else "")
     )
-    if stats.device is not None:  # mjwarp on the process pool: one shared device
+    if stats.device is not None:  # mjwarp on the process pool: the shared device(s)
         device = stats.device
+        spread = (
+            " (" + ", ".join(f"{n} on {name}" for name, n in sorted(device.by_device.items())) + ")"
+            if len(device.by_device) > 1
+            else ""
+        )
         console.print(
-            f"device: {device.jobs} job(s) in {device.batches} batch(es) of up to "
+            f"device: {device.jobs} job(s) in {device.batches} batch(es){spread} of up to "
             f"{device.largest} world(s), {device.device_s:.1f} s"
             + (f"; {len(device.errors)} failed batch(es)" if device.errors else "")
         )

@@ -1,4 +1,4 @@
-"""One device shared by a process pool's workers: their execution jobs stepped in batches.
+"""The devices shared by a process pool's workers: their execution jobs stepped in batches.
 
 With ``--engine mjwarp`` and the process backend, each worker plans its episodes as always and,
 at the execution, sends the chosen plan's job (``DeviceJob``, with its control schedule) to the
@@ -6,8 +6,10 @@ parent over its pipe and waits (``PooledDeviceEngine``, the worker's ``mjwarp`` 
 of the parent (``DeviceService``) owns the one MuJoCo Warp engine: it gathers the jobs waiting
 (at most one per worker), steps the jobs of each task model as one batch of worlds, and answers
 each worker with its outcome, which the worker turns into its row as the in-process engine
-would. So a pool of W workers shares one CUDA context and one set of compiled kernels, and
-batches hold up to W worlds (more workers than cores keep both the cores and the device busy).
+would. So a pool of W workers shares one CUDA context per device and one set of compiled
+kernels, and batches hold up to W worlds (more workers than cores keep both the cores and the
+device busy). With several GPUs (``default_devices``) the service runs one engine on each and
+hands each batch to the first free slot, the slots taken in turn across the devices.
 
 The wait is not the episode's: the worker's wall-clock budget is paused while it waits
 (``harness.sim.budget.budget_paused``), and the parent does not count it towards the worker's
@@ -67,14 +69,15 @@ class DeviceReply:
 
 @dataclass
 class DeviceStats:
-    """What the service did: batches, jobs, the largest batch, seconds with a batch on the
-    device (the union of the batches' spans: two may overlap)."""
+    """What the service did: batches, jobs, the largest batch, seconds with a batch on a
+    device (the union of the batches' spans: several may overlap), batches per device."""
 
     batches: int = 0
     jobs: int = 0
     largest: int = 0
     device_s: float = 0.0
     errors: list[str] = field(default_factory=list)
+    by_device: dict[str, int] = field(default_factory=dict)  # batches run on each device
 
 
 class PooledDeviceEngine:
@@ -117,25 +120,31 @@ class DeviceService:
     def __init__(
         self,
         waiting: Callable[[], int],
-        device: str | None = None,
+        devices: list[str] | None = None,
         execute: Callable[[Any, list[Any]], list[PickOutcome]] | None = None,
     ) -> None:
         """``waiting``: how many workers may still send a job before the current ones are
-        answered (the batch stops gathering once that many arrived); ``execute(scene, jobs)``
-        runs one batch (default: the ``mjwarp`` engine on ``device``)."""
+        answered (the batch stops gathering once that many arrived); ``devices``: one
+        ``mjwarp`` engine on each, ``SLOTS`` batches each (default: ``default_devices``, every
+        CUDA device); ``execute(scene, jobs)`` runs one batch instead (tests)."""
         self.waiting = waiting
-        self.device = device
+        if devices is None:
+            from harness.engines.mjwarp_engine import default_devices
+
+            devices = default_devices() if execute is None else ["stub"]
+        self.devices = devices
         self._execute_batch = execute
         self.stats = DeviceStats()
         self._queue: queue.Queue[tuple[Any, Answer] | None] = queue.Queue()
-        self._engine: Any = None
+        self._engines: list[Any] = []
         self._scenes: dict[Any, Any] = {}
         self._lock = threading.Lock()  # the stats, the count of jobs in flight
         self._in_flight = 0  # jobs handed to a slot and not yet answered
-        self._free = threading.Semaphore(SLOTS)
-        self._slots: queue.Queue[Any] = queue.Queue()
+        slots = SLOTS * len(devices)
+        self._free = threading.Semaphore(slots)
+        self._slots: queue.Queue[tuple[Any, Any]] = queue.Queue()  # (engine, slot), free ones
         self._spans: list[tuple[float, float]] = []
-        self._pool = ThreadPoolExecutor(SLOTS, thread_name_prefix="mjwarp-slot")
+        self._pool = ThreadPoolExecutor(slots, thread_name_prefix="mjwarp-slot")
         self._thread = threading.Thread(target=self._loop, name="mjwarp-device", daemon=True)
         self._thread.start()
 
@@ -250,16 +259,25 @@ class DeviceService:
         scene = self._scene(jobs[0].task)
         if self._execute_batch is not None:
             return self._execute_batch(scene, jobs)
+        with self._lock:
+            if not self._engines:
+                self._start_engines()
+        engine, slot = self._slots.get()
+        try:
+            outcomes, _ = engine.execute_many(scene, jobs, slot)
+        finally:
+            self._slots.put((engine, slot))
+        with self._lock:
+            self.stats.by_device[engine.device] = self.stats.by_device.get(engine.device, 0) + 1
+        return outcomes
+
+    def _start_engines(self) -> None:
+        """One engine per device and its slots, queued alternately across the devices so that
+        consecutive batches go to different devices."""
         from harness.engines.mjwarp_engine import MjwarpEngine
 
-        with self._lock:
-            if self._engine is None:
-                self._engine = MjwarpEngine(self.device)
-                for slot in self._engine.slots(SLOTS):
-                    self._slots.put(slot)
-        slot = self._slots.get()
-        try:
-            outcomes, _ = self._engine.execute_many(scene, jobs, slot)
-        finally:
-            self._slots.put(slot)
-        return outcomes
+        self._engines = [MjwarpEngine(device) for device in self.devices]
+        slots = [engine.slots(SLOTS) for engine in self._engines]
+        for k in range(SLOTS):
+            for engine, own in zip(self._engines, slots, strict=True):
+                self._slots.put((engine, own[k]))

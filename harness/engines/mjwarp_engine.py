@@ -6,7 +6,9 @@ each job's control schedule on the CPU (``harness.engines.schedule``), step the 
 lockstep on the device (``harness.engines.mjwarp_batch``) and judge the recorded signals with the
 CPU's verdict terms (``harness.engines.judge``). The device is ``HARNESS_WARP_DEVICE`` when set
 (``cpu`` for Warp's CPU device, ``cuda:1`` ...), else the first CUDA device, else the CPU: one
-engine per device, so several GPUs take one worker process each.
+engine per device. A sweep's shared device service (``harness.engines.device_service``) and the
+throughput bench run one engine on each device of ``default_devices`` (every CUDA device, or
+the comma-separated ``HARNESS_WARP_DEVICE``).
 """
 
 from __future__ import annotations
@@ -35,15 +37,24 @@ def _import_warp() -> tuple[Any, Any]:
     return warp, mujoco_warp
 
 
-def default_device() -> str:
-    """``HARNESS_WARP_DEVICE``, else ``cuda:0`` when Warp sees a CUDA device, else ``cpu``."""
+def default_devices() -> list[str]:
+    """``HARNESS_WARP_DEVICE`` (one device, or several separated by commas: ``cuda:0,cuda:1``),
+    else every CUDA device Warp sees, else ``["cpu"]``."""
     wp, _ = _import_warp()
     chosen = os.environ.get("HARNESS_WARP_DEVICE")
     if chosen:
-        return chosen
+        devices = [name.strip() for name in chosen.split(",") if name.strip()]
+        if devices:
+            return devices
     wp.config.quiet = True
     wp.init()
-    return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
+    count = wp.get_cuda_device_count()
+    return [f"cuda:{k}" for k in range(count)] if count > 0 else ["cpu"]
+
+
+def default_device() -> str:
+    """The first of ``default_devices``: where one engine runs."""
+    return default_devices()[0]
 
 
 class MjwarpEngine:
