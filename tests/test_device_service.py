@@ -106,8 +106,8 @@ def test_a_pool_sends_its_mjwarp_jobs_to_the_parents_device(
     every executed row carries the device's outcome and the engine's name."""
     original = DeviceService.__init__
 
-    def with_stub(self: DeviceService, waiting: Any, device: Any = None, execute: Any = None):
-        original(self, waiting, device, _stub_batch)
+    def with_stub(self: DeviceService, waiting: Any, devices: Any = None, execute: Any = None):
+        original(self, waiting, devices, _stub_batch)
 
     monkeypatch.setattr(service_module.DeviceService, "__init__", with_stub)
     episodes = [
