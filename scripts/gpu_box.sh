@@ -20,8 +20,10 @@ case "${1:-}" in
       touch "$SITE/.done"
     fi
     # kernels compiled by an earlier sitting (scripts/gpu_box_jobs.sh cache), when carried
-    if [ -f /tmp/parts/warpcache.tar.xz ] && [ ! -d /tmp/warpcache ]; then
-      mkdir -p /tmp/warpcache && xz -d -T0 < /tmp/parts/warpcache.tar.xz | tar -x -C /tmp/warpcache
+    # (one file warpcache.tar.xz, or parts warpcache.tar.xz.partNN from scripts/warp_aot.py)
+    if compgen -G "/tmp/parts/warpcache.tar.xz*" > /dev/null && [ ! -d /tmp/warpcache ]; then
+      mkdir -p /tmp/warpcache
+      cat /tmp/parts/warpcache.tar.xz* | xz -d -T0 | tar -x -C /tmp/warpcache
     fi
     ;;
   env)
