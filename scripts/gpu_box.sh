@@ -10,7 +10,10 @@ SITE=/tmp/site
 case "${1:-}" in
   stash)
     mkdir -p /tmp/parts
-    cp "$2"/part.* "$2"/warpcache.* /tmp/parts/ 2>/dev/null || cp "$2"/part.* /tmp/parts/
+    shopt -s nullglob
+    carried=("$2"/part.* "$2"/warpcache.*)
+    [ ${#carried[@]} -gt 0 ] || { echo "nothing to stash in $2" >&2; exit 1; }
+    cp "${carried[@]}" /tmp/parts/
     ls -la /tmp/parts
     ;;
   setup)
