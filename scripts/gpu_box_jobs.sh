@@ -78,6 +78,12 @@ for job in "$@"; do
     tp_16k_feed)  # the same with batches of up to 16384
       BENCH_BATCH=16384 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 32768 "$R/tp_16k_feed" fr3 ;;
+    tp_8k_lock)  # the bucketed 8192 batches again (lockstep, the default) beside tp_8k_retire
+      BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 32768 "$R/tp_8k_lock" fr3 ;;
+    tp_8k_retire)  # the same with finished worlds retired (a quarter per segment)
+      BENCH_RETIRE=0.25 BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 32768 "$R/tp_8k_retire" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
