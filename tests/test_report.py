@@ -36,6 +36,7 @@ from harness.report import (
     summarize,
 )
 from harness.report.stats import (
+    Z_95,
     compare_proportions,
     fisher_exact_p,
     two_proportion_z_test,
@@ -103,6 +104,22 @@ def test_wilson_edge_cases() -> None:
     assert low < 0.3968 and high > 0.8922
     with pytest.raises(ValueError):
         wilson_interval(6, 5)
+
+
+@pytest.mark.parametrize(("confidence", "largest"), [(0.95, 100), (0.99, 30)])
+def test_wilson_interval_is_scipys_bit_for_bit(confidence: float, largest: int) -> None:
+    """The interval is computed without scipy.stats (its import is ~0.5 s of every report), so
+    it must be scipy's binomtest Wilson interval float for float, at every count up to n = 100."""
+    from scipy import stats as scipy_stats
+    from scipy.special import ndtri
+
+    assert float(ndtri(0.975)) == Z_95
+    for n in range(1, largest + 1):
+        for k in range(n + 1):
+            ci = scipy_stats.binomtest(k, n).proportion_ci(confidence, method="wilson")
+            low = 0.0 if k == 0 else max(0.0, float(ci.low))
+            high = 1.0 if k == n else min(1.0, float(ci.high))
+            assert wilson_interval(k, n, confidence) == (low, high), (k, n)
 
 
 def test_two_proportion_tests_match_hand_computation() -> None:

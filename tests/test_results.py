@@ -136,6 +136,30 @@ def test_truncated_last_line_is_tolerated_and_the_next_row_starts_clean(tmp_path
     assert resumed.skipped_lines == [3]
 
 
+def test_a_second_load_of_unchanged_rows_is_the_same_frame_and_sees_every_change(
+    tmp_path: Path,
+) -> None:
+    """A sweep's export and its report read the same rows: the second load comes from the
+    first's parse, as an equal frame of its own; any change of the file's bytes (an appended
+    row, a row rewritten to the same length, a torn line) is read again."""
+    store = ResultStore(tmp_path)
+    store.append(row("a", success=True))
+    store.append(row("b"))
+    first = store.load()
+    second = ResultStore(tmp_path).load()
+    pd.testing.assert_frame_equal(first, second)
+    second.loc[0, "success"] = False  # the caller's copy: the next load is unaffected
+    assert bool(ResultStore(tmp_path).load().loc[0, "success"])
+    text = store.path.read_text(encoding="utf-8")
+    store.path.write_text(text.replace('"success": true', '"success": fals'), encoding="utf-8")
+    rewritten = ResultStore(tmp_path)
+    assert len(rewritten.load()) == 1 and rewritten.skipped_lines == [1]  # same size, now torn
+    store.path.write_text(text, encoding="utf-8")
+    store.append(row("c", success=True))
+    again = ResultStore(tmp_path)
+    assert list(again.load()["episode_id"]) == ["a", "b", "c"] and again.skipped_lines == []
+
+
 def test_duplicate_episode_ids_keep_the_last_row(tmp_path: Path) -> None:
     store = ResultStore(tmp_path)
     store.append(row("a", failure_reason="error", error_message="worker crashed"))

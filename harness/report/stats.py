@@ -13,17 +13,26 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from scipy import stats as scipy_stats
+# scipy.stats (~0.5 s to import) is imported only by the comparisons (z, Fisher, McNemar): a
+# report's Wilson intervals are the few lines of scipy's ``_binom_wilson_conf_int`` below.
 
 # Below this expected count in any cell of the 2x2 table, the z-test is replaced by Fisher's.
 MIN_EXPECTED_COUNT = 5.0
+# ``scipy.special.ndtri(0.975)``: the two-sided 95% quantile that binomtest's Wilson interval uses
+# (tests/test_report.py checks it and every interval up to n = 100 against scipy).
+Z_95 = 1.959963984540054
 
 
 @functools.lru_cache(maxsize=64)
 def _z_for(confidence: float) -> float:
+    """The two-sided normal quantile of ``confidence``, as scipy's Wilson interval computes it."""
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    return float(scipy_stats.norm.ppf(0.5 + confidence / 2.0))
+    if confidence == 0.95:
+        return Z_95
+    from scipy.special import ndtri
+
+    return float(ndtri(0.5 + 0.5 * confidence))
 
 
 def _check_counts(successes: int, n: int) -> None:
@@ -44,13 +53,17 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
 @functools.lru_cache(maxsize=4096)
 def _wilson(successes: int, n: int, confidence: float) -> tuple[float, float]:
     """``wilson_interval`` of checked counts, kept per (k, n, confidence): a report of a dense
-    grid asks for the same few small counts thousands of times (~0.4 ms of scipy each)."""
-    interval = scipy_stats.binomtest(successes, n).proportion_ci(
-        confidence_level=confidence, method="wilson"
-    )
+    grid asks for the same few small counts thousands of times. The arithmetic of scipy's
+    ``binomtest(k, n).proportion_ci(method="wilson")`` (``_binom_wilson_conf_int``), in its order,
+    so the floats are the same."""
+    z = _z_for(confidence)
+    p = successes / n
+    denom = 2 * (n + z**2)
+    center = (2 * n * p + z**2) / denom
+    delta = z / denom * math.sqrt(4 * n * p * (1 - p) + z**2)
     # Exact 0 and 1 at the extremes (rounding would leave 1e-17 instead).
-    low = 0.0 if successes == 0 else max(0.0, float(interval.low))
-    high = 1.0 if successes == n else min(1.0, float(interval.high))
+    low = 0.0 if successes == 0 else max(0.0, center - delta)
+    high = 1.0 if successes == n else min(1.0, center + delta)
     return low, high
 
 
@@ -69,6 +82,8 @@ def two_proportion_z_test(k1: int, n1: int, k2: int, n2: int) -> tuple[float, fl
     if variance == 0.0:
         return 0.0, 1.0
     z = (k2 / n2 - k1 / n1) / math.sqrt(variance)
+    from scipy import stats as scipy_stats
+
     return z, float(2.0 * scipy_stats.norm.sf(abs(z)))
 
 
@@ -78,6 +93,8 @@ def fisher_exact_p(k1: int, n1: int, k2: int, n2: int) -> float:
     _check_counts(k2, n2)
     if n1 == 0 or n2 == 0:
         return math.nan
+    from scipy import stats as scipy_stats
+
     table = [[k1, n1 - k1], [k2, n2 - k2]]
     result = scipy_stats.fisher_exact(table, alternative="two-sided")
     # scipy's decorator hides the result type (a SignificanceResult with .pvalue).
@@ -137,5 +154,7 @@ def mcnemar_exact(only_a: int, only_b: int) -> McNemar:
     total = only_a + only_b
     if total == 0:
         return McNemar(only_a, only_b, 1.0)
+    from scipy import stats as scipy_stats
+
     result = scipy_stats.binomtest(only_b, total, 0.5, alternative="two-sided")
     return McNemar(only_a, only_b, min(1.0, float(result.pvalue)))
