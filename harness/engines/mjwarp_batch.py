@@ -135,6 +135,7 @@ class WorldBatch:
         policy: RoundPolicy = DEFAULT_POLICY,
         buffers: Buffers = SMALL,
         slot: DeviceSlot | None = None,
+        retire: float = RETIRE,
     ) -> None:
         self.dm = dm
         # the stream this batch runs on (and the lock of the device's slots); own by default
@@ -142,7 +143,7 @@ class WorldBatch:
         self.policy = policy  # which rungs each tug round runs
         self.buffers = buffers
         # when worlds leave the motion (``retirement.segments``); retire 0: lockstep
-        self.retire, self.min_worlds = RETIRE, MIN_WORLDS
+        self.retire, self.min_worlds = retire, MIN_WORLDS
         self.timings = BatchTimings()
         # the worlds of the current ``_run`` that did not fit: their steps, or a tug round of
         # theirs even on ``LARGE``
@@ -212,7 +213,7 @@ class WorldBatch:
                     if needs_tug(steps[w], win, float(job.object_init_position[2])):
                         tugged.append(w)
                 windows.append(win)
-            start = _RungStart(jobs, run.saved, run.hold_ctrl, run.state, motion, windows)
+            start = _RungStart(jobs, run.saved, run.hold_ctrl, run.mocap, motion, windows)
             rungs = self._tug(start, steps, tugged, buffers)
         return self._judge(jobs, steps, warm_rows, validity, windows, rungs), sorted(
             self._overflowed
@@ -284,16 +285,12 @@ class WorldBatch:
             force.append(np.asarray(directions[name]) * k * dm.weight)
         nt = len(batch)
         td = self._data(nt, buffers)
-        mocap = [
-            wp.array(start.state[name], dtype=kind)
-            for name, kind in (("mocap_pos", wp.vec3), ("mocap_quat", wp.quat))
-        ]
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[
                 wp.array(np.asarray(source, dtype=np.int32), dtype=wp.int32),
                 wp.array(np.asarray(slot, dtype=np.int32), dtype=wp.int32),
-                *start.saved, start.hold_ctrl, *mocap,
+                *start.saved, start.hold_ctrl, *start.mocap,
                 wp.array(np.asarray(force, dtype=np.float32), dtype=wp.vec3), dm.obj_body,
                 td.qpos, td.qvel, td.qacc_warmstart, td.ctrl, td.mocap_pos, td.mocap_quat,
                 td.xfrc_applied,
@@ -324,12 +321,12 @@ class WorldBatch:
 @dataclass
 class _RungStart:
     """Where a batch's tug rungs start from: its jobs, its worlds' saved validity window states
-    and held controls, their start states, each world's motion length and hold window."""
+    and held controls and mocap poses, each world's motion length and hold window."""
 
     jobs: list[DeviceJob]
     saved: list[wp.array]
     hold_ctrl: wp.array  # (world, nu): the controls each world holds after its schedule
-    state: dict[str, np.ndarray]  # the jobs' start states (their mocap poses)
+    mocap: list[wp.array]  # (world, body): the mocap positions and orientations
     motion: np.ndarray
     windows: list[HoldWindow | None]
 

@@ -91,10 +91,9 @@ class MjwarpEngine:
             with slot:
                 dm = self._models[key] = DeviceModel(scene, task, self.device)
         buffers = Buffers(*self.buffers) if self.buffers else SMALL
-        batch = WorldBatch(dm, buffers=buffers, slot=slot)
-        if self.retire is not None:
-            batch.retire = self.retire
-        return batch
+        if self.retire is None:
+            return WorldBatch(dm, buffers=buffers, slot=slot)
+        return WorldBatch(dm, buffers=buffers, slot=slot, retire=self.retire)
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""

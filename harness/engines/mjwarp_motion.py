@@ -56,8 +56,13 @@ class MotionRun:
         table, last = steps.schedule_rows(schedules, rows)
         self.table = wp.array(table, dtype=wp.float32)
         self.last = wp.array(last, dtype=wp.int32)
-        # after its schedule a world holds its last controls (the tug's rungs start from them)
+        # after its schedule a world holds its last controls, and its mocap pose throughout
+        # (the tug's rungs start from them)
         self.hold_ctrl = wp.array(table[np.arange(n), last], dtype=wp.float32)
+        self.mocap = [
+            wp.array(self.state[name], dtype=kind)
+            for name, kind in (("mocap_pos", wp.vec3), ("mocap_quat", wp.quat))
+        ]
         self.step = wp.zeros(1, dtype=wp.int32)
         self.out = wp.zeros((n, rows, SIGNALS), dtype=wp.float32)
         self.warm = wp.zeros((n, 1, SIGNALS), dtype=wp.float32)
