@@ -62,7 +62,7 @@ for job in "$@"; do
       BENCH_SLOTS=2 BENCH_BATCH=8192 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
         python3 -m harness.benchmarks.engines 16384 "$R/tp_slot2_8192" fr3 ;;
     profile)  # device time by kernel and solver iterations, 512 FR3 cube plans tiled
-      python3 -m harness.benchmarks.device_profile "$R/profile" --worlds 4096 8192 16384 ;;
+      python3 -m harness.benchmarks.device_profile "$R/profile" --worlds 8192 16384 32768 ;;
     profile_solver)  # the same at 4096 worlds with solver settings: cost and outcomes changed
       # (MJWarp's float32 tolerance is already 1e-6; the batch's slowest world takes 5-8
       # iterations a step, its mean world 1.4)
@@ -86,6 +86,15 @@ for job in "$@"; do
     tp_8k_retire)  # the same with finished worlds retired (a quarter per segment)
       BENCH_RETIRE=0.25 BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_CPU_EPISODES=2048 \
         BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 32768 "$R/tp_8k_retire" fr3 ;;
+    tp_8k_warm)  # bucketed 8192 batches; the idle device starts from 4096 planned (warm start)
+      BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 32768 "$R/tp_8k_warm" fr3 ;;
+    tp_16k_warm)  # 65536 in bucketed batches of 16384 with the warm start
+      BENCH_BATCH=16384 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 65536 "$R/tp_16k_warm" fr3 ;;
+    tp_16k_warm_32k)  # 32768 in bucketed batches of 16384 with the warm start
+      BENCH_BATCH=16384 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 32768 "$R/tp_16k_warm_32k" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -149,6 +149,32 @@ def test_a_free_slot_takes_the_shortest_waiting_jobs(monkeypatch: pytest.MonkeyP
         assert lengths == sorted(lengths)
 
 
+@pytest.mark.parametrize("min_batch", [0, 1])
+def test_a_warm_start_runs_the_first_batch_before_the_buckets_fill(
+    monkeypatch: pytest.MonkeyPatch, min_batch: int
+) -> None:
+    """bucket 2 with min_batch: the idle device takes the first job planned at once instead of
+    waiting for 2 x batch; bucketing alone waits and takes the batch shortest of six."""
+    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _StubEngine)
+    monkeypatch.setenv("BENCH_SLOTS", "2")
+    _StubEngine.batches, _StubEngine.lengths, _StubEngine.barrier = [], [], None
+    _StubEngine.delay_s = 0.3
+    try:
+        specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 8)
+        result = bench.run_gpu(
+            specs, workers=2, device="stub", batch=3, chunk=1, bucket=2, min_batch=min_batch
+        )
+    finally:
+        _StubEngine.delay_s = 0.0
+    executed = [i for i, (_, job) in enumerate(result["planned"]) if job is not None]
+    assert len(executed) >= 6 and sorted(result["outcomes"]) == executed
+    _, *timed = _StubEngine.batches
+    assert sum(timed) == len(executed) and max(timed) <= 3
+    assert timed[0] == (1 if min_batch else 3)
+    for lengths in _StubEngine.lengths[1:]:
+        assert lengths == sorted(lengths)
+
+
 def test_device_time_is_the_union_of_the_batches_spans() -> None:
     from harness.engines.busy_time import union_length
 

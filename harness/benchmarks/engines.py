@@ -242,10 +242,12 @@ def run_gpu(
     pool keeps planning meanwhile); the rest run once planning is done, shortest first, in
     batches of ``batch``. ``bucket`` > 1 trades a later first batch for batches of similar
     schedule lengths (every world of a batch is stepped for its longest schedule).
-    ``min_batch`` > 0 feeds the device when it has a free slot instead: then the (up to)
-    ``batch`` shortest of the jobs waiting run, once at least ``min_batch`` wait, so that the
-    device starts early and the waiting pool a batch is sorted from grows while the device is
-    the slower side. The outcomes and where the time went."""
+    ``min_batch`` > 0 with ``bucket`` 1 feeds the device when it has a free slot instead: then
+    the (up to) ``batch`` shortest of the jobs waiting run, once at least ``min_batch`` wait, so
+    that the device starts early and the waiting pool a batch is sorted from grows while the
+    device is the slower side. With ``bucket`` > 1 it only starts the device while nothing is on
+    it (the first batch after ``min_batch`` jobs instead of ``bucket * batch``); the other
+    batches are bucketed. The outcomes and where the time went."""
     gpu = _Device(device)
     planned: list[Any] = [None] * len(all_specs)
     indexed = list(enumerate(all_specs))
@@ -301,9 +303,15 @@ def run_gpu(
 
 
 def _ready(gpu: _Device, waiting: int, batch: int, bucket: int, min_batch: int) -> bool:
-    """Whether a batch runs now from ``waiting`` planned jobs of one task model."""
-    if min_batch > 0:
-        return waiting >= min_batch and gpu.in_flight() < gpu.slot_count
+    """Whether a batch runs now from ``waiting`` planned jobs of one task model: ``bucket *
+    batch`` wait; or, with ``min_batch``, ``min_batch`` wait and the device has nothing to do
+    (``bucket`` > 1: a *warm start*, so that the device does not idle while the first buckets
+    fill) or, with ``bucket`` 1, a slot is free (feeding)."""
+    if min_batch > 0 and waiting >= min_batch:
+        if gpu.in_flight() == 0:
+            return True
+        if bucket == 1:
+            return gpu.in_flight() < gpu.slot_count
     return waiting >= bucket * batch
 
 
