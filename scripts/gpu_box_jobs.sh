@@ -6,6 +6,13 @@
 #   scripts/gpu_box_jobs.sh agree sweep throughput ...   (jobs in order)
 #   scripts/gpu_box_jobs.sh pack OUT_DIR
 set -uo pipefail
+# Every device call re-syncs the box's copy of the checkout (a poll included): a job whose
+# processes import while that happens fails (a sitting lost a run and 57 CPU rows to it). So
+# the jobs run from a private copy made at the start.
+if [ -z "${GPU_BOX_COPY:-}" ]; then
+  copy="/tmp/repo.$$"
+  cp -r "$PWD" "$copy" && cd "$copy" && GPU_BOX_COPY="$copy" exec bash scripts/gpu_box_jobs.sh "$@"
+fi
 source "$(dirname "$0")/gpu_box.sh" env
 set +e
 R=/tmp/results
