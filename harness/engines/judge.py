@@ -228,3 +228,19 @@ def judge(
             )
             state.out.validity = stopped_validity(measure, state.failed_term, state.out.message)
     return state.out
+
+
+def judge_started(
+    job: DeviceJob,
+    steps: np.ndarray,
+    warm_row: np.ndarray,
+    validity: bool,
+    window: HoldWindow | None,
+    rungs: Mapping[Rung, RungOutcome] | None,
+) -> PickOutcome:
+    """``judge``, after the warm-up's row is checked: a world that was unstable before its
+    motion started ends ``sim_unstable``."""
+    reason = unstable_reason(warm_row)
+    if reason is not None:
+        return PickOutcome(failure_reason="sim_unstable", message=reason)
+    return judge(job, steps, validity, window, rungs)

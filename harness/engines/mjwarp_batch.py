@@ -17,6 +17,7 @@ CPU device the same functions run without capture.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco_warp as mjw
@@ -27,7 +28,7 @@ from harness.config import TaskConfig
 from harness.engines import mjwarp_kernels as kernels
 from harness.engines import mjwarp_steps as steps
 from harness.engines.device_slot import DeviceSlot
-from harness.engines.judge import held_in_tcp, judge, needs_tug, rung_outcome
+from harness.engines.judge import held_in_tcp, judge_started, needs_tug, rung_outcome
 from harness.engines.mjwarp_motion import MotionRun
 from harness.engines.mjwarp_steps import LARGE, SMALL, BatchTimings, Buffers
 from harness.engines.retirement import MIN_WORLDS, RETIRE, segments
@@ -36,7 +37,6 @@ from harness.engines.signals import (
     SIGNALS,
     HoldWindow,
     hold_window,
-    unstable_reason,
     window_steps,
 )
 from harness.engines.tug_rounds import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
@@ -99,29 +99,31 @@ class DeviceModel:
     def record(
         self,
         d: mjw.Data,
-        step: wp.array,
+        row_of: wp.array,
         out: wp.array,
+        start_out: wp.array,
         pen_initial: wp.array,
         world_of: wp.array,
-        baseline: bool = False,
     ) -> None:
-        """Launch the signal kernels for the current state into ``out[world_of[w], step]`` for
-        each world ``w`` of ``d``; ``baseline``: this state is the start the penetration is
-        counted from (``TablePenetration.depth``'s first call), its row's penetration is 0."""
+        """Launch the signal kernels for the current state: each world ``w`` of ``d`` whose
+        ``row_of[w]`` is a row writes ``out[world_of[w], row]``; one whose row is
+        ``kernels.BASELINE`` writes ``start_out[world_of[w], 0]``, the start the table
+        penetration is counted from (``TablePenetration.depth``'s first call; its penetration
+        is 0); ``kernels.NO_ROW``: nothing."""
         wp.launch(
             kernels.record, dim=d.nworld,
             inputs=[
                 d.qpos, d.qvel, d.xpos, d.xmat, d.geom_xpos, d.geom_xmat, self.robot_dof,
                 self.obj_body, self.obj_dof, self.ee_body, self.tcp_body, self.pen_geom,
                 self.pen_box, self.pen_radial, self.pen_round, self.pen_offset, self.table,
-                self.table_half, pen_initial, int(baseline), step, world_of, out,
+                self.table_half, pen_initial, row_of, world_of, out, start_out,
             ],
         )  # fmt: skip
         wp.launch(
             kernels.finger_forces, dim=d.naconmax,
             inputs=[
                 d.nacon, d.contact.geom, d.contact.worldid, d.contact.efc_address, d.efc.force,
-                self.finger_side, self.object_geom, step, world_of, out,
+                self.finger_side, self.object_geom, row_of, world_of, out, start_out,
             ],
         )  # fmt: skip
 
@@ -149,7 +151,8 @@ class WorldBatch:
         # theirs even on ``LARGE``
         self._overflowed: set[int] = set()
 
-    def _data(self, nworld: int, buffers: Buffers) -> mjw.Data:
+    def data(self, nworld: int, buffers: Buffers) -> mjw.Data:
+        """A fresh data of ``nworld`` worlds on ``buffers``."""
         return mjw.put_data(
             self.dm.mj_model, self.dm.template, nworld=nworld,
             nconmax=buffers.nconmax, njmax=buffers.njmax,
@@ -192,7 +195,7 @@ class WorldBatch:
         spans = motion + np.where(validity, window, 0)
         clock = time.perf_counter()
         with wp.ScopedDevice(device):
-            run = MotionRun(dm, jobs, spans, window, lambda k: self._data(k, buffers))
+            run = MotionRun(dm, jobs, spans, window, lambda k: self.data(k, buffers))
             self.slot.wait()
             self.timings.upload_s += time.perf_counter() - clock
             clock = time.perf_counter()
@@ -204,46 +207,35 @@ class WorldBatch:
             warm_rows = run.warm.numpy()[:, 0]
             self.timings.download_s += time.perf_counter() - clock
             self._overflowed = set(over)  # not judged: they run again, or end unstable
-            windows: list[HoldWindow | None] = []
-            tugged: list[int] = []
-            for w, job in enumerate(jobs):
-                win = None
-                if validity[w] and schedules[w].verdict_step >= 0 and w not in self._overflowed:
-                    win = hold_window(steps[w], int(motion[w]), hold_time, dt)
-                    if needs_tug(steps[w], win, float(job.object_init_position[2])):
-                        tugged.append(w)
-                windows.append(win)
-            start = _RungStart(jobs, run.saved, run.hold_ctrl, run.mocap, motion, windows)
+            worlds = list(range(len(jobs)))
+            windows, tugged = hold_windows(jobs, worlds, steps, validity, self._overflowed)
+            start = RungStart(jobs, run.saved, run.hold_ctrl, run.mocap, motion, windows)
             rungs = self._tug(start, steps, tugged, buffers)
-        return self._judge(jobs, steps, warm_rows, validity, windows, rungs), sorted(
-            self._overflowed
-        )
-
-    def _judge(
-        self,
-        jobs: list[DeviceJob],
-        steps: np.ndarray,
-        warm_rows: np.ndarray,
-        validity: list[bool],
-        windows: list[HoldWindow | None],
-        rungs: dict[int, dict[Rung, RungOutcome]],
-    ) -> list[PickOutcome]:
-        """The verdicts on the host, from the downloaded signal rows."""
         clock = time.perf_counter()
-        outcomes = []
-        for w, job in enumerate(jobs):
-            reason = unstable_reason(warm_rows[w])
-            if reason is not None:
-                outcomes.append(PickOutcome(failure_reason="sim_unstable", message=reason))
-                continue
-            outcomes.append(judge(job, steps[w], validity[w], windows[w], rungs.get(w)))
+        outcomes = [
+            judge_started(job, steps[w], warm_rows[w], validity[w], windows[w], rungs.get(w))
+            for w, job in enumerate(jobs)
+        ]
         self.timings.judge_s += time.perf_counter() - clock
-        return outcomes
+        return outcomes, sorted(self._overflowed)
+
+    def run_held(self, jobs: list[DeviceJob]) -> list[PickOutcome]:
+        """``run`` for a caller that holds this batch's slot already."""
+        return self._run_fitted(jobs)
+
+    def tug(
+        self, start: RungStart, rows: Mapping[int, np.ndarray], tugged: list[int]
+    ) -> tuple[dict[int, dict[Rung, RungOutcome]], set[int]]:
+        """The tug ladders of ``tugged`` (worlds of ``start``) on this batch's buffers: by
+        world, the rungs' outcomes, and the worlds whose rungs did not fit even ``LARGE``."""
+        self._overflowed = set()
+        rungs = self._tug(start, rows, tugged, self.buffers)
+        return rungs, self._overflowed
 
     def _tug(
         self,
-        start: _RungStart,
-        steps: np.ndarray,
+        start: RungStart,
+        steps: np.ndarray | Mapping[int, np.ndarray],
         tugged: list[int],
         buffers: Buffers,
     ) -> dict[int, dict[Rung, RungOutcome]]:
@@ -269,7 +261,7 @@ class WorldBatch:
         return known
 
     def _rungs(
-        self, start: _RungStart, batch: list[tuple[int, Rung]], buffers: Buffers
+        self, start: RungStart, batch: list[tuple[int, Rung]], buffers: Buffers
     ) -> np.ndarray:
         """One round: a world per (world, rung), started from that world's held state with the
         rung's pull; their end rows in ``batch`` order. A round whose worlds did not fit
@@ -284,7 +276,7 @@ class WorldBatch:
             slot.append(_window(start.windows[w]).hold_end - (int(start.motion[w]) - 1))
             force.append(np.asarray(directions[name]) * k * dm.weight)
         nt = len(batch)
-        td = self._data(nt, buffers)
+        td = self.data(nt, buffers)
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[
@@ -301,11 +293,11 @@ class WorldBatch:
         rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
         use = steps.BufferUse(nt)
         steps.replay(dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps)
-        zero = wp.zeros(1, dtype=wp.int32)
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)
         # the rungs' penetration is not judged: each rung row measures its own start
-        dm.record(td, zero, out, dm.penetration_start(nt), identity, baseline=True)
+        start_rows = wp.full(nt, kernels.BASELINE, dtype=wp.int32)
+        dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
         self.slot.wait()
         rows = out.numpy()[:, 0]
         over = use.overflowed(td, buffers, self.timings)
@@ -319,7 +311,7 @@ class WorldBatch:
 
 
 @dataclass
-class _RungStart:
+class RungStart:
     """Where a batch's tug rungs start from: its jobs, its worlds' saved validity window states
     and held controls and mocap poses, each world's motion length and hold window."""
 
@@ -327,8 +319,31 @@ class _RungStart:
     saved: list[wp.array]
     hold_ctrl: wp.array  # (world, nu): the controls each world holds after its schedule
     mocap: list[wp.array]  # (world, body): the mocap positions and orientations
-    motion: np.ndarray
-    windows: list[HoldWindow | None]
+    motion: np.ndarray  # per world: its motion's control steps
+    windows: Mapping[int, HoldWindow | None]
+
+
+def hold_windows(
+    jobs: list[DeviceJob],
+    worlds: list[int],
+    rows: np.ndarray | Mapping[int, np.ndarray],
+    validity: list[bool],
+    skip: set[int],
+) -> tuple[dict[int, HoldWindow | None], list[int]]:
+    """Each world's validity window (``None``: no validity phase, the verdict was not reached,
+    or the world is in ``skip``), and the worlds the CPU phase would tug, in order."""
+    windows: dict[int, HoldWindow | None] = {}
+    tugged: list[int] = []
+    for k, (w, job) in enumerate(zip(worlds, jobs, strict=True)):
+        win = None
+        schedule = job.schedule
+        if validity[k] and schedule.verdict_step >= 0 and w not in skip:
+            hold_time = job.task.pick.hold_time
+            win = hold_window(rows[w], schedule.steps, hold_time, schedule.control_dt)
+            if needs_tug(rows[w], win, float(job.object_init_position[2])):
+                tugged.append(w)
+        windows[w] = win
+    return windows, tugged
 
 
 def _window(window: HoldWindow | None) -> HoldWindow:

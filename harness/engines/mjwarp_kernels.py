@@ -21,6 +21,12 @@ SIG_EE = 12
 SIG_TCP = 24
 SIG_OBJ_MAT = 36
 
+# What a world records after a physics step (``row_of``): nothing, its start row (the state the
+# table penetration is counted from, written to the warm-up rows, penetration 0), or a signal
+# row >= 0 of ``out``.
+NO_ROW = -1
+BASELINE = -2
+
 
 @wp.kernel
 def set_ctrl(
@@ -57,6 +63,12 @@ def track_use(
 @wp.kernel
 def advance(step: wp.array(dtype=wp.int32)):
     step[0] = step[0] + 1
+
+
+@wp.kernel
+def rows_at_step(step: wp.array(dtype=wp.int32), row_of: wp.array(dtype=wp.int32)):
+    """Lockstep: every world records the row of the batch's control step."""
+    row_of[wp.tid()] = step[0]
 
 
 @wp.func
@@ -99,6 +111,43 @@ def slab_depth(
     return wp.max(depth, 0.0)
 
 
+@wp.func
+def _emit(
+    out: wp.array3d(dtype=wp.float32),
+    w: int,
+    s: int,
+    w_state: int,
+    qvel: wp.array2d(dtype=wp.float32),
+    xpos: wp.array2d(dtype=wp.vec3),
+    xmat: wp.array2d(dtype=wp.mat33),
+    obj_body: int,
+    obj_dof: int,
+    ee_body: int,
+    tcp_body: int,
+    joint: wp.float32,
+    penetration: wp.float32,
+    fastest: wp.float32,
+    bad: wp.float32,
+):
+    """Write one signal row (finger forces zeroed: ``finger_forces`` adds them)."""
+    out[w, s, SIG_FORCE] = 0.0
+    out[w, s, SIG_FORCE + 1] = 0.0
+    p = xpos[w_state, obj_body]
+    for i in range(3):
+        out[w, s, SIG_OBJ_POS + i] = p[i]
+        out[w, s, SIG_OBJ_VEL + i] = qvel[w_state, obj_dof + i]
+    out[w, s, SIG_JOINT_SPEED] = joint
+    out[w, s, SIG_PENETRATION] = penetration
+    out[w, s, SIG_MAX_QVEL] = fastest
+    out[w, s, SIG_NONFINITE] = bad
+    _pose(out, w, s, SIG_EE, xpos[w_state, ee_body], xmat[w_state, ee_body])
+    _pose(out, w, s, SIG_TCP, xpos[w_state, tcp_body], xmat[w_state, tcp_body])
+    R_obj = xmat[w_state, obj_body]
+    for i in range(3):
+        for j in range(3):
+            out[w, s, SIG_OBJ_MAT + 3 * i + j] = R_obj[i, j]
+
+
 @wp.kernel
 def record(
     qpos: wp.array2d(dtype=wp.float32),
@@ -120,26 +169,22 @@ def record(
     table: wp.vec3,  # the slab's centre
     table_half: wp.vec3,  # the slab's half sizes
     pen_initial: wp.array2d(dtype=wp.float32),  # (batch world, geom): depth at the start
-    baseline: int,  # 1: this call measures the start (writes pen_initial, records 0)
-    step: wp.array(dtype=wp.int32),
+    row_of: wp.array(dtype=wp.int32),  # per stepped world: NO_ROW, BASELINE or its row
     world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     out: wp.array3d(dtype=wp.float32),  # (batch world, row, signal)
+    start_out: wp.array3d(dtype=wp.float32),  # (batch world, 1, signal): the BASELINE rows
 ):
-    """One signal row per world (finger forces zeroed here, added by ``finger_forces``):
-    stepped world ``w`` reads its state at ``w`` and writes its batch world's row."""
+    """One signal row per world that records now: stepped world ``w`` reads its state at
+    ``w`` and writes its batch world's row (a ``BASELINE`` row: into ``start_out``, the depth
+    of each geom noted in ``pen_initial``)."""
     w_state = wp.tid()
+    s = row_of[w_state]
+    if s == NO_ROW:
+        return
     w = world_of[w_state]
-    s = step[0]
-    out[w, s, SIG_FORCE] = 0.0
-    out[w, s, SIG_FORCE + 1] = 0.0
-    p = xpos[w_state, obj_body]
-    for i in range(3):
-        out[w, s, SIG_OBJ_POS + i] = p[i]
-        out[w, s, SIG_OBJ_VEL + i] = qvel[w_state, obj_dof + i]
     joint = wp.float32(0.0)
     for i in range(robot_dof.shape[0]):
         joint = wp.max(joint, wp.abs(qvel[w_state, robot_dof[i]]))
-    out[w, s, SIG_JOINT_SPEED] = joint
     fastest = wp.float32(0.0)
     bad = wp.float32(0.0)
     for i in range(qvel.shape[1]):
@@ -151,8 +196,6 @@ def record(
     for i in range(qpos.shape[1]):
         if not wp.isfinite(qpos[w_state, i]):
             bad = wp.float32(1.0)
-    out[w, s, SIG_MAX_QVEL] = fastest
-    out[w, s, SIG_NONFINITE] = bad
     # harness.pick.penetration.TablePenetration.depth, per world, bounded by the separating
     # axes of the slab's faces (see slab_depth)
     deepest = wp.float32(0.0)
@@ -162,17 +205,20 @@ def record(
             geom_xpos[w_state, g], geom_xmat[w_state, g], pen_box[i], pen_radial[i], pen_round[i],
             pen_offset[i], table, table_half,
         )  # fmt: skip
-        if baseline == 1:
+        if s == BASELINE:
             pen_initial[w, i] = inside
         else:
             deepest = wp.max(deepest, inside - pen_initial[w, i])
-    out[w, s, SIG_PENETRATION] = deepest
-    _pose(out, w, s, SIG_EE, xpos[w_state, ee_body], xmat[w_state, ee_body])
-    _pose(out, w, s, SIG_TCP, xpos[w_state, tcp_body], xmat[w_state, tcp_body])
-    R_obj = xmat[w_state, obj_body]
-    for i in range(3):
-        for j in range(3):
-            out[w, s, SIG_OBJ_MAT + 3 * i + j] = R_obj[i, j]
+    if s == BASELINE:
+        _emit(
+            start_out, w, 0, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body, tcp_body,
+            joint, deepest, fastest, bad,
+        )  # fmt: skip
+    else:
+        _emit(
+            out, w, s, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body, tcp_body, joint,
+            deepest, fastest, bad,
+        )  # fmt: skip
 
 
 @wp.kernel
@@ -184,12 +230,14 @@ def finger_forces(
     efc_force: wp.array2d(dtype=wp.float32),
     finger_side: wp.array(dtype=wp.int32),  # (ngeom,) 0 left, 1 right, -1 other
     object_geom: wp.array(dtype=wp.int32),  # (ngeom,) 1 for the target object's geoms
-    step: wp.array(dtype=wp.int32),
+    row_of: wp.array(dtype=wp.int32),  # per stepped world: NO_ROW, BASELINE or its row
     world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     out: wp.array3d(dtype=wp.float32),
+    start_out: wp.array3d(dtype=wp.float32),
 ):
     """``Scene.finger_forces``: the summed normal force of each finger's contacts with the
-    object (elliptic cones: the contact's first constraint row is its normal force)."""
+    object (elliptic cones: the contact's first constraint row is its normal force), into the
+    rows ``record`` wrote."""
     c = wp.tid()
     if c >= nacon[0]:
         return
@@ -203,7 +251,12 @@ def finger_forces(
     if side < 0 or adr < 0:
         return
     w = contact_world[c]
-    wp.atomic_add(out, world_of[w], step[0], SIG_FORCE + side, wp.abs(efc_force[w, adr]))
+    s = row_of[w]
+    force = wp.abs(efc_force[w, adr])
+    if s == BASELINE:
+        wp.atomic_add(start_out, world_of[w], 0, SIG_FORCE + side, force)
+    elif s != NO_ROW:
+        wp.atomic_add(out, world_of[w], s, SIG_FORCE + side, force)
 
 
 @wp.kernel
@@ -213,7 +266,7 @@ def save_state(
     warm: wp.array2d(dtype=wp.float32),
     first_row: wp.array(dtype=wp.int32),  # per batch world: the row whose state is saved first
     slots: int,
-    step: wp.array(dtype=wp.int32),
+    row_of: wp.array(dtype=wp.int32),  # per stepped world: NO_ROW, BASELINE or its row
     world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
     saved_qpos: wp.array3d(dtype=wp.float32),
     saved_qvel: wp.array3d(dtype=wp.float32),
@@ -221,8 +274,11 @@ def save_state(
 ):
     """Keep the states of the validity window (the tug starts from the end of the hold)."""
     w = wp.tid()
+    row = row_of[w]
+    if row < 0:
+        return
     o = world_of[w]
-    slot = step[0] - first_row[o]
+    slot = row - first_row[o]
     if slot < 0 or slot >= slots:
         return
     for i in range(qpos.shape[1]):

@@ -98,6 +98,7 @@ class MotionRun:
 
     def _control_step(self, d: mjw.Data, world_of: wp.array, physics_step: Callable[[], None]):  # type: ignore[no-untyped-def]
         chunks = self.chunk_sizes
+        row_of = wp.zeros(d.nworld, dtype=wp.int32)
 
         def control_step() -> None:
             for chunk, size in enumerate(chunks):
@@ -107,11 +108,12 @@ class MotionRun:
                 )  # fmt: skip
                 for _ in range(size):
                     physics_step()
-            self.dm.record(d, self.step, self.out, self.pen_initial, world_of)
+            wp.launch(kernels.rows_at_step, dim=d.nworld, inputs=[self.step, row_of])
+            self.dm.record(d, row_of, self.out, self.warm, self.pen_initial, world_of)
             wp.launch(
                 kernels.save_state, dim=d.nworld,
                 inputs=[
-                    d.qpos, d.qvel, d.qacc_warmstart, self.first_row, self.slots, self.step,
+                    d.qpos, d.qvel, d.qacc_warmstart, self.first_row, self.slots, row_of,
                     world_of, *self.saved,
                 ],
             )  # fmt: skip
@@ -142,8 +144,8 @@ class MotionRun:
             physics_step = steps.stepper(dm.model, d, use)
             if index == 0:
                 steps.replay(device, physics_step, self.warmup_steps)
-                zero = wp.zeros(1, dtype=wp.int32)
-                dm.record(d, zero, self.warm, self.pen_initial, world_of, baseline=True)
+                start_rows = wp.full(d.nworld, kernels.BASELINE, dtype=wp.int32)
+                dm.record(d, start_rows, self.out, self.warm, self.pen_initial, world_of)
                 timings.motion_steps += len(segment.worlds) * self.warmup_steps
             control_step = self._control_step(d, world_of, physics_step)
             steps.replay(device, control_step, segment.end - start)

@@ -1,0 +1,246 @@
+"""Lanes: a fixed set of worlds on the device, each running episodes one after another.
+
+Lockstep (``mjwarp_motion``) steps every world of a batch until the batch's longest span ends,
+and a batch waits until enough jobs are planned: on an H100 (FR3 cube, 65,536 episodes) 23-33%
+of the motion's world-steps were past the worlds' own spans, and the device idled while the
+first batches filled. Here one ``mjw.Data`` of ``nlane`` worlds (one CUDA graph, captured once)
+steps for the whole run; when a lane's job has recorded its span (control schedule, then the
+validity window) the lane is free, and the host loads the next waiting job into it between two
+replays of ``interval`` physics steps. A lane idles at most one interval per job.
+
+The jobs' arrays live in *job slots* (``capacity`` of them): the control schedule, the signal
+rows, the warm-up row, the saved validity-window states, the held controls and mocap poses (the
+tug's rungs start from them after the lane has moved on). A slot is freed by the caller once
+the job is judged (``release``).
+
+Every per-world kernel reads its lane's job through ``job_of``, so a job's rows are those of the
+lockstep motion, bit for bit on Warp's CPU device (``tests/test_lanes.py``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco_warp as mjw
+import numpy as np
+import warp as wp
+
+from harness.engines import mjwarp_kernels as kernels
+from harness.engines import mjwarp_lane_kernels as lk
+from harness.engines import mjwarp_steps as steps
+from harness.engines.mjwarp_steps import BatchTimings, Buffers
+from harness.engines.schedule import DeviceJob
+from harness.engines.signals import SIGNALS
+
+
+@dataclass
+class Finished:
+    """Jobs whose span ended in the last replay: their slots, signal rows (each cut to its
+    span), warm-up rows, and whether their rows or contacts did not fit the buffers."""
+
+    slots: list[int]
+    rows: list[np.ndarray]
+    warm: list[np.ndarray]
+    overflowed: list[bool]
+
+
+class LaneRun:
+    """``nlane`` lanes of one task model (``dm``) and ``capacity`` job slots on the device."""
+
+    def __init__(
+        self,
+        dm,  # type: ignore[no-untyped-def]  # mjwarp_batch.DeviceModel (import cycle)
+        nlane: int,
+        capacity: int,
+        rows: int,
+        window: int,
+        chunk_sizes: list[int],
+        buffers: Buffers,
+        make_data: Callable[[int], mjw.Data],
+        interval: int,
+    ) -> None:
+        """``rows``: the longest span a slot holds (control steps); ``window``: the validity
+        window's control steps; ``interval``: physics steps between two host visits."""
+        if dm.mj_model.na:
+            raise ValueError("lanes do not reset actuator activations (model with na > 0)")
+        self.dm, self.nlane, self.capacity, self.rows = dm, nlane, capacity, rows
+        self.buffers, self.chunk_sizes = buffers, list(chunk_sizes)
+        self.substeps = sum(chunk_sizes)
+        self.slots = window + 1  # the saved states: the motion's last row and the window
+        m = dm.mj_model
+        nq, nv, nu = m.nq, m.nv, m.nu
+        self.d = make_data(nlane)
+        # per lane
+        self.job_of = wp.full(nlane, -1, dtype=wp.int32)
+        self.phase = wp.zeros(nlane, dtype=wp.int32)
+        self.ended = wp.zeros(nlane, dtype=wp.int32)
+        self.row_of = wp.full(nlane, kernels.NO_ROW, dtype=wp.int32)
+        self.peak_rows = wp.zeros(nlane, dtype=wp.int32)
+        self.peak_contacts = wp.zeros(1, dtype=wp.int32)
+        # per job slot
+        nchunks = len(chunk_sizes)
+        self.table = wp.zeros((capacity, rows * nchunks, nu), dtype=wp.float32)
+        self.last = wp.zeros(capacity, dtype=wp.int32)
+        self.warmup = wp.zeros(capacity, dtype=wp.int32)
+        self.span = wp.zeros(capacity, dtype=wp.int32)
+        self.first_row = wp.zeros(capacity, dtype=wp.int32)
+        self.out = wp.zeros((capacity, rows, SIGNALS), dtype=wp.float32)
+        self.warm = wp.zeros((capacity, 1, SIGNALS), dtype=wp.float32)
+        self.saved = [wp.zeros((capacity, self.slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
+        self.pen_initial = dm.penetration_start(capacity)
+        self.hold_ctrl = wp.zeros((capacity, nu), dtype=wp.float32)
+        self.mocap = [wp.zeros((capacity, m.nmocap), dtype=kind) for kind in (wp.vec3, wp.quat)]
+        chunk_at = np.full(self.substeps, -1, dtype=np.int32)
+        chunk_at[np.cumsum([0, *chunk_sizes[:-1]])] = np.arange(nchunks)
+        self.chunk_at = wp.array(chunk_at, dtype=wp.int32)
+        # the host's view: the job slot in each lane (-1: free), what each lane's job spans
+        self.lane_job = np.full(nlane, -1, dtype=np.int64)
+        self.span_host = np.zeros(capacity, dtype=np.int64)
+        self.warmup_host = np.zeros(capacity, dtype=np.int64)
+        self.motion_host = np.zeros(capacity, dtype=np.int32)  # the tug's ``RungStart.motion``
+        # slots whose job was in a lane while the contact pool was full
+        self._flagged = np.zeros(0, dtype=np.int64)
+        self.interval = interval
+        self._graph = None
+
+    @property
+    def busy(self) -> int:
+        return int(np.count_nonzero(self.lane_job >= 0))
+
+    def free_lanes(self) -> np.ndarray:
+        return np.flatnonzero(self.lane_job < 0)
+
+    def load(self, lanes: np.ndarray, slots: np.ndarray, jobs: list[DeviceJob], window: int,
+             validity: list[bool]) -> None:  # fmt: skip
+        """Start ``jobs`` in ``lanes`` (free) with their arrays in ``slots`` (free): the lane's
+        state is the job's start state, its phase 0."""
+        n = len(jobs)
+        lanes_w = wp.array(lanes.astype(np.int32), dtype=wp.int32)
+        slots_w = wp.array(slots.astype(np.int32), dtype=wp.int32)
+        schedules = [job.schedule for job in jobs]
+        motion = np.array([s.steps for s in schedules], dtype=np.int32)
+        span = motion + np.where(validity, window, 0).astype(np.int32)
+        table, last = steps.schedule_rows(schedules, self.rows)
+        state = steps.world_arrays(jobs)
+        d = self.d
+        for name, values in state.items():
+            self._scatter(values.astype(np.float32), lanes_w, getattr(d, name))
+        per_lane = (self.job_of, slots), (self.phase, 0), (self.ended, 0), (self.peak_rows, 0)
+        for target, value in per_lane:
+            self._scatter(np.broadcast_to(np.asarray(value, np.int32), (n,)), lanes_w, target)
+        per_slot = (
+            (self.table, table), (self.last, last),
+            (self.warmup, np.array([s.warmup_steps for s in schedules], np.int32)),
+            (self.span, span), (self.first_row, motion - 1),
+            (self.hold_ctrl, table[np.arange(n), last]),
+            (self.mocap[0], state["mocap_pos"].astype(np.float32)),
+            (self.mocap[1], state["mocap_quat"].astype(np.float32)),
+        )  # fmt: skip
+        for target, values in per_slot:
+            self._scatter(values, slots_w, target)
+        self.lane_job[lanes] = slots
+        self.span_host[slots] = span
+        self.warmup_host[slots] = [s.warmup_steps for s in schedules]
+        self.motion_host[slots] = motion
+
+    @staticmethod
+    def _scatter(values: np.ndarray, index: wp.array, target: wp.array) -> None:
+        src = wp.array(np.ascontiguousarray(values), dtype=target.dtype, device=target.device)
+        kernel = {1: lk.scatter_1d, 2: lk.scatter_2d, 3: lk.scatter_3d}[target.ndim]
+        wp.launch(kernel, dim=src.shape, inputs=[src, index, target])
+
+    def _physics_step(self) -> None:
+        dm, d = self.dm, self.d
+        wp.launch(
+            lk.lane_ctrl, dim=(self.nlane, d.ctrl.shape[1]),
+            inputs=[
+                self.table, self.last, self.warmup, self.job_of, self.phase, self.chunk_at,
+                len(self.chunk_sizes), d.ctrl,
+            ],
+        )  # fmt: skip
+        mjw.step(dm.model, d)
+        wp.launch(
+            lk.lane_track,
+            dim=self.nlane,
+            inputs=[d.nefc, d.nacon, self.peak_rows, self.peak_contacts],
+        )
+        wp.launch(
+            lk.lane_tick, dim=self.nlane,
+            inputs=[
+                self.warmup, self.span, self.substeps, self.job_of, self.phase, self.ended,
+                self.row_of,
+            ],
+        )  # fmt: skip
+        dm.record(d, self.row_of, self.out, self.warm, self.pen_initial, self.job_of)
+        wp.launch(
+            kernels.save_state, dim=self.nlane,
+            inputs=[
+                d.qpos, d.qvel, d.qacc_warmstart, self.first_row, self.slots, self.row_of,
+                self.job_of, *self.saved,
+            ],
+        )  # fmt: skip
+        wp.launch(lk.lane_release, dim=self.nlane, inputs=[self.job_of, self.ended])
+
+    def launch(self, timings: BatchTimings) -> None:
+        """Queue ``interval`` physics steps of every lane: one captured CUDA graph, captured at
+        the first call after one eager step that loads the kernels (on Warp's CPU device:
+        eagerly)."""
+        self.peak_contacts.zero_()
+        count = self.interval
+        if not wp.get_device(self.dm.device).is_cuda:
+            for _ in range(count):
+                self._physics_step()
+        else:
+            if self._graph is None:
+                self._physics_step()
+                count += 1
+                with wp.ScopedCapture(device=self.dm.device) as capture:
+                    for _ in range(self.interval):
+                        self._physics_step()
+                self._graph = capture.graph
+            assert self._graph is not None
+            wp.capture_launch(self._graph)
+        timings.motion_steps += self.nlane * count
+        timings.world_steps += self.nlane * count
+
+    def collect(self, timings: BatchTimings) -> Finished:
+        """After the queued steps are done: the jobs whose span ended (their lanes are free)."""
+        job_of = self.job_of.numpy()
+        done_lanes = np.flatnonzero((self.lane_job >= 0) & (job_of < 0))
+        slots = self.lane_job[done_lanes].copy()
+        peak_rows = self.peak_rows.numpy()[done_lanes]
+        contacts = int(self.peak_contacts.numpy()[0])
+        timings.peak_rows = max(timings.peak_rows, int(peak_rows.max(initial=0)))
+        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
+        spans = self.span_host[slots]
+        warmups = self.warmup_host[slots]
+        timings.span_steps += int(np.sum(warmups + spans * self.substeps))
+        pool_full = contacts > self.d.naconmax
+        if pool_full:  # every job in flight may have lost a contact
+            self.flag_all()
+        self.lane_job[done_lanes] = -1
+        if len(slots) == 0:
+            return Finished([], [], [], [])
+        index = wp.array(slots.astype(np.int32), dtype=wp.int32)
+        rows = wp.empty((len(slots), self.rows, SIGNALS), dtype=float)
+        wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.out, index, rows])
+        warm = wp.empty((len(slots), 1, SIGNALS), dtype=float)
+        wp.launch(lk.gather_rows, dim=warm.shape, inputs=[self.warm, index, warm])
+        rows_np, warm_np = rows.numpy(), warm.numpy()[:, 0]
+        over = (peak_rows > self.buffers.njmax) | pool_full | np.isin(slots, self._flagged)
+        return Finished(
+            [int(s) for s in slots],
+            [rows_np[k, : spans[k]] for k in range(len(slots))],
+            list(warm_np),
+            [bool(v) for v in over],
+        )
+
+    def flag_all(self) -> None:
+        """Mark every job now in a lane as overflowed (the contact pool was full)."""
+        busy = self.lane_job[self.lane_job >= 0]
+        self._flagged = np.union1d(self._flagged, busy)
+
+    def release(self, slots: list[int]) -> None:
+        """The slots' jobs are judged: the slots can take new jobs."""
+        self._flagged = np.setdiff1d(self._flagged, slots)

@@ -1,0 +1,230 @@
+"""Jobs streamed through lanes (``mjwarp_lanes``) as they are planned, judged in groups.
+
+The caller hands jobs over while it plans more (``source``); each free lane takes the next one.
+Between two replays the host collects the jobs whose span ended and judges the previous group
+while the device steps. Finished jobs wait in a group until ``group`` of them (or the end of the
+stream): their tug ladders then run in rounds on the same stream (``WorldBatch.tug``: the rounds
+are as large as the group's tugged worlds, the device is busy with them meanwhile), and their
+slots are freed. Jobs whose span exceeds the slots' rows, and jobs whose rows or contacts did
+not fit the buffers, run afterwards as lockstep batches (``WorldBatch``: the large buffers, and
+``sim_unstable`` when even those are full), exactly as a lockstep batch would rerun them.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from harness.engines.judge import judge_started
+from harness.engines.mjwarp_batch import LARGE, RungStart, WorldBatch, hold_windows
+from harness.engines.mjwarp_lanes import LaneRun
+from harness.engines.schedule import DeviceJob
+from harness.engines.signals import HoldWindow, window_steps
+from harness.engines.tug_rounds import Rung
+from harness.pick.outcome import PickOutcome
+from harness.pick.validity import RungOutcome, validity_enabled
+
+# The longest span (control steps) a job slot holds; longer jobs run as lockstep batches.
+# Chosen, no public source: FR3 cube spans reach ~340 (277 control steps and the window).
+LANE_ROWS = 512
+# Control steps between two host visits: a lane idles at most this long per job. Chosen, no
+# public source: ~3% of an FR3 cube span (~260 control steps).
+INTERVAL_CONTROL_STEPS = 8
+# Finished jobs per tug group: the first round runs ~6 rung-worlds per tugged job.
+TUG_GROUP = 4096
+
+# What the caller's source gives: new (key, job) pairs, or None once no more will come. Its
+# argument: whether to wait for a job (the lanes have nothing to do until it answers); it may
+# still answer an empty list (a timeout), and is asked again.
+Source = Callable[[bool], "list[tuple[Hashable, DeviceJob]] | None"]
+
+
+@dataclass
+class _Done:
+    key: Hashable
+    job: DeviceJob
+    slot: int
+    rows: np.ndarray
+    warm: np.ndarray
+
+
+@dataclass
+class _Tugged:
+    """A group whose tug ran: to judge on the host."""
+
+    group: list[_Done]
+    windows: dict[int, HoldWindow | None]
+    rungs: dict[int, dict[Rung, RungOutcome]]
+    overflowed: set[int]  # slots whose rungs did not fit even the large buffers
+
+
+class LaneStream:
+    """One task model's jobs through ``nlane`` lanes on ``batch``'s device, slot and buffers."""
+
+    def __init__(self, batch: WorldBatch, nlane: int, group: int = TUG_GROUP) -> None:
+        self.batch, self.nlane, self.group = batch, nlane, group
+        self.timings = batch.timings
+        self.lanes: LaneRun | None = None
+        self.outcomes: dict[Hashable, PickOutcome] = {}
+        self._slot_job: dict[int, tuple[Hashable, DeviceJob]] = {}
+        self._free_slots: list[int] = []
+        self._lockstep: list[tuple[Hashable, DeviceJob]] = []  # too long for a slot
+        self._rerun: list[tuple[Hashable, DeviceJob]] = []  # did not fit the buffers
+
+    def run(self, source: Source) -> dict[Hashable, PickOutcome]:
+        """Every job ``source`` gives, by key, once it gives ``None``."""
+        with self.batch.slot, wp.ScopedDevice(self.batch.dm.device):
+            self._loop(source)
+            self._finish_lockstep()
+        return self.outcomes
+
+    def _make(self, job: DeviceJob) -> LaneRun:
+        schedule = job.schedule
+        window = window_steps(job.task.pick.hold_time, schedule.control_dt)
+        substeps = sum(schedule.chunk_sizes)
+        capacity = 2 * self.nlane + self.group
+        self._free_slots = list(range(capacity - 1, -1, -1))
+        return LaneRun(
+            self.batch.dm, self.nlane, capacity, LANE_ROWS, window, schedule.chunk_sizes,
+            self.batch.buffers, lambda n: self.batch.data(n, self.batch.buffers),
+            INTERVAL_CONTROL_STEPS * substeps,
+        )  # fmt: skip
+
+    def _loop(self, source: Source) -> None:
+        pending: deque[tuple[Hashable, DeviceJob]] = deque()
+        group: list[_Done] = []
+        tugged: list[_Tugged] = []  # judged on the host while the device steps
+        closed = False
+        while True:
+            lanes = self.lanes
+            idle = lanes is None or lanes.busy == 0
+            if not closed:
+                if idle and not pending:
+                    self._judge(tugged)  # nothing else to do until the source answers
+                new = source(idle and not pending)
+                closed = new is None
+                pending.extend(new or [])
+            if self.lanes is None and pending:
+                self.lanes = self._make(pending[0][1])
+            lanes = self.lanes
+            if lanes is not None:
+                self._fill(lanes, pending)
+                if lanes.busy:
+                    clock = time.perf_counter()
+                    lanes.launch(self.timings)
+                    self._judge(tugged)
+                    self.batch.slot.wait()
+                    self.timings.physics_s += time.perf_counter() - clock
+                    group += self._collect(lanes)
+            drained = closed and not pending and (lanes is None or lanes.busy == 0)
+            if group and (len(group) >= self.group or drained):
+                assert lanes is not None
+                tugged.append(self._tug(lanes, group))
+                group = []
+            if drained and not group:
+                self._judge(tugged)
+                return
+
+    def _fill(self, lanes: LaneRun, pending: deque[tuple[Hashable, DeviceJob]]) -> None:
+        free = lanes.free_lanes()
+        take: list[tuple[Hashable, DeviceJob]] = []
+        while pending and len(take) < min(len(free), len(self._free_slots)):
+            key, job = pending.popleft()
+            if self._span(job) > LANE_ROWS:
+                self._lockstep.append((key, job))
+            else:
+                take.append((key, job))
+        if not take:
+            return
+        clock = time.perf_counter()
+        slots = np.array([self._free_slots.pop() for _ in take], dtype=np.int64)
+        for slot, item in zip(slots, take, strict=True):
+            self._slot_job[int(slot)] = item
+        jobs = [job for _, job in take]
+        window = window_steps(jobs[0].task.pick.hold_time, jobs[0].schedule.control_dt)
+        validity = [validity_enabled(job.task.pick) for job in jobs]
+        lanes.load(free[: len(take)], slots, jobs, window, validity)
+        self.timings.upload_s += time.perf_counter() - clock
+
+    @staticmethod
+    def _span(job: DeviceJob) -> int:
+        window = window_steps(job.task.pick.hold_time, job.schedule.control_dt)
+        return job.schedule.steps + (window if validity_enabled(job.task.pick) else 0)
+
+    def _collect(self, lanes: LaneRun) -> list[_Done]:
+        clock = time.perf_counter()
+        finished = lanes.collect(self.timings)
+        self.timings.download_s += time.perf_counter() - clock
+        done = []
+        for slot, rows, warm, over in zip(
+            finished.slots, finished.rows, finished.warm, finished.overflowed, strict=True
+        ):
+            key, job = self._slot_job.pop(slot)
+            if over:
+                self._rerun.append((key, job))
+                self._release(lanes, [slot])
+            else:
+                done.append(_Done(key, job, slot, rows, warm))
+        return done
+
+    def _release(self, lanes: LaneRun, slots: list[int]) -> None:
+        lanes.release(slots)
+        self._free_slots.extend(slots)
+
+    def _tug(self, lanes: LaneRun, group: list[_Done]) -> _Tugged:
+        """The group's tug ladders (device); its slots are free afterwards."""
+        jobs = [item.job for item in group]
+        slots = [item.slot for item in group]
+        rows = {item.slot: item.rows for item in group}
+        validity = [validity_enabled(job.task.pick) for job in jobs]
+        windows, tugged = hold_windows(jobs, slots, rows, validity, set())
+        start = RungStart(jobs, lanes.saved, lanes.hold_ctrl, lanes.mocap, lanes.motion_host,
+                           windows)  # fmt: skip
+        rungs, over = self.batch.tug(start, rows, tugged)
+        self._release(lanes, slots)
+        return _Tugged(group, windows, rungs, over)
+
+    def _judge(self, ready: list[_Tugged]) -> None:
+        if not ready:
+            return
+        clock = time.perf_counter()
+        for tugged in ready:
+            for item in tugged.group:
+                if item.slot in tugged.overflowed:
+                    self._rerun.append((item.key, item.job))
+                    continue
+                validity = validity_enabled(item.job.task.pick)
+                self.outcomes[item.key] = judge_started(
+                    item.job, item.rows, item.warm, validity, tugged.windows[item.slot],
+                    tugged.rungs.get(item.slot),
+                )  # fmt: skip
+        ready.clear()
+        self.timings.judge_s += time.perf_counter() - clock
+
+    def _finish_lockstep(self) -> None:
+        """The jobs too long for a slot (lockstep on the stream's buffers), and those that did
+        not fit them (lockstep on ``LARGE``, as a lockstep batch reruns its overflowed worlds)."""
+        for items, batch in (
+            (self._lockstep, self.batch),
+            (self._rerun, WorldBatch(self.batch.dm, buffers=LARGE, slot=self.batch.slot)),
+        ):
+            if not items:
+                continue
+            if batch is not self.batch:
+                self.timings.reruns += len(items)
+            outcomes = batch.run_held([job for _, job in items])
+            for (key, _), outcome in zip(items, outcomes, strict=True):
+                self.outcomes[key] = outcome
+            if batch is not self.batch:
+                self._merge(batch)
+
+    def _merge(self, batch: WorldBatch) -> None:
+        for name in ("physics_s", "tug_s", "upload_s", "download_s", "judge_s"):
+            setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))
+        for name in ("world_steps", "motion_steps", "span_steps", "tug_rounds", "tug_rungs"):
+            setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))

@@ -1,0 +1,144 @@
+"""Lanes (harness.engines.mjwarp_lanes, mjwarp_stream) on Warp's CPU device: jobs run one after
+another in a fixed set of worlds give the lockstep motion's rows and outcomes bit for bit.
+Skipped without the 'gpu' extra (as tests/test_engines.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import math
+from collections.abc import Hashable
+
+import numpy as np
+import pytest
+
+from harness.config import load_task
+from harness.episode import EpisodeSpec
+from harness.objects.assets import repo_root
+
+HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
+needs_warp = pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+
+
+def _fr3_job(seed: int):  # type: ignore[no-untyped-def]
+    from harness.benchmarks.engines import _plan
+
+    task = load_task(repo_root() / "tasks" / "pick" / "fr3.yaml")
+    _, job = _plan(EpisodeSpec(task=task, seed=seed))
+    assert job is not None
+    return task, job
+
+
+def _same(a: object, b: object) -> bool:
+    """Dataclasses equal field by field (arrays by value, NaN equal to NaN)."""
+    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
+        return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@needs_warp
+def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
+    """Four jobs (FR3 cube seed 0's cut to 10, 4, 7 and 5 control steps, a window of 3)
+    through two lanes, each free lane taking the next job between replays of one control
+    step: every job's signal rows, warm-up row and saved window states equal the lockstep
+    batch's bit for bit, and a lane idles less than one replay per job."""
+    import mujoco_warp as mjw
+
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp_lanes import LaneRun
+    from harness.engines.mjwarp_motion import MotionRun
+    from harness.engines.mjwarp_steps import SMALL, BatchTimings
+    from harness.engines.retirement import segments
+    from harness.episode.scene_cache import get_scene
+
+    task, job = _fr3_job(0)
+    cuts = (10, 4, 7, 5)
+    jobs = [
+        dataclasses.replace(
+            job, schedule=dataclasses.replace(job.schedule, ctrl=job.schedule.ctrl[:k])
+        )
+        for k in cuts
+    ]
+    window = 3
+    spans = np.array(cuts) + window
+    dm = MjwarpEngine("cpu").batch(get_scene(task, _SCENES).scene, task).dm
+
+    def make(k: int) -> object:
+        return mjw.put_data(
+            dm.mj_model, dm.template, nworld=k, nconmax=SMALL.nconmax, njmax=SMALL.njmax
+        )
+
+    lock = MotionRun(dm, jobs, spans, window, make)
+    assert lock.run(segments(spans, 0.0, 1), SMALL, BatchTimings(), lambda: None) == []
+    lock_out, lock_warm = lock.out.numpy(), lock.warm.numpy()[:, 0]
+    lock_saved = [a.numpy() for a in lock.saved]
+
+    chunks = job.schedule.chunk_sizes
+    lanes = LaneRun(dm, 2, 4, 16, window, chunks, SMALL, make, interval=sum(chunks))
+    timings = BatchTimings()
+    waiting = list(range(len(jobs)))
+    rows: dict[int, np.ndarray] = {}
+    warm: dict[int, np.ndarray] = {}
+    replays = 0
+    while waiting or lanes.busy:
+        free = lanes.free_lanes()[: len(waiting)]
+        if len(free):
+            take, waiting = waiting[: len(free)], waiting[len(free) :]
+            lanes.load(free, np.array(take), [jobs[i] for i in take], window, [True] * len(take))
+        lanes.launch(timings)
+        replays += 1
+        finished = lanes.collect(timings)
+        assert not any(finished.overflowed)
+        for slot, r, w in zip(finished.slots, finished.rows, finished.warm, strict=True):
+            rows[slot], warm[slot] = r, w
+        lanes.release(finished.slots)
+    assert sorted(rows) == [0, 1, 2, 3]
+    for i, span in enumerate(spans):
+        assert rows[i].shape[0] == span
+        np.testing.assert_array_equal(rows[i], lock_out[i, :span])
+        np.testing.assert_array_equal(warm[i], lock_warm[i])
+        for lane_saved, lock_array in zip(lanes.saved, lock_saved, strict=True):
+            np.testing.assert_array_equal(lane_saved.numpy()[i], lock_array[i])
+    # each job's own physics steps, and at most one replay of idling per job and lane
+    substeps = sum(chunks)
+    assert timings.span_steps == sum(job.schedule.warmup_steps + s * substeps for s in spans)
+    assert timings.motion_steps <= timings.span_steps + (len(jobs) + 2) * substeps
+    assert replays * substeps * 2 == timings.motion_steps
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@needs_warp
+def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
+    """Three whole FR3 cube episodes (seeds 0-2) handed over in two installments to a stream
+    of two lanes whose tug groups hold two jobs: each outcome (the verdict, its measures, the
+    validity phase with its tug ladder) equals the lockstep batch's, field by field."""
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp_stream import LaneStream
+    from harness.episode.scene_cache import get_scene
+
+    task, _ = _fr3_job(0)
+    jobs = [_fr3_job(seed)[1] for seed in range(3)]
+    engine = MjwarpEngine("cpu")
+    scene = get_scene(task, _SCENES).scene
+    lockstep = engine.batch(scene, task).run(jobs)
+    installments: list[list[tuple[Hashable, object]] | None] = [
+        [("a", jobs[0]), ("b", jobs[1])],
+        [("c", jobs[2])],
+        None,
+    ]
+    stream = LaneStream(engine.batch(scene, task), nlane=2, group=2)
+    outcomes = stream.run(lambda block: installments.pop(0))  # type: ignore[arg-type,return-value]
+    assert sorted(outcomes) == ["a", "b", "c"]
+    for key, expected in zip("abc", lockstep, strict=True):
+        assert _same(outcomes[key], expected), key
+    assert stream.timings.tug_rounds >= 2 and stream.timings.reruns == 0
+    assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)
