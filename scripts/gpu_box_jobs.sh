@@ -102,6 +102,18 @@ for job in "$@"; do
     tp_16k_warm_32k)  # 32768 in bucketed batches of 16384 with the warm start
       BENCH_BATCH=16384 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=2048 \
         BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 32768 "$R/tp_16k_warm_32k" fr3 ;;
+    tp_lanes_16k)  # 65536 streamed through 16384 lanes (no batches, no padding); CPU rate 2048
+      BENCH_LANES=16384 BENCH_CPU_EPISODES=2048 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 65536 "$R/tp_lanes_16k" fr3 ;;
+    tp_lanes_32k)  # the same through 32768 lanes
+      BENCH_LANES=32768 BENCH_CPU_EPISODES=512 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 65536 "$R/tp_lanes_32k" fr3 ;;
+    tp_lanes_8k)  # the same through 8192 lanes
+      BENCH_LANES=8192 BENCH_CPU_EPISODES=512 BENCH_OBJECTS=cube \
+        python3 -m harness.benchmarks.engines 65536 "$R/tp_lanes_8k" fr3 ;;
+    tp_8k_warm_65k)  # the lockstep baseline: 65536 in bucketed batches of 8192, warm start
+      BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=512 \
+        BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 65536 "$R/tp_8k_warm_65k" fr3 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -3,6 +3,7 @@ device's ``execute_many`` is a stub here; the real one is measured on the GPU bo
 
 from __future__ import annotations
 
+import importlib.util
 import threading
 import time
 from typing import Any, ClassVar
@@ -20,6 +21,7 @@ class _Timings:
 
 
 _COUNT = threading.Lock()
+HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
 
 
 class _StubEngine:
@@ -181,3 +183,22 @@ def test_device_time_is_the_union_of_the_batches_spans() -> None:
     assert union_length([(0.0, 2.0), (1.0, 3.0), (5.0, 6.0)]) == pytest.approx(4.0)
     assert union_length([(0.0, 4.0), (1.0, 2.0)]) == pytest.approx(4.0)
     assert union_length([]) == 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_lanes_stream_the_planned_jobs_to_the_lockstep_outcomes() -> None:
+    """BENCH_LANES on Warp's CPU device: three FR3 cube episodes streamed to two lanes as they
+    are planned get the outcomes one lockstep batch gives them."""
+    specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 3)
+    streamed = bench.run_gpu(specs, workers=2, device="cpu", chunk=1, lanes=2)
+    batched = bench.run_gpu(specs, workers=2, device="cpu", batch=3)
+    executed = [i for i, (_, job) in enumerate(batched["planned"]) if job is not None]
+    assert executed and sorted(streamed["outcomes"]) == sorted(batched["outcomes"]) == executed
+    for i in executed:
+        a, b = streamed["outcomes"][i], batched["outcomes"][i]
+        assert (a.success, a.failure_reason, a.lift_height_m) == (
+            b.success, b.failure_reason, b.lift_height_m,
+        )  # fmt: skip
+    assert streamed["lanes"] == 2 and streamed["span_steps"] <= streamed["motion_steps"]

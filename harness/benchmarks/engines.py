@@ -18,18 +18,16 @@ import json
 import math
 import multiprocessing
 import os
-import queue
-import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+from harness.benchmarks.engines_device import GpuDevices, batch_key
 from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.config.robot_registry import available_robots, canonical_task_files
 from harness.engines import Execution, ExecutionJob, register_engine
-from harness.engines.busy_time import union_length
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
@@ -118,116 +116,6 @@ def _plan_chunk(chunk: list[tuple[int, Any]]) -> tuple[list[tuple[int, Any, Any]
     return out, time.time()
 
 
-def _batch_key(job: Any) -> str:
-    return job.task.model_dump_json()
-
-
-class _Device:
-    """The device side of the GPU path: one engine per device (``device``: one name, or
-    several separated by commas), its scenes, the outcomes by episode index and where its time
-    went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each
-    with a stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one
-    batch's host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits
-    for them all."""
-
-    def __init__(self, device: str) -> None:
-        from harness.engines.mjwarp_engine import MjwarpEngine
-
-        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_steps.SMALL)
-        sizes = os.environ.get("BENCH_BUFFERS")
-        buffers = None
-        if sizes:
-            contacts, rows = (int(v) for v in sizes.split(","))
-            buffers = (contacts, rows)
-        # BENCH_RETIRE=share: when finished worlds leave a batch's motion (0: lockstep)
-        retire = os.environ.get("BENCH_RETIRE")
-        # one engine per device ("cuda:0,cuda:1": several)
-        self.engines = [
-            MjwarpEngine(name, buffers, float(retire) if retire else None)
-            for name in device.split(",")
-        ]
-        self.scenes: dict[Any, Any] = {}
-        self.outcomes: dict[int, PickOutcome] = {}
-        self.totals = {
-            "upload_s": 0.0, "physics_s": 0.0, "tug_s": 0.0, "download_s": 0.0,
-            "judge_s": 0.0, "tug_rounds": 0.0, "tug_rungs": 0.0, "reruns": 0.0,
-        }  # fmt: skip
-        self.counts = {
-            "world_steps": 0, "motion_steps": 0, "span_steps": 0, "max_batch": 0, "batches": 0,
-        }  # fmt: skip
-        self.peaks = {"peak_rows": 0.0, "peak_contacts": 0.0, "memory_high_gb": 0.0}
-        self.compile_s = 0.0
-        self.slots: queue.Queue[tuple[Any, Any]] = queue.Queue()  # (engine, slot), free
-        per_device = [
-            engine.slots(int(os.environ.get("BENCH_SLOTS", "2"))) for engine in self.engines
-        ]
-        for k in range(len(per_device[0])):  # in turn across the devices
-            for engine, slots in zip(self.engines, per_device, strict=True):
-                self.slots.put((engine, slots[k]))
-        self.slot_count = self.slots.qsize()
-        self.threads = ThreadPoolExecutor(self.slot_count)
-        self.pending: list[Future[None]] = []
-        self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
-        self.lock = threading.Lock()
-
-    @property
-    def device_s(self) -> float:
-        """Wall time with at least one batch on the device."""
-        return union_length(self.busy)
-
-    def _scene(self, job: Any) -> Any:
-        from harness.episode.scene_cache import get_scene
-
-        return get_scene(job.task, self.scenes).scene
-
-    def load(self, jobs: list[Any]) -> None:
-        """Load (compile) the kernels of each task model among ``jobs``, off the clock."""
-        seen: set[str] = set()
-        for job in jobs:
-            if job is not None and _batch_key(job) not in seen:
-                seen.add(_batch_key(job))
-                clock = time.perf_counter()
-                for engine in self.engines:
-                    engine.execute_many(self._scene(job), [job])
-                self.compile_s += time.perf_counter() - clock
-
-    def step(self, indices: list[int], jobs: list[Any]) -> None:
-        """Queue one batch of worlds; its outcomes are kept under the episodes' indices."""
-        self._scene(jobs[0])  # made here, in one thread
-        self.pending.append(self.threads.submit(self._step, indices, jobs))
-
-    def in_flight(self) -> int:
-        """Batches handed to the slots and not finished."""
-        return sum(not future.done() for future in self.pending)
-
-    def drain(self) -> None:
-        for future in self.pending:
-            future.result()
-        self.pending.clear()
-
-    def _step(self, indices: list[int], jobs: list[Any]) -> None:
-        engine, slot = self.slots.get()
-        try:
-            clock = time.perf_counter()
-            result, timings = engine.execute_many(self._scene(jobs[0]), jobs, slot)
-            span = (clock, time.perf_counter())
-        finally:
-            self.slots.put((engine, slot))
-        with self.lock:
-            self.busy.append(span)
-            for i, outcome in zip(indices, result, strict=True):
-                self.outcomes[i] = outcome
-            for key in self.totals:
-                self.totals[key] += getattr(timings, key)
-            for key in ("world_steps", "motion_steps", "span_steps"):
-                self.counts[key] += getattr(timings, key)
-            self.counts["max_batch"] = max(self.counts["max_batch"], len(jobs))
-            self.counts["batches"] += 1
-            for key in ("peak_rows", "peak_contacts"):
-                self.peaks[key] = max(self.peaks[key], float(getattr(timings, key)))
-            self.peaks["memory_high_gb"] = sum(e.memory_high_gb() for e in self.engines)
-
-
 def run_gpu(
     all_specs: list[Any],
     workers: int,
@@ -236,6 +124,7 @@ def run_gpu(
     chunk: int = 8,
     bucket: int = 1,
     min_batch: int = 0,
+    lanes: int = 0,
 ) -> dict[str, Any]:
     """Plan on the pool while the device steps what is planned: as soon as ``bucket * batch``
     jobs of one task model wait, the ``batch`` shortest of them run as one batch of worlds (the
@@ -247,8 +136,10 @@ def run_gpu(
     that the device starts early and the waiting pool a batch is sorted from grows while the
     device is the slower side. With ``bucket`` > 1 it only starts the device while nothing is on
     it (the first batch after ``min_batch`` jobs instead of ``bucket * batch``); the other
-    batches are bucketed. The outcomes and where the time went."""
-    gpu = _Device(device)
+    batches are bucketed. ``lanes`` > 0 streams every planned job to ``lanes`` lanes of its
+    task model instead (``harness.engines.mjwarp_stream``: no batches, no padding). The
+    outcomes and where the time went."""
+    gpu = GpuDevices(device)
     planned: list[Any] = [None] * len(all_specs)
     indexed = list(enumerate(all_specs))
 
@@ -262,6 +153,10 @@ def run_gpu(
             pool.map(_plan, (list(firsts.values()) + all_specs)[: max(workers, len(firsts))])
         )
         gpu.load([job for _, job in warm])
+        if lanes:
+            for job in {batch_key(j): j for _, j in warm if j is not None}.values():
+                gpu.warm_lanes(job)
+        streams: dict[str, Any] = {}
         start, wall_start = time.perf_counter(), time.time()
         futures = [
             pool.submit(_plan_chunk, indexed[k : k + chunk]) for k in range(0, len(indexed), chunk)
@@ -275,7 +170,13 @@ def run_gpu(
                 planned[i] = (row, job)
                 if job is None:
                     continue
-                group = waiting.setdefault(_batch_key(job), [])
+                if lanes:
+                    key = batch_key(job)
+                    if key not in streams:
+                        streams[key] = gpu.stream(key, job, lanes)
+                    streams[key].put((i, job))
+                    continue
+                group = waiting.setdefault(batch_key(job), [])
                 group.append(i)
                 if _ready(gpu, len(group), batch, bucket, min_batch):
                     # the `batch` shortest schedules of what waits: a lockstep batch is
@@ -284,6 +185,8 @@ def run_gpu(
                     gpu.step(group[:batch], [planned[j][1] for j in group[:batch]])
                     del group[:batch]
         plan_s = finished - wall_start
+    for jobs in streams.values():
+        jobs.put(None)
     for group in waiting.values():
         group.sort(key=steps_of)
         for k in range(0, len(group), batch):
@@ -295,6 +198,7 @@ def run_gpu(
         "planned": planned, "outcomes": gpu.outcomes, "plan_s": plan_s,
         "device_s": gpu.device_s, "total_s": total_s, "compile_s": gpu.compile_s,
         "workers": workers, "batch": batch, "bucket": bucket, "min_batch": min_batch,
+        "lanes": lanes,
         "slots": gpu.slot_count,
         **gpu.counts, **gpu.totals,
         **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
@@ -302,7 +206,7 @@ def run_gpu(
     }  # fmt: skip
 
 
-def _ready(gpu: _Device, waiting: int, batch: int, bucket: int, min_batch: int) -> bool:
+def _ready(gpu: GpuDevices, waiting: int, batch: int, bucket: int, min_batch: int) -> bool:
     """Whether a batch runs now from ``waiting`` planned jobs of one task model: ``bucket *
     batch`` wait; or, with ``min_batch``, ``min_batch`` wait and the device has nothing to do
     (``bucket`` > 1: a *warm start*, so that the device does not idle while the first buckets
@@ -361,7 +265,11 @@ def measure(
     bucket = int(os.environ.get("BENCH_BUCKET", "1"))
     # BENCH_MIN_BATCH=k: feed the device when a slot is free, from k waiting jobs up
     min_batch = int(os.environ.get("BENCH_MIN_BATCH", "0"))
-    gpu = run_gpu(all_specs, planners, device, batch, bucket=bucket, min_batch=min_batch)
+    # BENCH_LANES=k: stream the jobs through k lanes per task model instead of batches
+    lanes = int(os.environ.get("BENCH_LANES", "0"))
+    gpu = run_gpu(
+        all_specs, planners, device, batch, bucket=bucket, min_batch=min_batch, lanes=lanes
+    )
     records = agreement(cpu_rows, gpu)
     n = len(all_specs)
     return {"n": n, "cpu_n": cpu_n, "cpu_s": cpu_s, "records": records, "gpu": gpu}

@@ -12,6 +12,7 @@ not fit the buffers, run afterwards as lockstep batches (``WorldBatch``: the lar
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from collections.abc import Callable, Hashable
@@ -99,7 +100,7 @@ class LaneStream:
         pending: deque[tuple[Hashable, DeviceJob]] = deque()
         group: list[_Done] = []
         tugged: list[_Tugged] = []  # judged on the host while the device steps
-        closed = False
+        closed, replay_s = False, 0.0
         while True:
             lanes = self.lanes
             idle = lanes is None or lanes.busy == 0
@@ -117,9 +118,11 @@ class LaneStream:
                 if lanes.busy:
                     clock = time.perf_counter()
                     lanes.launch(self.timings)
-                    self._judge(tugged)
+                    # on the host while the device steps, for at most half the last replay
+                    self._judge(tugged, 0.5 * replay_s)
                     self.batch.slot.wait()
-                    self.timings.physics_s += time.perf_counter() - clock
+                    replay_s = time.perf_counter() - clock
+                    self.timings.physics_s += replay_s
                     group += self._collect(lanes)
             drained = closed and not pending and (lanes is None or lanes.busy == 0)
             if group and (len(group) >= self.group or drained):
@@ -189,21 +192,23 @@ class LaneStream:
         self._release(lanes, slots)
         return _Tugged(group, windows, rungs, over)
 
-    def _judge(self, ready: list[_Tugged]) -> None:
-        if not ready:
-            return
+    def _judge(self, ready: list[_Tugged], budget_s: float = math.inf) -> None:
+        """Judge the tugged groups' jobs on the host, for at most about ``budget_s`` (the rest
+        stays in ``ready`` for the next call: a large group is judged over several replays)."""
         clock = time.perf_counter()
-        for tugged in ready:
-            for item in tugged.group:
-                if item.slot in tugged.overflowed:
-                    self._rerun.append((item.key, item.job))
-                    continue
-                validity = validity_enabled(item.job.task.pick)
-                self.outcomes[item.key] = judge_started(
-                    item.job, item.rows, item.warm, validity, tugged.windows[item.slot],
-                    tugged.rungs.get(item.slot),
-                )  # fmt: skip
-        ready.clear()
+        while ready and time.perf_counter() - clock < budget_s:
+            tugged = ready[0]
+            item = tugged.group.pop()
+            if not tugged.group:
+                ready.pop(0)
+            if item.slot in tugged.overflowed:
+                self._rerun.append((item.key, item.job))
+                continue
+            validity = validity_enabled(item.job.task.pick)
+            self.outcomes[item.key] = judge_started(
+                item.job, item.rows, item.warm, validity, tugged.windows[item.slot],
+                tugged.rungs.get(item.slot),
+            )  # fmt: skip
         self.timings.judge_s += time.perf_counter() - clock
 
     def _finish_lockstep(self) -> None:
