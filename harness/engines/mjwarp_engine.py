@@ -4,7 +4,9 @@
 ``execute_many`` (a batch of jobs of one task model, what the throughput bench feeds) both make
 each job's control schedule on the CPU (``harness.engines.schedule``), step the worlds in
 lockstep on the device (``harness.engines.mjwarp_batch``) and judge the recorded signals with the
-CPU's verdict terms (``harness.engines.judge``). The device is ``HARNESS_WARP_DEVICE`` when set
+CPU's verdict terms (``harness.engines.judge``). The throughput bench can stream its jobs
+through lanes instead (``harness.engines.mjwarp_stream``: one fixed set of worlds, each running
+jobs one after another). The device is ``HARNESS_WARP_DEVICE`` when set
 (``cpu`` for Warp's CPU device, ``cuda:1`` ...), else the first CUDA device, else the CPU: one
 engine per device. A sweep's shared device service (``harness.engines.device_service``) and the
 throughput bench run one engine on each device of ``default_devices`` (every CUDA device, or
