@@ -147,16 +147,7 @@ def run_gpu(
         return planned[j][1].schedule.steps
 
     with _pool(workers) as pool:
-        # start the workers and build their scenes; one episode of each task among them
-        firsts = {spec.task.model_dump_json(): spec for spec in reversed(all_specs)}
-        warm = list(
-            pool.map(_plan, (list(firsts.values()) + all_specs)[: max(workers, len(firsts))])
-        )
-        gpu.load([job for _, job in warm])
-        if lanes:
-            for job in {batch_key(j): j for _, j in warm if j is not None}.values():
-                gpu.warm_lanes(job)
-        streams: dict[str, Any] = {}
+        _warm(pool, all_specs, workers, gpu, lanes)
         start, wall_start = time.perf_counter(), time.time()
         futures = [
             pool.submit(_plan_chunk, indexed[k : k + chunk]) for k in range(0, len(indexed), chunk)
@@ -171,10 +162,7 @@ def run_gpu(
                 if job is None:
                     continue
                 if lanes:
-                    key = batch_key(job)
-                    if key not in streams:
-                        streams[key] = gpu.stream(key, job, lanes)
-                    streams[key].put((i, job))
+                    gpu.to_stream(i, job, lanes)
                     continue
                 group = waiting.setdefault(batch_key(job), [])
                 group.append(i)
@@ -185,8 +173,7 @@ def run_gpu(
                     gpu.step(group[:batch], [planned[j][1] for j in group[:batch]])
                     del group[:batch]
         plan_s = finished - wall_start
-    for jobs in streams.values():
-        jobs.put(None)
+    gpu.close_streams()
     for group in waiting.values():
         group.sort(key=steps_of)
         for k in range(0, len(group), batch):
@@ -204,6 +191,18 @@ def run_gpu(
         **gpu.peaks, "buffers": os.environ.get("BENCH_BUFFERS", "default"),
         "retire": os.environ.get("BENCH_RETIRE", "default"),
     }  # fmt: skip
+
+
+def _warm(pool: ProcessPoolExecutor, all_specs: list[Any], workers: int, gpu: GpuDevices,
+          lanes: int) -> None:  # fmt: skip
+    """Start the workers and build their scenes (one episode of each task among them), and
+    load the device's kernels for each task model, off the clock."""
+    firsts = {spec.task.model_dump_json(): spec for spec in reversed(all_specs)}
+    warm = list(pool.map(_plan, (list(firsts.values()) + all_specs)[: max(workers, len(firsts))]))
+    gpu.load([job for _, job in warm])
+    if lanes:
+        for job in {batch_key(j): j for _, j in warm if j is not None}.values():
+            gpu.warm_lanes(job)
 
 
 def _ready(gpu: GpuDevices, waiting: int, batch: int, bucket: int, min_batch: int) -> bool:

@@ -65,6 +65,7 @@ class GpuDevices:
         self.threads = ThreadPoolExecutor(self.slot_count)
         self.pending: list[Future[None]] = []
         self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
+        self.streams: dict[str, queue.Queue[Any]] = {}  # by task model: its lanes' job queue
         self.lock = threading.Lock()
 
     @property
@@ -96,6 +97,18 @@ class GpuDevices:
             batch = engine.batch(self._scene(job), job.task)
             items: list[Any] = [[(0, job)], None]
             LaneStream(batch, nlane=1, group=1).run(lambda block, items=items: items.pop(0))
+
+    def to_stream(self, index: int, job: Any, lanes: int) -> None:
+        """Hand a planned job to its task model's stream (started at its first job)."""
+        key = batch_key(job)
+        if key not in self.streams:
+            self.streams[key] = self.stream(key, job, lanes)
+        self.streams[key].put((index, job))
+
+    def close_streams(self) -> None:
+        """No more jobs: each stream drains and ends."""
+        for jobs in self.streams.values():
+            jobs.put(None)
 
     def stream(self, key: str, job: Any, lanes: int) -> queue.Queue[Any]:
         """Start a stream of ``lanes`` lanes for ``job``'s task model (on the first device;
