@@ -188,12 +188,16 @@ def test_device_time_is_the_union_of_the_batches_spans() -> None:
 @pytest.mark.slow
 @pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
-def test_lanes_stream_the_planned_jobs_to_the_lockstep_outcomes() -> None:
-    """BENCH_LANES on Warp's CPU device: three FR3 cube episodes streamed to two lanes as they
-    are planned get the outcomes one lockstep batch gives them."""
-    specs = bench.specs(bench.tasks(("fr3",), ("cube",)), 3)
+def test_lanes_stream_the_planned_jobs_to_the_lockstep_outcomes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """BENCH_LANES on Warp's CPU device: FR3 episodes of two task models (cube, banana; two
+    seeds each) streamed to two lanes per model as they are planned, both streams on the one
+    slot, get the outcomes the lockstep batches give them."""
+    monkeypatch.setenv("BENCH_SLOTS", "1")
+    specs = bench.specs(bench.tasks(("fr3",), ("cube", "banana")), 2)
     streamed = bench.run_gpu(specs, workers=2, device="cpu", chunk=1, lanes=2)
-    batched = bench.run_gpu(specs, workers=2, device="cpu", batch=3)
+    batched = bench.run_gpu(specs, workers=2, device="cpu", batch=2)
     executed = [i for i, (_, job) in enumerate(batched["planned"]) if job is not None]
     assert executed and sorted(streamed["outcomes"]) == sorted(batched["outcomes"]) == executed
     for i in executed:

@@ -62,6 +62,7 @@ class GpuDevices:
             for engine, slots in zip(self.engines, per_device, strict=True):
                 self.slots.put((engine, slots[k]))
         self.slot_count = self.slots.qsize()
+        self.slot_turns = list(self.slots.queue)  # the streams take the slots in turn
         self.threads = ThreadPoolExecutor(self.slot_count)
         self.pending: list[Future[None]] = []
         self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
@@ -111,12 +112,14 @@ class GpuDevices:
             jobs.put(None)
 
     def stream(self, key: str, job: Any, lanes: int) -> queue.Queue[Any]:
-        """Start a stream of ``lanes`` lanes for ``job``'s task model (on the first device;
-        one slot): the queue to put (index, job) into, and ``None`` when planning is done."""
+        """Start a stream of ``lanes`` lanes for ``job``'s task model (on the next slot in
+        turn): the queue to put (index, job) into, and ``None`` when planning is done."""
         from harness.engines.mjwarp_stream import LaneStream
 
         jobs: queue.Queue[Any] = queue.Queue()
-        engine, slot = self.slots.get()
+        # a stream holds its slot for the whole run: the streams share the slots in turn (one
+        # beyond the pool's threads starts when an earlier stream ends, after planning)
+        engine, slot = self.slot_turns[len(self.streams) % len(self.slot_turns)]
         batch = engine.batch(self._scene(job), job.task, slot)
         stream = LaneStream(batch, nlane=lanes)
         waited = [0.0]
@@ -145,7 +148,6 @@ class GpuDevices:
             clock = time.perf_counter()
             outcomes = stream.run(source)
             end = time.perf_counter()
-            self.slots.put((engine, slot))
             with self.lock:
                 # device time: the stream's wall time less its waits for planned jobs
                 self.busy.append((clock, end - waited[0]))
