@@ -206,3 +206,23 @@ def test_lanes_stream_the_planned_jobs_to_the_lockstep_outcomes(
             b.success, b.failure_reason, b.lift_height_m,
         )  # fmt: skip
     assert streamed["lanes"] == 2 and streamed["span_steps"] <= streamed["motion_steps"]
+
+
+@pytest.mark.parametrize(("lanes", "words"), [(0, "2 device batches of <= 8 worlds"),
+                                              (8, "1 lane stream(s) of 8 lanes")])  # fmt: skip
+def test_the_figures_name_batches_or_lanes(lanes: int, words: str) -> None:
+    """The rate's note says how the device was fed; the padding note says idle lanes for lanes,
+    and both give the share of the motion's world-steps outside the jobs' spans (here 25%)."""
+    gpu = {
+        "total_s": 10.0, "plan_s": 8.0, "workers": 3, "batches": 1 if lanes else 2,
+        "batch": 8, "lanes": lanes, "device_s": 9.0, "world_steps": 1000, "physics_s": 4.0,
+        "tug_s": 1.0, "max_batch": 8, "motion_steps": 800, "span_steps": 600,
+        "tug_rungs": 12, "tug_rounds": 2,
+    }  # fmt: skip
+    result = {"n": 36, "cpu_n": 36, "cpu_s": 36.0, "records": [], "gpu": gpu}
+    by_name = {fig.name: fig for fig in bench.figures(result)}
+    rate = by_name["episodes per hour, planning on CPU + physics on GPU (mjwarp)"]
+    assert rate.median == pytest.approx(3600.0 * 36 / 10.0)
+    assert words in (rate.notes or "")
+    physics = by_name["physics world-steps per second (mjwarp)"].notes or ""
+    assert ("idle lanes 25.0%" if lanes else "padding 25.0%") in physics

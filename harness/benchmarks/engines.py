@@ -291,8 +291,8 @@ def figures(result: dict[str, Any]) -> list[Figure]:
             "ep/h", target=TARGET_RATE, higher_is_better=True,
             notes=(
                 f"{gpu['total_s']:.1f} s end to end: planning {gpu['plan_s']:.1f} s on "
-                f"{gpu['workers']} processes overlapped with {gpu['batches']} device batches "
-                f"({gpu['device_s']:.1f} s, <= {gpu['batch']} worlds)"
+                f"{gpu['workers']} processes overlapped with {_device_work(gpu)} "
+                f"({gpu['device_s']:.1f} s)"
             ),
         ),
         figure(
@@ -307,7 +307,8 @@ def figures(result: dict[str, Any]) -> list[Figure]:
                 f"{gpu.get('peak_rows', 0):.0f} constraint rows in a world, "
                 f"{gpu.get('peak_contacts', 0):.1f} contacts per world, "
                 f"{gpu.get('reruns', 0):.0f} worlds run again with the large buffers; "
-                f"device memory high {gpu.get('memory_high_gb', 0):.1f} GB; padding "
+                f"device memory high {gpu.get('memory_high_gb', 0):.1f} GB; "
+                f"{'idle lanes' if gpu.get('lanes') else 'padding'} "
                 f"{1 - gpu.get('span_steps', 0) / max(1, gpu.get('motion_steps', 0)):.1%} of "
                 f"the motion's {gpu.get('motion_steps', 0):.3g} world-steps"
             ),
@@ -319,6 +320,12 @@ def figures(result: dict[str, Any]) -> list[Figure]:
         figure(SECTION, "reference outcome agreement", [same_ref / k], "share"),
         figure(SECTION, "validity agreement", [same_valid / k], "share"),
     ]  # fmt: skip
+
+
+def _device_work(gpu: dict[str, Any]) -> str:
+    if gpu.get("lanes"):
+        return f"{gpu['batches']} lane stream(s) of {gpu['lanes']} lanes"
+    return f"{gpu['batches']} device batches of <= {gpu['batch']} worlds"
 
 
 def run(quick: bool) -> list[Figure]:
