@@ -8,7 +8,7 @@
 - the installed ``harness`` console script run as a user runs it;
 - :func:`fr3_device_jobs`: the execution jobs (``DeviceJob``) of planned FR3 episodes, made by
   the engines bench's planning worker (its engine executes nothing), for the batched-engine
-  tests.
+  tests, and :func:`same_fields` to compare their outcomes field by field.
 """
 
 from __future__ import annotations
@@ -249,3 +249,20 @@ def fr3_device_jobs(seeds: int) -> list[Any]:
     task = load_task(PROJECT_ROOT / "tasks" / "pick" / "fr3.yaml")
     jobs = [_plan(EpisodeSpec(task=task, seed=seed))[1] for seed in range(seeds)]
     return [job for job in jobs if job is not None]
+
+
+def same_fields(a: object, b: object) -> bool:
+    """Dataclasses equal field by field (arrays by value, nested dataclasses recursively, NaN
+    equal to NaN)."""
+    import dataclasses
+    import math
+
+    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
+        return all(
+            same_fields(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a)
+        )
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import same_fields
 
 from harness.config import load_task
 from harness.engines import ENGINE_NAMES, engine_for, register_engine
@@ -244,22 +245,11 @@ def test_a_world_whose_rows_do_not_fit_runs_again_with_the_large_buffers(
     (b,) = direct.run([job])
     assert retried.timings.reruns == 1 and direct.timings.reruns == 0
     assert tiny.njmax < direct.timings.peak_rows <= LARGE.njmax
-    assert a.success and _same(a, b)
+    assert a.success and same_fields(a, b)
     monkeypatch.setattr(mjwarp_batch, "LARGE", tiny)
     (c,) = WorldBatch(dm, buffers=tiny).run([job])
     assert c.failure_reason == "sim_unstable"
     assert "constraint buffer was full" in c.message
-
-
-def _same(a: object, b: object) -> bool:
-    """Dataclasses equal field by field (arrays by value, nested dataclasses recursively)."""
-    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
-        return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    return a == b
 
 
 @pytest.mark.slow

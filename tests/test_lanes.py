@@ -6,38 +6,14 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
-import math
 from collections.abc import Hashable
 
 import numpy as np
 import pytest
-
-from harness.config import load_task
-from harness.episode import EpisodeSpec
-from harness.objects.assets import repo_root
+from helpers import fr3_device_jobs, same_fields
 
 HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
 needs_warp = pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
-
-
-def _fr3_job(seed: int):  # type: ignore[no-untyped-def]
-    from harness.benchmarks.engines import _plan
-
-    task = load_task(repo_root() / "tasks" / "pick" / "fr3.yaml")
-    _, job = _plan(EpisodeSpec(task=task, seed=seed))
-    assert job is not None
-    return task, job
-
-
-def _same(a: object, b: object) -> bool:
-    """Dataclasses equal field by field (arrays by value, NaN equal to NaN)."""
-    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
-        return all(_same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    return a == b
 
 
 @pytest.mark.slow
@@ -58,7 +34,8 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
     from harness.engines.retirement import segments
     from harness.episode.scene_cache import get_scene
 
-    task, job = _fr3_job(0)
+    (job,) = fr3_device_jobs(1)
+    task = job.task
     cuts = (10, 4, 7, 5)
     jobs = [
         dataclasses.replace(
@@ -91,7 +68,7 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
         free = lanes.free_lanes()[: len(waiting)]
         if len(free):
             take, waiting = waiting[: len(free)], waiting[len(free) :]
-            lanes.load(free, np.array(take), [jobs[i] for i in take], window, [True] * len(take))
+            lanes.load(free, np.array(take), [jobs[i] for i in take], spans[take])
         lanes.launch(timings)
         replays += 1
         finished = lanes.collect(timings)
@@ -125,8 +102,9 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     from harness.engines.mjwarp_stream import LaneStream
     from harness.episode.scene_cache import get_scene
 
-    task, _ = _fr3_job(0)
-    jobs = [_fr3_job(seed)[1] for seed in range(3)]
+    jobs = fr3_device_jobs(3)
+    assert len(jobs) == 3
+    task = jobs[0].task
     engine = MjwarpEngine("cpu")
     scene = get_scene(task, _SCENES).scene
     lockstep = engine.batch(scene, task).run(jobs)
@@ -139,6 +117,6 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     outcomes = stream.run(lambda block: installments.pop(0))  # type: ignore[arg-type,return-value]
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
-        assert _same(outcomes[key], expected), key
+        assert same_fields(outcomes[key], expected), key
     assert stream.timings.tug_rounds >= 2 and stream.timings.reruns == 0
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)

@@ -103,7 +103,7 @@ class GpuDevices:
         """Hand a planned job to its task model's stream (started at its first job)."""
         key = batch_key(job)
         if key not in self.streams:
-            self.streams[key] = self.stream(key, job, lanes)
+            self.streams[key] = self.stream(job, lanes)
         self.streams[key].put((index, job))
 
     def close_streams(self) -> None:
@@ -111,7 +111,7 @@ class GpuDevices:
         for jobs in self.streams.values():
             jobs.put(None)
 
-    def stream(self, key: str, job: Any, lanes: int) -> queue.Queue[Any]:
+    def stream(self, job: Any, lanes: int) -> queue.Queue[Any]:
         """Start a stream of ``lanes`` lanes for ``job``'s task model (on the next slot in
         turn): the queue to put (index, job) into, and ``None`` when planning is done."""
         from harness.engines.mjwarp_stream import LaneStream

@@ -111,16 +111,18 @@ class LaneRun:
     def free_lanes(self) -> np.ndarray:
         return np.flatnonzero(self.lane_job < 0)
 
-    def load(self, lanes: np.ndarray, slots: np.ndarray, jobs: list[DeviceJob], window: int,
-             validity: list[bool]) -> None:  # fmt: skip
+    def load(
+        self, lanes: np.ndarray, slots: np.ndarray, jobs: list[DeviceJob], span: np.ndarray
+    ) -> None:
         """Start ``jobs`` in ``lanes`` (free) with their arrays in ``slots`` (free): the lane's
-        state is the job's start state, its phase 0."""
+        state is the job's start state, its phase 0; ``span``: each job's control steps
+        recorded (its motion, then the validity window when it has one)."""
         n = len(jobs)
         lanes_w = wp.array(lanes.astype(np.int32), dtype=wp.int32)
         slots_w = wp.array(slots.astype(np.int32), dtype=wp.int32)
         schedules = [job.schedule for job in jobs]
         motion = np.array([s.steps for s in schedules], dtype=np.int32)
-        span = motion + np.where(validity, window, 0).astype(np.int32)
+        span = np.asarray(span, dtype=np.int32)
         table, last = steps.schedule_rows(schedules, self.rows)
         state = steps.world_arrays(jobs)
         d = self.d
@@ -218,7 +220,7 @@ class LaneRun:
         timings.span_steps += int(np.sum(warmups + spans * self.substeps))
         pool_full = contacts > self.d.naconmax
         if pool_full:  # every job in flight may have lost a contact
-            self.flag_all()
+            self._flag_all()
         self.lane_job[done_lanes] = -1
         if len(slots) == 0:
             return Finished([], [], [], [])
@@ -236,7 +238,7 @@ class LaneRun:
             [bool(v) for v in over],
         )
 
-    def flag_all(self) -> None:
+    def _flag_all(self) -> None:
         """Mark every job now in a lane as overflowed (the contact pool was full)."""
         busy = self.lane_job[self.lane_job >= 0]
         self._flagged = np.union1d(self._flagged, busy)

@@ -149,9 +149,7 @@ class LaneStream:
         for slot, item in zip(slots, take, strict=True):
             self._slot_job[int(slot)] = item
         jobs = [job for _, job in take]
-        window = window_steps(jobs[0].task.pick.hold_time, jobs[0].schedule.control_dt)
-        validity = [validity_enabled(job.task.pick) for job in jobs]
-        lanes.load(free[: len(take)], slots, jobs, window, validity)
+        lanes.load(free[: len(take)], slots, jobs, np.array([self._span(job) for job in jobs]))
         self.timings.upload_s += time.perf_counter() - clock
 
     @staticmethod
