@@ -15,30 +15,22 @@ import hashlib
 import os
 import re
 import stat
-import tempfile
 import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TypeVar
 
 from harness.errors import HarnessError
+from harness.writes import DISK_FULL_ENV, FILE_MODE, OutputFileError, kind_of, write_file
 
 T = TypeVar("T")
+
+__all__ = ["DISK_FULL_ENV", "FILE_MODE", "OutputFileError", "write_atomic"]
 
 # A generous bound for one file write (a recording is a few MB): a healthy disk takes well under
 # a second, so only a hung file system reaches it.
 WRITE_TIMEOUT_S = 60.0
 DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
-
-
-def _process_umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-# Written files get the usual permissions (mkstemp's temp files are 0600).
-FILE_MODE = 0o666 & ~_process_umask()
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
@@ -88,18 +80,7 @@ def open_regular(path: str | Path) -> int:
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
-            kind = (
-                "a FIFO"
-                if stat.S_ISFIFO(mode)
-                else "a directory"
-                if stat.S_ISDIR(mode)
-                else "a device"
-                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                else "a socket"
-                if stat.S_ISSOCK(mode)
-                else "not a regular file"
-            )
-            raise RefusedFileError(f"is {kind}, not a regular file")
+            raise RefusedFileError(f"is {kind_of(mode)}, not a regular file")
         os.set_blocking(fd, True)
         return fd
     except BaseException:
@@ -209,39 +190,19 @@ def bounded(call: Callable[[], T], timeout_s: float, what: str) -> T:
     return outcome["value"]  # type: ignore[return-value]
 
 
-# Fault injection for tests where no small file system can be mounted: a write to a file whose
-# name contains this variable's value fails half-way with ENOSPC, as on a full disk.
-DISK_FULL_ENV = "PICK_HARNESS_INJECT_ENOSPC"
+def write_atomic(
+    path: str | Path,
+    data: bytes | str,
+    timeout_s: float = WRITE_TIMEOUT_S,
+    root: Path | None = None,
+) -> Path:
+    """Write ``data`` to ``path`` whole within ``timeout_s``, under the write rule of
+    ``harness.writes`` (special files and symlinks refused; ``root``: no link below it).
 
-
-def _write_and_rename(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, FILE_MODE)
-        with os.fdopen(fd, "wb") as handle:
-            injected = os.environ.get(DISK_FULL_ENV)
-            if injected and injected in path.name:
-                handle.write(data[: len(data) // 2])
-                handle.flush()
-                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def write_atomic(path: str | Path, data: bytes | str, timeout_s: float = WRITE_TIMEOUT_S) -> Path:
-    """Write ``data`` to ``path`` whole (temp + fsync + rename) within ``timeout_s``.
-
-    Raises ``OSError`` (``is_disk_full`` tells ENOSPC) or ``TimeoutError``; either way ``path``
-    is unchanged and no temp file is left behind (a timed-out write removes its temp file when
-    it ends).
+    Raises ``OSError`` naming ``path`` (``is_disk_full`` tells ENOSPC), ``OutputFileError`` or
+    ``TimeoutError``; either way ``path`` is unchanged and no temp file is left behind (a
+    timed-out write removes its temp file when it ends).
     """
     path = Path(path)
-    payload = data.encode("utf-8") if isinstance(data, str) else data
-    path.parent.mkdir(parents=True, exist_ok=True)
-    bounded(lambda: _write_and_rename(path, payload), timeout_s, f"writing {path}")
+    bounded(lambda: write_file(path, data, root), timeout_s, f"writing {path}")
     return path

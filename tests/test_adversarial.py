@@ -540,7 +540,7 @@ ALLOWED = {
     "harness/benchmarks/sharing.py": "reads tasks/pick/<robot>.yaml of a fixed robot list",
     "harness/benchmarks/episodes.py": "reads tasks/pick/<name>.yaml of a fixed list",
     "harness/benchmarks/engines.py": "reads tasks/pick/<arm task>.yaml of a fixed list",
-    "harness/runs/store.py": "the temp file .<fixed export name>.tmp",
+    "harness/writes.py": "the temp file .<target name>.<random>.tmp beside an already safe target",
 }
 
 

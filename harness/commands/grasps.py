@@ -28,6 +28,7 @@ from harness.grasps import (
 from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
+from harness.writes import write_through
 
 if TYPE_CHECKING:  # matplotlib is imported only when a plot is asked for
     from mpl_toolkits.mplot3d.axes3d import Axes3D
@@ -225,9 +226,10 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
     ax.set_title(title, fontsize=10)
     ax.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        write_through(Path(path), lambda tmp: fig.savefig(tmp, dpi=110))
+    finally:
+        plt.close(fig)
 
 
 def inspect(args: argparse.Namespace) -> int:

@@ -22,6 +22,7 @@ from harness.report import (
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
 from harness.report.tables import setting_params
+from harness.writes import write_through
 
 SIGNIFICANCE = 0.05
 
@@ -162,7 +163,6 @@ def compare(args: argparse.Namespace) -> int:
     )
     if args.csv:
         path = Path(args.csv)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        comparison.to_csv(path, index=False)
+        write_through(path, lambda tmp: comparison.to_csv(tmp, index=False))
         console.print(f"  csv      {path}", soft_wrap=True, highlight=False)
     return 0

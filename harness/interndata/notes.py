@@ -37,5 +37,6 @@ def note_lines(path: str | Path, picks: list[InternDataPick]) -> list[str]:
 def write_notes(run_dir: Path, lines: list[str]) -> Path:
     """``RUN_DIR/skipped.txt`` with the given note lines."""
     out = run_dir / NOTES_FILE
-    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return out
+    from harness.writes import write_file
+
+    return write_file(out, "\n".join(lines) + "\n", root=run_dir)

@@ -50,6 +50,7 @@ from harness.report.tables import (
 )
 from harness.report.videos import Clip, load_clips, render_clips
 from harness.runs.store import JSONL_NAME, ResultStore
+from harness.writes import output_dir
 
 SUMMARY_NAME = "summary.csv"
 
@@ -127,11 +128,13 @@ def build_report(
     best = best_settings(summary, objective)
     summary_csv = run_dir / SUMMARY_NAME
     best_csv = run_dir / BEST_NAME
-    write_atomic(summary_csv, summary.to_csv(index=False))  # whole or absent, never half
-    write_atomic(best_csv, best.to_csv(index=False))
+    write_atomic(
+        summary_csv, summary.to_csv(index=False), root=run_dir
+    )  # whole or absent, never half
+    write_atomic(best_csv, best.to_csv(index=False), root=run_dir)
 
     plots_dir = run_dir / "plots"
-    plots_dir.mkdir(exist_ok=True)
+    output_dir(plots_dir, run_dir)
     plots = {
         "success": plot_success(summary, plots_dir / "success.png"),
         "failures": plot_failures(summary, plots_dir / "failures.png"),
@@ -149,11 +152,11 @@ def build_report(
     clips = render_clips(run_dir, frame) if videos else load_clips(run_dir)
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
-    write_atomic(report_md, render_markdown(run_dir, frame, tables, plots, clips))
+    write_atomic(report_md, render_markdown(run_dir, frame, tables, plots, clips), root=run_dir)
     links = recording_links(run_dir, frame)
     page = render_page(
         run_dir, frame, tables, plots, success_heatmaps(summary), clips, links,
         findings(frame, best),
     )  # fmt: skip
-    write_atomic(report_html, page)
+    write_atomic(report_html, page, root=run_dir)
     return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots, clips)

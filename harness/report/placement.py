@@ -31,6 +31,7 @@ from matplotlib.patches import Circle
 from harness.report.frames import column, frame_of
 from harness.report.stats import wilson_interval
 from harness.report.tables import rated
+from harness.writes import write_through
 
 PLACEMENT_COLUMNS = ("object_x_m", "object_y_m", "object_distance_m")
 BIN_M = 0.05
@@ -94,9 +95,10 @@ def plot_placement(frame: pd.DataFrame, path: Path) -> Path | None:
         _rates(right, mine, limit)
         right.set_title(f"{robot} {arm} arm: success vs distance (95% Wilson)", fontsize=10)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        write_through(path, fig.savefig)
+    finally:
+        plt.close(fig)
     return path
 
 

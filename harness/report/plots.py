@@ -24,6 +24,7 @@ from matplotlib.ticker import FuncFormatter
 from harness.report.frames import column, frame_of, series_of, series_rows, tuple_rows
 from harness.report.labels import format_value, point_label, varying_params
 from harness.report.tables import FAIL_PREFIX, pooled, setting_params
+from harness.writes import write_through
 
 DPI = 110
 MAX_BARS = 60
@@ -72,8 +73,10 @@ def _save(fig: Figure, path: Path) -> Path:
         engine.execute(fig)
         fig.set_layout_engine(None)  # laid out: savefig would otherwise draw it once more
     box = fig.get_tightbbox(renderer).padded(matplotlib.rcParams["savefig.pad_inches"])
-    fig.savefig(path, dpi=DPI, bbox_inches=box)
-    plt.close(fig)
+    try:
+        write_through(path, lambda tmp: fig.savefig(tmp, dpi=DPI, bbox_inches=box))
+    finally:
+        plt.close(fig)
     return path
 
 

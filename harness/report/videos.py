@@ -27,6 +27,7 @@ from harness.files import write_atomic
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import rated
 from harness.runs.safety import safe_file_name
+from harness.writes import output_dir
 
 VIDEOS_DIR = "videos"
 SWEEP_YAML = "sweep.yaml"  # harness.runs.rundir.SWEEP_YAML (rundir imports the report)
@@ -66,7 +67,7 @@ class Clip:
 def save_manifest(run_dir: Path, clips: list[Clip]) -> None:
     """``videos/clips.json``: what a later report without rendering shows."""
     text = json.dumps([clip.as_json() for clip in clips], indent=1)
-    write_atomic(run_dir / VIDEOS_DIR / MANIFEST, text)
+    write_atomic(run_dir / VIDEOS_DIR / MANIFEST, text, root=run_dir)
 
 
 def load_clips(run_dir: Path) -> list[Clip]:
@@ -146,9 +147,7 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         specs = _specs(run_dir, set(chosen["episode_id"].astype(str)))
     except Exception as exc:  # a run directory without a usable sweep.yaml: no videos
         return [_clip(row, None, note=f"not replayable: {exc}") for _, row in chosen.iterrows()]
-    if (run_dir / VIDEOS_DIR).is_symlink():  # never write through a planted symlink
-        return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
-    (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
+    output_dir(run_dir / VIDEOS_DIR, run_dir)  # a planted videos/ link: refused, not followed
     scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
     clips = [
         _film(run_dir, row, specs.get(str(row["episode_id"])), scenes)
@@ -204,7 +203,7 @@ def _film(run_dir: Path, row: Any, spec: Any, scenes: dict[Any, Any]) -> Clip:
     recording = _stored_recording(run_dir, row)
     try:
         result = run_episode(spec, scenes)
-        frames = write_episode_video(result, run_dir / relative, FPS, WIDTH, HEIGHT)
+        frames = write_episode_video(result, run_dir / relative, FPS, WIDTH, HEIGHT, run_dir)
     except Exception as exc:  # no GL context, no scene: the report goes on without this clip
         return _clip(row, None, note=f"not rendered: {type(exc).__name__}: {exc}")
     if recording is None:
@@ -217,10 +216,8 @@ def _record(run_dir: Path, row: Any, result: Any, spec: Any) -> str | None:
     from harness.viz.recording import record_episode
 
     relative = Path("episodes") / safe_file_name(str(row["episode_id"]), ".rrd")
-    if (run_dir / "episodes").is_symlink():
-        return None
     try:
-        (run_dir / "episodes").mkdir(exist_ok=True)
+        output_dir(run_dir / "episodes", run_dir)
         record_episode(result, run_dir / relative, spec.task)
     except Exception:  # the video stands without it
         return None

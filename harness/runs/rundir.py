@@ -31,6 +31,7 @@ from harness.runs.safety import (
 )
 from harness.runs.store import CSV_NAME, JSONL_NAME, PARQUET_NAME, ResultStore
 from harness.runs.worker import DISK_FULL_PREFIX, recording_disk_full
+from harness.writes import write_file
 
 SWEEP_YAML = "sweep.yaml"
 LOG_NAME = "MUJOCO_LOG.TXT"  # harness.sim.mujoco_log.LOG_NAME (not imported: loads MuJoCo)
@@ -118,7 +119,7 @@ class RunDir:
             self.lock.release()
             raise ConfigError(taken, file=self.path)
         body = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
-        self.sweep_yaml.write_text(with_hash_header(body), encoding="utf-8")
+        write_file(self.sweep_yaml, with_hash_header(body), root=self.path)
         record_sweep_hash(self.path, self.sweep_yaml)
         self.config_sha256 = sweep_hash(self.sweep_yaml)
 

@@ -18,6 +18,7 @@ from typing import IO
 
 from harness.config import ConfigError
 from harness.files import planted_link, safe_file_name
+from harness.writes import open_append, write_file
 
 __all__ = ["RunLock", "inside", "refuse_symlinks", "safe_file_name"]
 
@@ -75,7 +76,7 @@ def sweep_hash(sweep_yaml: Path) -> str:
 
 
 def record_sweep_hash(run_dir: Path, sweep_yaml: Path) -> None:
-    (run_dir / HASH_NAME).write_text(sweep_hash(sweep_yaml) + "\n", encoding="utf-8")
+    write_file(run_dir / HASH_NAME, sweep_hash(sweep_yaml) + "\n", root=run_dir)
 
 
 EDITED = (
@@ -124,7 +125,7 @@ class RunLock:
 
     def acquire(self) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        handle = open(self.path, "a+", encoding="utf-8")  # noqa: SIM115 (held until release)
+        handle = os.fdopen(open_append(self.path, read=True), "a+", encoding="utf-8")
         try:
             fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

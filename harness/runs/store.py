@@ -33,6 +33,7 @@ import pandas as pd
 
 from harness.errors import HarnessError
 from harness.row import SCHEMA, Column, param_columns
+from harness.writes import open_append, write_through
 
 JSONL_NAME = "episodes.jsonl"
 CSV_NAME = "episodes.csv"
@@ -186,7 +187,7 @@ class ResultStore:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         prefix = "" if self._checked_tail else self._separator()
         self._checked_tail = True
-        with open(self.path, "a", encoding="utf-8") as handle:
+        with os.fdopen(open_append(self.path), "a", encoding="utf-8") as handle:
             handle.write(prefix + line + "\n")
             handle.flush()
             self._unsynced = True
@@ -327,7 +328,6 @@ def read_episodes_csv(path: str | Path, typed: bool = True) -> pd.DataFrame:
 
 
 def _atomic_write(path: Path, write: Any) -> None:
-    """Write via a temporary file and rename, so readers never see half a file."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    write(tmp)
-    os.replace(tmp, path)
+    """Write via a temporary file and rename, so readers never see half a file; a failed write
+    names ``path`` and leaves no temp file (``harness.writes``)."""
+    write_through(path, write, root=path.parent)

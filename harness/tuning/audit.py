@@ -45,6 +45,7 @@ from harness.robots.facts import max_jaw_opening, reference_convention
 from harness.row import param_columns
 from harness.runs.expansion import load_sweep_tasks, point_overrides
 from harness.runs.rundir import RunDir
+from harness.writes import check_outputs, write_file, write_through
 
 AUDIT_DIR = "grasp_audit"
 TABLE_REASONS = ("collision", "table_penetration")
@@ -170,14 +171,15 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
     """Per grasp file with flagged rows: a copy without them, ``<object>_cleaned.npy``."""
     cleaned: dict[str, Path] = {}
     flagged = frame_of(table[column(table, "flagged")])
+    out_dir.parent.mkdir(parents=True, exist_ok=True)  # the run directory: out_dir is checked
     for key, group in flagged.groupby(["object", "grasp_file"]):
         obj, path = cast(tuple[Any, ...], key)
         data = read_grasp_array(str(path))
         keep = np.ones(len(data), dtype=bool)
         keep[column(group, "grasp_row").to_numpy(np.int64)] = False
-        out_dir.mkdir(parents=True, exist_ok=True)
         target = safe_child(out_dir, str(obj), "cleaned", suffix=".npy")
-        np.save(target, data[keep])
+        kept = data[keep]
+        write_through(target, lambda tmp, kept=kept: np.save(tmp, kept), root=out_dir.parent)
         cleaned[str(path)] = target
     return cleaned
 
@@ -186,9 +188,8 @@ def audit_run(run_dir: Path, min_trials: int = 3) -> AuditResult:
     """Audit the executed grasps of a run directory; write ``audit.csv`` and cleaned files."""
     table = audit_table(executed_grasps(run_dir), min_trials)
     out_dir = run_dir / AUDIT_DIR
-    out_dir.mkdir(parents=True, exist_ok=True)
-    csv = out_dir / "audit.csv"
-    table.to_csv(csv, index=False)
+    check_outputs(run_dir, folders=(AUDIT_DIR,))  # a planted link in grasp_audit/: refused
+    csv = write_file(out_dir / "audit.csv", table.to_csv(index=False), root=run_dir)
     return AuditResult(table, write_cleaned(table, out_dir), csv)
 
 

@@ -23,6 +23,7 @@ from matplotlib.patches import Rectangle
 from harness.files import safe_child
 from harness.report.frames import column, frame_of, series_rows
 from harness.tuning.analysis import filter_label
+from harness.writes import output_dir, write_through
 
 ANNOTATE_MAX_CELLS = 400
 
@@ -77,18 +78,24 @@ def heatmap(
             ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, lw=2.2,
                                    ls=style, edgecolor=colour))  # fmt: skip
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        write_through(path, fig.savefig)
+    finally:
+        plt.close(fig)
     return path
 
 
 def write_heatmaps(
-    success: pd.DataFrame, decisions: pd.DataFrame, out_dir: Path, objective: str
+    success: pd.DataFrame,
+    decisions: pd.DataFrame,
+    out_dir: Path,
+    objective: str,
+    root: Path | None = None,
 ) -> dict[tuple[str, str], Path]:
     """One PNG per unit, coloured by the objective's screening rate:
     ``<out_dir>/<robot>_<arm>_<object>.png``; keyed by (task, context)."""
     paths: dict[tuple[str, str], Path] = {}
+    output_dir(out_dir, root)  # a planted heatmaps/ link (or one above it): refused
     for row in series_rows(decisions):
         task, context = str(row["task"]), str(row["context"])
         group = frame_of(success[(success["task"] == task) & (success["context"] == context)])

@@ -43,8 +43,10 @@ from harness.tuning.grid import (
 from harness.tuning.heatmaps import write_heatmaps
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
 from harness.tuning.write import write_copy
+from harness.writes import check_outputs, write_file
 
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
+TUNE_OUTPUTS = ("success_map.csv", "decisions.csv", "race.csv", "tuned.yaml", "tuned.md")
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,7 @@ def tune(
         seed=seed if seed is not None else (sweep_seed or 0),
     )
     out = out or RunDir.default_path(sweep.name)
+    check_tune_dir(out)
     screen = out / SCREEN_DIR
     if (screen / "sweep.yaml").is_file():
         outcome = run_sweep(
@@ -128,10 +131,20 @@ def tune(
     finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
     options = TuneOptions(**{**asdict(options), "sources": sources})
-    (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
+    write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
     if outcome.stats.interrupted:
         return TuneResult(out, True, pd.DataFrame())
     return decide(out, options, backend=backend, workers=workers, may_run=True, write=write)
+
+
+TUNE_FILES = (OPTIONS_FILE, *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS))
+
+
+def check_tune_dir(out: Path) -> None:
+    """Refuse, before screening, a tune directory where a write would follow a planted link
+    or hit a special file (``tune/``, ``tune/heatmaps/``, ``tune.json``, ``tuned.yaml``, ...)."""
+    if out.exists():
+        check_outputs(out, TUNE_FILES, (TUNE_DIR, f"{TUNE_DIR}/heatmaps"))
 
 
 def analyse(out: Path, objective: str | None = None, write: Path | None = None) -> TuneResult:
@@ -139,6 +152,7 @@ def analyse(out: Path, objective: str | None = None, write: Path | None = None) 
     path = out / OPTIONS_FILE
     if not path.is_file():
         raise HarnessError(f"{out}: not a tune directory (no {OPTIONS_FILE})")
+    check_tune_dir(out)
     options = TuneOptions(**json.loads(path.read_text(encoding="utf-8")))
     if objective:
         options = TuneOptions(**{**asdict(options), "objective": objective})
@@ -215,15 +229,17 @@ def decide(
         [unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why) for u in units]
     )
     folder = out / TUNE_DIR
-    folder.mkdir(parents=True, exist_ok=True)
-    success.to_csv(folder / "success_map.csv", index=False)
-    decisions.to_csv(folder / "decisions.csv", index=False)
-    race_rows(units).to_csv(folder / "race.csv", index=False)
-    images = write_heatmaps(success, decisions, folder / "heatmaps", options.objective)
+    for name, table in (
+        ("success_map.csv", success),
+        ("decisions.csv", decisions),
+        ("race.csv", race_rows(units)),
+    ):
+        write_file(folder / name, table.to_csv(index=False), root=out)
+    images = write_heatmaps(success, decisions, folder / "heatmaps", options.objective, out)
     header = _header(out, sweep.seed, options, log)
     text = tuned_yaml(decisions, tasks, header, options.sources)
-    (folder / "tuned.yaml").write_text(text, encoding="utf-8")
-    (folder / "tuned.md").write_text(tuned_markdown(decisions, text, header, images), "utf-8")
+    write_file(folder / "tuned.yaml", text, root=out)
+    write_file(folder / "tuned.md", tuned_markdown(decisions, text, header, images), root=out)
     written = _write(decisions, tasks, options, write) if write else []
     return TuneResult(
         out,

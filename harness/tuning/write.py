@@ -19,7 +19,8 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.util import load_yaml_guess_indent
 
 from harness.errors import HarnessError
-from harness.files import safe_file_name
+from harness.files import MAX_CONFIG_BYTES, read_capped, safe_file_name
+from harness.writes import check_target, write_file
 
 
 def _flow(values: list[Any]) -> CommentedSeq:
@@ -59,17 +60,18 @@ def merged_text(text: str, keys: dict[str, list[Any] | None], source: Path) -> s
 
 def write_copy(source: Path, keys: dict[str, list[Any] | None], out_dir: Path) -> tuple[Path, Path]:
     """Write ``out_dir/<source name>`` (merged) and ``<source name>.diff``; their paths."""
-    text = source.read_text(encoding="utf-8")
+    text = read_capped(source, MAX_CONFIG_BYTES).decode("utf-8")  # never blocks on a FIFO
     merged = merged_text(text, keys, source)
-    out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / safe_file_name(source.name)
-    target.write_text(merged, encoding="utf-8")
+    diff_path = out_dir / safe_file_name(source.name, ".diff")
+    check_target(target)  # both refused before either is written
+    check_target(diff_path)
+    write_file(target, merged, root=out_dir)
     diff = difflib.unified_diff(
         text.splitlines(keepends=True),
         merged.splitlines(keepends=True),
         fromfile=str(source),
         tofile=str(target),
     )
-    diff_path = out_dir / safe_file_name(source.name, ".diff")
-    diff_path.write_text("".join(diff), encoding="utf-8")
+    write_file(diff_path, "".join(diff), root=out_dir)
     return target, diff_path

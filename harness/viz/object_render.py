@@ -13,6 +13,7 @@ import numpy as np
 from harness.objects.assets import ObjectAsset
 from harness.objects.graspgen import GripperModel, grasp_boxes
 from harness.viz.render import render_views, use_offscreen_gl
+from harness.writes import write_through
 
 PIECE_PALETTE = np.array(
     [[0.9, 0.4, 0.3], [0.3, 0.6, 0.9], [0.4, 0.8, 0.4], [0.9, 0.8, 0.3], [0.7, 0.4, 0.9]]
@@ -59,8 +60,7 @@ def render_object(
     draw = ImageDraw.Draw(image)
     for i, title in enumerate(titles):
         draw.text((i * size[1] + 8, 6), title, fill=(20, 20, 20))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    image.save(out)
+    write_through(out, image.save)
     return out
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from harness.errors import HarnessError
 from harness.robots import RobotModel
 from harness.viz.render import render_views, use_offscreen_gl
+from harness.writes import check_target, write_through
 
 TABLE_HEIGHT = 0.75  # m, for the render context of robots that stand on the table (fr3)
 
@@ -136,10 +137,10 @@ def render_robot(robot: RobotModel, path: str | Path, size: tuple[int, int] = (9
     camera.elevation = float(os.environ.get("HARNESS_RENDER_ELEVATION", -20.0))
     width, height = size
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_target(path)
     try:
         (image,) = render_views(model, data, camera, width, height)
-        Image.fromarray(image).save(path)
+        write_through(path, Image.fromarray(image).save)
     except Exception as exc:  # no GL platform: one clear line, not a traceback
         raise HarnessError(
             f"offscreen rendering failed ({exc}); set MUJOCO_GL=egl or MUJOCO_GL=osmesa"

@@ -25,6 +25,7 @@ from harness.errors import HarnessError
 from harness.viz.cause import Cause, find_cause
 from harness.viz.headline import KIND_COLORS, caption, headline, outcome_kind
 from harness.viz.render import use_offscreen_gl
+from harness.writes import check_target, output_dir, write_through
 
 FPS = 30
 WIDTH, HEIGHT = 640, 480
@@ -75,10 +76,16 @@ def _frames(trace: Any, cause: Cause, fps: int) -> list[tuple[np.ndarray, bool]]
 
 
 def write_episode_video(
-    result: Any, path: Path, fps: int = FPS, width: int = WIDTH, height: int = HEIGHT
+    result: Any,
+    path: Path,
+    fps: int = FPS,
+    width: int = WIDTH,
+    height: int = HEIGHT,
+    root: Path | None = None,
 ) -> int:
     """Write ``path`` (MP4) and its poster ``path.with_suffix('.png')`` for an
-    ``EpisodeResult`` with a trace; returns the frame count."""
+    ``EpisodeResult`` with a trace; returns the frame count. Both go through
+    ``harness.writes`` (``root``: the run directory, no symlink followed below it)."""
     use_offscreen_gl()
     import imageio.v2 as imageio
     import mujoco
@@ -100,15 +107,23 @@ def write_episode_video(
     close = camera
     if cause.point is not None and outcome_kind(row) != "valid":
         close = _camera(mujoco, cause.point, CAUSE_DISTANCE_M)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    poster_path = path.with_suffix(".png")
+    check_target(path)
+    check_target(poster_path)
+    output_dir(path.parent, root)
     overlay = Overlay(row, cause.label, width)
     table_alpha = TABLE_ALPHA if "through the table" in cause.label else None
-    with _Lit(model, table_alpha):
-        poster = _write(
-            mujoco, imageio, model, data, (camera, close), frames, cause, overlay, path, fps,
-            (width, height),
-        )  # fmt: skip
-    imageio.imwrite(path.with_suffix(".png"), poster)
+    posters: list[np.ndarray] = []
+
+    def encode(tmp: Path) -> None:
+        with _Lit(model, table_alpha):
+            posters.append(_write(
+                mujoco, imageio, model, data, (camera, close), frames, cause, overlay, tmp, fps,
+                (width, height),
+            ))  # fmt: skip
+
+    write_through(path, encode, root=root)
+    write_through(poster_path, lambda tmp: imageio.imwrite(tmp, posters[0]), root=root)
     return len(frames)
 
 
