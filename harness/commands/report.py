@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 from pathlib import Path
 from typing import Any
@@ -27,13 +28,24 @@ from harness.writes import write_through
 SIGNIFICANCE = 0.05
 
 
+def run_lock(run_dir: Path) -> contextlib.AbstractContextManager[object]:
+    """The run directory's lock (``RunLock``: one line naming the holder's pid if a sweep
+    holds it); nothing for a path that is not a real folder (``build_report`` names it)."""
+    from harness.runs.safety import RunLock
+
+    if run_dir.is_dir() and not run_dir.is_symlink():
+        return RunLock(run_dir)
+    return contextlib.nullcontext()
+
+
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
     console = make_console()
     if args.videos:
         console.print("replaying one success and one failure per robot arm for the videos ...")
-    paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
+    with run_lock(run_dir):  # a sweep still filling the directory: refused, not raced
+        paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]

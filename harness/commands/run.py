@@ -146,7 +146,7 @@ def main(args: argparse.Namespace) -> int:
     from harness.runs.preflight import check_tasks
 
     check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
-    run = RunDir(Path(args.out) if args.out else RunDir.default_path(sweep.name))
+    run = RunDir(Path(args.out)) if args.out else RunDir.default(sweep.name)
     run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
     if picks:
         from harness.interndata import note_lines, summary_lines

@@ -21,6 +21,7 @@ from harness.errors import DiskFullError
 from harness.files import is_disk_full
 from harness.interndata import NOTES_FILE, write_notes
 from harness.runs.safety import (
+    LOCK_NAME,
     RunLock,
     check_sweep_hash,
     record_sweep_hash,
@@ -56,6 +57,20 @@ RUN_OUTPUTS = (
 )
 
 
+def claim_new_dir(base: Path) -> Path:
+    """Create ``base`` itself (``mkdir`` fails if it exists), else the first free ``base-2``,
+    ``base-3``, ...: runs started in the same second never share a default directory."""
+    base.parent.mkdir(parents=True, exist_ok=True)
+    for number in range(1, 10_000):
+        candidate = base if number == 1 else base.with_name(f"{base.name}-{number}")
+        try:
+            candidate.mkdir()
+        except FileExistsError:
+            continue
+        return candidate
+    raise ConfigError("no free run directory name; give --out", file=base)
+
+
 def resolved_sweep_document(sweep: SweepConfig, tasks: list[TaskConfig]) -> dict[str, Any]:
     """The sweep as run: its settings with every task inlined (self-contained for --resume)."""
     data = sweep.model_dump(mode="json")
@@ -68,16 +83,24 @@ def resolved_sweep_document(sweep: SweepConfig, tasks: list[TaskConfig]) -> dict
 class RunDir:
     """One run directory: its ``sweep.yaml``, its episode store, its exports and report."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, unique: bool = False) -> None:
+        """``unique``: ``path`` is a default name; ``create`` claims it, or ``path-2``, ... ."""
         self.path = path
+        self.unique = unique
         self.store = ResultStore(path)
         self.lock = RunLock(path)
         self.config_sha256: str | None = None  # stored in every row this process appends
 
     @staticmethod
     def default_path(name: str) -> Path:
-        """``reports/<name>-<date>-<time>``: where a run goes without ``--out``."""
+        """``reports/<name>-<date>-<time>``: where a run goes without ``--out`` (claimed with
+        ``claim_new_dir``: two runs started in the same second get two directories)."""
         return Path("reports") / safe_file_name(f"{name}-{time.strftime('%Y%m%d-%H%M%S')}")
+
+    @classmethod
+    def default(cls, name: str) -> RunDir:
+        """The run directory of a run without ``--out`` (claimed at ``create``)."""
+        return cls(cls.default_path(name), unique=True)
 
     @classmethod
     def existing(cls, path: Path, *, force: bool = False) -> RunDir:
@@ -107,6 +130,8 @@ class RunDir:
     def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
         """Write ``sweep.yaml`` and lock the directory for this process; a directory that
         already holds a run raises ``taken``, one with symlinked outputs is refused."""
+        if self.unique:
+            self._claim()
         if self.path.exists() and not self.path.is_dir():
             raise ConfigError(
                 "is not a directory (a run directory is a folder; give a new or empty one)",
@@ -114,6 +139,7 @@ class RunDir:
             )
         if self.path.exists():
             refuse_symlinks(self.path, RUN_OUTPUTS)
+            self._refuse_foreign_files()
         self.lock.acquire()
         if self.sweep_yaml.exists():
             self.lock.release()
@@ -122,6 +148,25 @@ class RunDir:
         write_file(self.sweep_yaml, with_hash_header(body), root=self.path)
         record_sweep_hash(self.path, self.sweep_yaml)
         self.config_sha256 = sweep_hash(self.sweep_yaml)
+
+    def _claim(self) -> None:
+        candidate = claim_new_dir(self.path)
+        self.path, self.unique = candidate, False
+        self.store, self.lock = ResultStore(candidate), RunLock(candidate)
+
+    def _refuse_foreign_files(self) -> None:
+        """A folder that holds files but no run (``report.md``, a stray ``episodes.jsonl``) is
+        refused: a run never writes over files it did not make, nor mixes in foreign rows."""
+        if self.sweep_yaml.exists():
+            return  # a run: refused as ``taken`` under the lock
+        foreign = sorted(p.name for p in self.path.iterdir() if p.name != LOCK_NAME)
+        if foreign:
+            more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+            raise ConfigError(
+                f"is not empty and holds no run (no sweep.yaml; it holds {foreign[0]}{more}): "
+                "a run never writes over files it did not make; give a new or empty folder",
+                file=self.path,
+            )
 
     def write_notes(self, notes: list[str]) -> Path:
         """The InternDataEngine mapping notes (skipped skills, ignored keys, approximations)."""

@@ -49,7 +49,7 @@ def prepare_run(
     if sweep_path is None:
         raise ConfigError("give a sweep YAML or --resume RUN_DIR")
     sweep = load_sweep(sweep_path)
-    return sweep, sweep_path, RunDir(out or RunDir.default_path(sweep.name))
+    return sweep, sweep_path, RunDir(out) if out else RunDir.default(sweep.name)
 
 
 def run_sweep(

@@ -45,6 +45,7 @@ from harness.robots.facts import max_jaw_opening, reference_convention
 from harness.row import param_columns
 from harness.runs.expansion import load_sweep_tasks, point_overrides
 from harness.runs.rundir import RunDir
+from harness.runs.safety import RunLock
 from harness.writes import check_outputs, write_file, write_through
 
 AUDIT_DIR = "grasp_audit"
@@ -189,8 +190,9 @@ def audit_run(run_dir: Path, min_trials: int = 3) -> AuditResult:
     table = audit_table(executed_grasps(run_dir), min_trials)
     out_dir = run_dir / AUDIT_DIR
     check_outputs(run_dir, folders=(AUDIT_DIR,))  # a planted link in grasp_audit/: refused
-    csv = write_file(out_dir / "audit.csv", table.to_csv(index=False), root=run_dir)
-    return AuditResult(table, write_cleaned(table, out_dir), csv)
+    with RunLock(run_dir):  # not while a sweep fills the directory
+        csv = write_file(out_dir / "audit.csv", table.to_csv(index=False), root=run_dir)
+        return AuditResult(table, write_cleaned(table, out_dir), csv)
 
 
 def flagged_rows(table: pd.DataFrame) -> list[Any]:

@@ -25,7 +25,7 @@ from harness.report.finish import finish_run
 from harness.report.frames import frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
-from harness.runs.rundir import RunDir
+from harness.runs.rundir import RunDir, claim_new_dir
 from harness.runs.sweep import default_workers, run_sweep
 from harness.tuning.analysis import challengers, settings_frame, success_map
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
@@ -103,7 +103,7 @@ def tune(
         episodes=options.screen_seeds,
         seed=seed if seed is not None else (sweep_seed or 0),
     )
-    out = out or RunDir.default_path(sweep.name)
+    out = out or claim_new_dir(RunDir.default_path(sweep.name))
     check_tune_dir(out)
     screen = out / SCREEN_DIR
     if (screen / "sweep.yaml").is_file():
