@@ -10,13 +10,14 @@ disk (ENOSPC, EDQUOT) from other I/O errors, so a run can stop on it with one li
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import os
 import re
 import stat
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TypeVar
 
@@ -68,6 +69,23 @@ class RefusedFileError(ValueError):
         self.too_large = too_large
 
 
+# Paths read by ``open_regular`` while a ``recording_reads`` block is open (the inputs of a
+# run: meshes, USD layers, grasp files, robot and object YAML), for the run's input manifest.
+_READ_LOGS: list[set[str]] = []
+
+
+@contextlib.contextmanager
+def recording_reads() -> Iterator[set[str]]:
+    """The resolved paths of every file read through ``open_regular`` (``check_regular``,
+    ``read_capped``) inside the block."""
+    log: set[str] = set()
+    _READ_LOGS.append(log)
+    try:
+        yield log
+    finally:
+        _READ_LOGS.remove(log)
+
+
 def open_regular(path: str | Path) -> int:
     """A read-only descriptor of ``path`` if it is a regular file, else ``RefusedFileError``.
 
@@ -82,6 +100,8 @@ def open_regular(path: str | Path) -> int:
         if not stat.S_ISREG(mode):
             raise RefusedFileError(f"is {kind_of(mode)}, not a regular file")
         os.set_blocking(fd, True)
+        for log in _READ_LOGS:
+            log.add(str(Path(path).resolve()))
         return fd
     except BaseException:
         os.close(fd)

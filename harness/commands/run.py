@@ -143,11 +143,18 @@ def main(args: argparse.Namespace) -> int:
         record=args.record,
     )
     episodes = [dataclasses.replace(e, engine=args.engine) for e in expand(sweep, None)]
+    from harness.files import recording_reads
     from harness.runs.preflight import check_tasks
 
-    check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
+    with recording_reads() as inputs:  # the files the tasks load, hashed for --resume
+        check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
     run = RunDir(Path(args.out)) if args.out else RunDir.default(sweep.name)
-    run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
+    run.create(
+        sweep,
+        tasks,
+        taken="run directory already holds a run; choose another --out",
+        inputs=inputs,
+    )
     if picks:
         from harness.interndata import note_lines, summary_lines
 

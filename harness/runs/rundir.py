@@ -11,6 +11,7 @@ layer that started the run (``harness.report.finish.finish_run``): ``runs`` does
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
 from harness.errors import DiskFullError
 from harness.files import is_disk_full
 from harness.interndata import NOTES_FILE, write_notes
+from harness.runs.inputs import INPUTS_NAME, check_inputs, record_inputs
 from harness.runs.safety import (
     LOCK_NAME,
     RunLock,
@@ -43,6 +45,7 @@ RUN_OUTPUTS = (
     NOTES_FILE,
     JSONL_NAME,
     *(name for base in (CSV_NAME, PARQUET_NAME) for name in (base, f".{base}.tmp")),
+    INPUTS_NAME,
     "summary.csv",
     "best.csv",
     "report.md",
@@ -114,6 +117,8 @@ class RunDir:
         try:
             hashes = (str(row.get("config_sha256") or "") for row in run.store.rows())
             run.config_sha256 = check_sweep_hash(path, run.sweep_yaml, force, hashes)
+            if not force:
+                check_inputs(path)  # an edited mesh or grasp file: refused too
         except BaseException:
             run.lock.release()
             raise
@@ -127,9 +132,17 @@ class RunDir:
         """The sweep this directory was created with (tasks inlined)."""
         return load_sweep(self.sweep_yaml)
 
-    def create(self, sweep: SweepConfig, tasks: list[TaskConfig], *, taken: str) -> None:
-        """Write ``sweep.yaml`` and lock the directory for this process; a directory that
-        already holds a run raises ``taken``, one with symlinked outputs is refused."""
+    def create(
+        self,
+        sweep: SweepConfig,
+        tasks: list[TaskConfig],
+        *,
+        taken: str,
+        inputs: Iterable[str] = (),
+    ) -> None:
+        """Write ``sweep.yaml`` (and ``inputs.sha256``, the hashes of the files ``inputs`` the
+        tasks load) and lock the directory for this process; a directory that already holds a
+        run raises ``taken``, one with symlinked outputs or foreign files is refused."""
         if self.unique:
             self._claim()
         if self.path.exists() and not self.path.is_dir():
@@ -147,6 +160,7 @@ class RunDir:
         body = yaml.safe_dump(resolved_sweep_document(sweep, tasks), sort_keys=False)
         write_file(self.sweep_yaml, with_hash_header(body), root=self.path)
         record_sweep_hash(self.path, self.sweep_yaml)
+        record_inputs(self.path, inputs)
         self.config_sha256 = sweep_hash(self.sweep_yaml)
 
     def _claim(self) -> None:

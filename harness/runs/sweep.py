@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from harness.config import ConfigError, SweepConfig, load_sweep
+from harness.files import recording_reads
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
@@ -85,6 +86,15 @@ def run_sweep(
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
         updates: dict[str, Any] = {}
+        if resume_dir is not None and episodes_per_point not in (None, sweep.episodes_per_point):
+            raise ConfigError(
+                f"--episodes-per-point {episodes_per_point} with --resume: this run has "
+                f"{sweep.episodes_per_point} episode(s) per point and a resume finishes it as "
+                f"created (start a new run: harness sweep {run.sweep_yaml} --out NEW_DIR "
+                f"--episodes-per-point {episodes_per_point})",
+                file=run.sweep_yaml,
+                key="episodes_per_point",
+            )
         if record is not None:
             updates["record"] = record
         if episodes_per_point is not None:
@@ -95,12 +105,14 @@ def run_sweep(
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)
         episodes = expand(sweep, source, tasks, progress=progress)
-        check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
+        with recording_reads() as inputs:
+            check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:
             run.create(
                 sweep,
                 tasks,
                 taken="run directory already holds a sweep; use --resume to continue it",
+                inputs=inputs,
             )
             if notes:
                 run.write_notes(notes)
