@@ -437,8 +437,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
     except HarnessError as exc:
         return _fail(str(exc))
-    except KeyboardInterrupt:
-        _stderr("interrupted")
+    except KeyboardInterrupt:  # a second Ctrl-C / SIGTERM: say what was kept, how to go on
+        rundir = sys.modules.get("harness.runs.rundir")
+        _stderr(rundir.interrupted_line() if rundir is not None else "interrupted")
         return 130
     except BrokenPipeError:  # e.g. `harness grasps inspect ... | head`
         _silence_stdout()

@@ -177,7 +177,9 @@ def main(args: argparse.Namespace) -> int:
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
     except KeyboardInterrupt:
-        console.print("[yellow]interrupted[/]: finished episodes are kept")
+        from harness.runs.rundir import interrupted_line
+
+        console.print(interrupted_line(), markup=False, highlight=False, soft_wrap=True)
     console.print()
     run.finalize()
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run

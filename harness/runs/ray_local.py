@@ -19,10 +19,13 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 LOCAL_ONLY_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
@@ -32,7 +35,9 @@ WATCH_EVERY_S = 0.5
 @contextlib.contextmanager
 def local_ray(workers: int) -> Iterator[Any]:
     """``ray``, initialised as a local cluster on 127.0.0.1 with ``workers`` CPUs; shut down
-    (and the environment restored) on exit."""
+    (and the environment restored) on exit. Its session files go to a temp folder of this
+    process (``_temp_dir``), removed on exit, or by the watchdog after a kill -9, instead of
+    ``/tmp/ray/session_*`` left behind for ever."""
     previous = os.environ.get(LOCAL_ONLY_ENV)
     os.environ[LOCAL_ONLY_ENV] = "0"  # inherited by gcs_server, raylet and the workers
     import ray
@@ -41,9 +46,10 @@ def local_ray(workers: int) -> Iterator[Any]:
     saved = ray_constants.ENABLE_RAY_CLUSTER
     ray_constants.ENABLE_RAY_CLUSTER = False  # read at import: an earlier import missed it
     watchdog: subprocess.Popen[bytes] | None = None
+    temp_dir = tempfile.mkdtemp(prefix="harness-ray-")  # short: Ray's socket paths must fit
     try:
-        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-        watchdog = start_watchdog(os.getpid())
+        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False, _temp_dir=temp_dir)
+        watchdog = start_watchdog(os.getpid(), temp_dir)
         yield ray
     finally:
         try:
@@ -52,6 +58,7 @@ def local_ray(workers: int) -> Iterator[Any]:
             if watchdog is not None:
                 watchdog.terminate()
                 watchdog.wait(timeout=10)
+            shutil.rmtree(temp_dir, ignore_errors=True)
             ray_constants.ENABLE_RAY_CLUSTER = saved
             if previous is None:
                 os.environ.pop(LOCAL_ONLY_ENV, None)
@@ -59,10 +66,11 @@ def local_ray(workers: int) -> Iterator[Any]:
                 os.environ[LOCAL_ONLY_ENV] = previous
 
 
-def start_watchdog(driver_pid: int) -> subprocess.Popen[bytes]:
-    """A process that kills the driver's leftover process tree once the driver dies."""
+def start_watchdog(driver_pid: int, temp_dir: str = "") -> subprocess.Popen[bytes]:
+    """A process that kills the driver's leftover process tree once the driver dies (and
+    removes its Ray ``temp_dir``)."""
     return subprocess.Popen(
-        [sys.executable, "-m", "harness.runs.ray_local", str(driver_pid)],
+        [sys.executable, "-m", "harness.runs.ray_local", str(driver_pid), temp_dir],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -70,8 +78,9 @@ def start_watchdog(driver_pid: int) -> subprocess.Popen[bytes]:
     )
 
 
-def watch(driver_pid: int) -> None:
-    """Follow ``driver_pid``'s descendants; when it is gone, SIGKILL those still running."""
+def watch(driver_pid: int, temp_dir: str = "") -> None:
+    """Follow ``driver_pid``'s descendants; when it is gone, SIGKILL those still running and
+    remove ``temp_dir`` (the driver's Ray session files)."""
     import psutil
 
     me = os.getpid()
@@ -98,7 +107,10 @@ def watch(driver_pid: int) -> None:
     for process in leftovers:
         with contextlib.suppress(psutil.Error):
             process.kill()
+    if temp_dir and Path(temp_dir).name.startswith("harness-ray-"):
+        psutil.wait_procs(leftovers, timeout=10)
+        shutil.rmtree(temp_dir, ignore_errors=True)
 
 
 if __name__ == "__main__":
-    watch(int(sys.argv[1]))
+    watch(int(sys.argv[1]), sys.argv[2] if len(sys.argv) > 2 else "")

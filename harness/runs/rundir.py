@@ -60,6 +60,27 @@ RUN_OUTPUTS = (
 )
 
 
+# The run directory this process last created or resumed: a second Ctrl-C (or SIGTERM), which
+# ends the process wherever it is, can still say what was kept and how to continue.
+_LAST_RUN: list[Path] = []
+
+
+def interrupted_line() -> str:
+    """``interrupted: N finished episode(s) are kept in RUN/episodes.jsonl; continue with
+    harness sweep --resume RUN`` for the run this process filled; bare "interrupted" without."""
+    if not _LAST_RUN:
+        return "interrupted"
+    path = _LAST_RUN[-1]
+    try:
+        kept = len(ResultStore(path).completed_ids(include_errors=True))
+    except Exception:  # a half-written store: the resume command still holds
+        return f"interrupted: continue with harness sweep --resume {path}"
+    return (
+        f"interrupted: {kept} finished episode(s) are kept in {path / JSONL_NAME}; continue "
+        f"with harness sweep --resume {path}"
+    )
+
+
 def claim_new_dir(base: Path) -> Path:
     """Create ``base`` itself (``mkdir`` fails if it exists), else the first free ``base-2``,
     ``base-3``, ...: runs started in the same second never share a default directory."""
@@ -119,6 +140,7 @@ class RunDir:
             run.config_sha256 = check_sweep_hash(path, run.sweep_yaml, force, hashes)
             if not force:
                 check_inputs(path)  # an edited mesh or grasp file: refused too
+            _LAST_RUN[:] = [path]
         except BaseException:
             run.lock.release()
             raise
@@ -162,6 +184,7 @@ class RunDir:
         record_sweep_hash(self.path, self.sweep_yaml)
         record_inputs(self.path, inputs)
         self.config_sha256 = sweep_hash(self.sweep_yaml)
+        _LAST_RUN[:] = [self.path]
 
     def _claim(self) -> None:
         candidate = claim_new_dir(self.path)

@@ -11,7 +11,6 @@ again with the same ``--out`` reuses every stored episode; ``--analyse`` only re
 from __future__ import annotations
 
 import json
-import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import cast
@@ -46,6 +45,7 @@ from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
+SCREEN_SWEEP = ".screen-sweep.yaml"  # the generated grid, until its run directory holds it
 TUNE_OUTPUTS = ("success_map.csv", "decisions.csv", "race.csv", "tuned.yaml", "tuned.md")
 
 
@@ -116,9 +116,14 @@ def tune(
             max_points=None,
         )
     else:
-        with tempfile.TemporaryDirectory(prefix="harness-tune-") as folder:
-            path = Path(folder) / "tune.yaml"
-            path.write_text(yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False))
+        # The generated sweep lives in the tune directory while the screening starts (no temp
+        # folder that a killed tune would leave in /tmp); the run keeps its own sweep.yaml.
+        path = write_file(
+            out / SCREEN_SWEEP,
+            yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False),
+            root=out,
+        )
+        try:
             outcome = run_sweep(
                 path,
                 out=screen,
@@ -128,6 +133,8 @@ def tune(
                 engine=options.engine,
                 max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
+        finally:
+            path.unlink(missing_ok=True)
     finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
     options = TuneOptions(**{**asdict(options), "sources": sources})
@@ -137,7 +144,7 @@ def tune(
     return decide(out, options, backend=backend, workers=workers, may_run=True, write=write)
 
 
-TUNE_FILES = (OPTIONS_FILE, *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS))
+TUNE_FILES = (OPTIONS_FILE, SCREEN_SWEEP, *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS))
 
 
 def check_tune_dir(out: Path) -> None:
