@@ -91,7 +91,7 @@ def output_dir(folder: Path, root: Path | None = None) -> Path:
         try:
             mode = os.lstat(current).st_mode
         except FileNotFoundError:
-            current.mkdir()
+            current.mkdir(parents=current == root)
             continue
         if stat.S_ISLNK(mode):
             raise OutputFileError(
