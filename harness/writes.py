@@ -230,3 +230,15 @@ def check_outputs(root: Path, files: tuple[str, ...] = (), folders: tuple[str, .
             for entry in entries:
                 if not entry.is_dir(follow_symlinks=False):
                     check_target(Path(entry.path))
+
+
+def write_npy(path: str | Path, array: object, root: Path | None = None) -> Path:
+    """``np.save`` of ``array`` to exactly ``path`` under the rule above (through a handle:
+    ``np.save`` given a name without ``.npy`` would write to another file)."""
+    import numpy as np
+
+    def save(tmp: Path) -> None:
+        with open(tmp, "wb") as handle:
+            np.save(handle, array)
+
+    return write_through(path, save, root)

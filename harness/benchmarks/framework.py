@@ -31,6 +31,7 @@ from harness.benchmarks.machine import (
     usable_cpus,
 )
 from harness.markdown import markdown_table
+from harness.writes import write_file
 
 # Section name -> module under harness.benchmarks, in the order they run.
 SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "sweeps", "sharing")
@@ -389,9 +390,8 @@ def main_bench(names: list[str] | None, quick: bool, json_path: str | None) -> l
             print(f"section {run.name} failed: {run.error}")
     if json_path:
         path = Path(json_path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         payload = bench_payload(runs, quick, info, load_start, load_end, seconds)
         text = json.dumps(json_safe(payload), indent=2, default=str, allow_nan=False)
-        path.write_text(text + "\n", encoding="utf-8")
+        write_file(path, text + "\n")
         print(f"wrote {path}")
     return runs

@@ -36,6 +36,7 @@ from harness.objects.shapes import (
 from harness.robots import available_robots
 from harness.robots.facts import max_jaw_opening
 from harness.viz.object_render import render_object
+from harness.writes import write_file
 
 # --------------------------------------------------------------------------------------------
 # list / show
@@ -137,7 +138,7 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
     folder = out_root / safe_file_name(name)
     folder.mkdir(parents=True, exist_ok=True)
     mesh_file = folder / safe_file_name(name, ".obj")
-    mesh_file.write_text(obj_text(spec.build()), encoding="utf-8")
+    write_file(mesh_file, obj_text(spec.build()))
     mesh = load_mesh(mesh_file)
     result = generate_grasps(mesh, n=n, seed=seed)
     result.save(folder / "grasps.npy")
@@ -169,7 +170,7 @@ def build_object(name: str, out_root: Path, n: int = 3000, seed: int = 0) -> dic
         "# (split_aloha: the reference piper100 jaw 0.10 m; the SDK variant sdk070 opens 0.07 m).\n"
     )
     text = header + yaml.safe_dump(info, sort_keys=False, default_flow_style=None, width=100)
-    (folder / "object.yaml").write_text(text, encoding="utf-8")
+    write_file(folder / "object.yaml", text)
     return info
 
 

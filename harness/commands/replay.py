@@ -9,6 +9,7 @@ from pathlib import Path
 
 from harness.commands.console import make_console
 from harness.viz.render import use_offscreen_gl
+from harness.writes import check_target
 
 
 def main(args: argparse.Namespace) -> int:
@@ -25,6 +26,9 @@ def main(args: argparse.Namespace) -> int:
                 f"{flag} {target}: the folder {Path(target).parent} does not exist (create it "
                 "first; replay writes no folders outside a run)"
             )
+    for target in (args.record, args.video, args.video and Path(args.video).with_suffix(".png")):
+        if target:  # /dev/full, a FIFO, a link: refused before the episode runs
+            check_target(Path(target))
     console = make_console()
     run_dir = Path(args.run_dir)
     spec, stored = find_episode(run_dir, args.episode_id)

@@ -46,7 +46,7 @@ from harness.row import param_columns
 from harness.runs.expansion import load_sweep_tasks, point_overrides
 from harness.runs.rundir import RunDir
 from harness.runs.safety import RunLock
-from harness.writes import check_outputs, write_file, write_through
+from harness.writes import check_outputs, write_file, write_npy
 
 AUDIT_DIR = "grasp_audit"
 TABLE_REASONS = ("collision", "table_penetration")
@@ -179,8 +179,7 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
         keep = np.ones(len(data), dtype=bool)
         keep[column(group, "grasp_row").to_numpy(np.int64)] = False
         target = safe_child(out_dir, str(obj), "cleaned", suffix=".npy")
-        kept = data[keep]
-        write_through(target, lambda tmp, kept=kept: np.save(tmp, kept), root=out_dir.parent)
+        write_npy(target, data[keep], root=out_dir.parent)
         cleaned[str(path)] = target
     return cleaned
 

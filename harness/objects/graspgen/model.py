@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from harness.writes import write_npy
+
 DEPTHS = (0.005, 0.01, 0.02, 0.03, 0.04)
 FRICTION_LEVELS = tuple(round(0.1 * k, 1) for k in range(1, 11))
 GRASP_HEIGHT = 0.02
@@ -91,11 +93,8 @@ class GraspAnnotations:
 
 def save_grasps(path: str | Path, grasps: np.ndarray) -> Path:
     """Write an N x 17 float32 grasp file (``np.save``; byte-identical for identical arrays)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("wb") as handle:
-        np.save(handle, np.ascontiguousarray(grasps, dtype=np.float32))
-    return path
+    data = np.ascontiguousarray(grasps, dtype=np.float32)
+    return write_npy(Path(path), data)
 
 
 # --------------------------------------------------------------------------------------------
