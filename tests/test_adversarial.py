@@ -14,11 +14,13 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import signal
+import stat
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -646,3 +648,386 @@ def test_sigterm_stops_a_sweep_like_ctrl_c(tmp_path: Path) -> None:
     assert "Traceback" not in err and "BrokenPipe" not in err, err
     time.sleep(1.0)  # an orphaned worker would write its traceback now
     assert 1 <= len(_jsonl(run_dir)) < 200
+
+
+# -- writes (issue 37): special files, planted links, foreign folders, edited inputs ----------
+#
+# Every command writes under one rule (``harness/writes.py``): a path that exists and is not a
+# regular file is refused, no symlink inside a run or tune directory is followed, a folder that
+# holds files but no run is never written into, and a resume refuses edited inputs. Each case:
+# one ``error:`` line, non-zero exit, and ``kept`` checks the special file, the link's target or
+# the user's file is as it was.
+
+
+@dataclass(frozen=True)
+class WriteCase(Case):
+    kept: Callable[[Path], None] | None = None  # asserts what must be untouched
+
+
+def _victim(work: Path) -> Path:
+    path = work.parent / "victim.txt"  # written by the test before the build
+    return path
+
+
+def _victim_intact(work: Path) -> None:
+    assert _victim(work).read_text(encoding="utf-8") == VICTIM_TEXT
+
+
+def _still(kind: Callable[[int], bool], path: str) -> Callable[[Path], None]:
+    def check(work: Path) -> None:
+        assert kind(os.lstat(path.replace("WORK", str(work))).st_mode), f"{path} was replaced"
+
+    return check
+
+
+def replay_into(target: str, make: str = "") -> Callable[[Path], list[str]]:
+    """``replay`` of a missing run with ``--record`` / ``--video`` at ``target`` (the output
+    check runs before the run directory is read, so no episode is needed)."""
+
+    def build(work: Path) -> list[str]:
+        path = Path(target.replace("WORK", str(work)))
+        if make == "fifo":
+            os.mkfifo(path)
+        elif make == "poster link":
+            path.with_suffix(".png").symlink_to(_victim(work))
+        elif make == "link":
+            path.symlink_to(_victim(work))
+        flag = "--video" if path.suffix == ".mp4" else "--record"
+        return ["replay", str(work / "norun"), "x", flag, str(path)]
+
+    return build
+
+
+def user_folder(command: str, file: str) -> Callable[[Path], list[str]]:
+    """``run`` / ``sweep`` with ``--out`` a folder of the user holding ``file`` but no run."""
+
+    def build(work: Path) -> list[str]:
+        out = work / "mine"
+        out.mkdir()
+        (out / file).write_text(VICTIM_TEXT, encoding="utf-8")
+        if command == "run":
+            return ["run", str(FR3), "--episodes", "1", "--record", "none", "--out", str(out)]
+        sweep = write_yaml(work / "s.yaml", sweep_data())
+        return ["sweep", str(sweep), "--out", str(out), "--no-progress"]
+
+    return build
+
+
+def _user_file_intact(file: str) -> Callable[[Path], None]:
+    def check(work: Path) -> None:
+        assert (work / "mine" / file).read_text(encoding="utf-8") == VICTIM_TEXT
+        assert sorted(os.listdir(work / "mine")) == [file], "the run wrote into the folder"
+
+    return check
+
+
+def made_run(work: Path, mesh: Path | None = None) -> Path:
+    """A run directory as ``harness sweep`` creates it (``RunDir.create``), without episodes:
+    its task loads ``mesh`` (a copy of the cube in ``work``), hashed into ``inputs.sha256``."""
+    from harness.config import load_sweep
+    from harness.files import recording_reads
+    from harness.runs.expansion import load_sweep_tasks
+    from harness.runs.preflight import check_tasks
+    from harness.runs.rundir import RunDir
+
+    mesh = mesh or work / "cube.obj"
+    mesh.write_bytes(CUBE_OBJ.read_bytes())
+    task = write_yaml(work / "t.yaml", task_data(mesh=str(mesh)))
+    sweep_path = write_yaml(work / "s.yaml", sweep_data(tasks=[str(task)]))
+    sweep = load_sweep(sweep_path)
+    tasks = load_sweep_tasks(sweep, sweep_path)
+    with recording_reads() as inputs:
+        check_tasks(tasks)
+    run = RunDir(work / "run")
+    run.create(sweep, tasks, taken="taken", inputs=inputs)
+    run.lock.release()
+    return run.path
+
+
+def resume_after_mesh_edit(work: Path) -> list[str]:
+    run_dir = made_run(work)
+    assert str((work / "cube.obj").resolve()) in (run_dir / "inputs.sha256").read_text()
+    with open(work / "cube.obj", "a", encoding="utf-8") as handle:
+        handle.write("# edited\n")
+    return ["sweep", "--resume", str(run_dir), "--no-progress"]
+
+
+def resume_with_other_size(work: Path) -> list[str]:
+    return ["sweep", "--resume", str(made_run(work)), "--episodes-per-point", "3"]
+
+
+def tune_dir_with(planted: str) -> Callable[[Path], list[str]]:
+    """``tune --analyse`` of a tune directory with a planted link or FIFO (refused before
+    anything is read or decided)."""
+
+    def build(work: Path) -> list[str]:
+        out = work / "t"
+        (out / "tune" / "heatmaps").mkdir(parents=True)
+        (out / "tune.json").write_text("{}", encoding="utf-8")
+        path = out / planted
+        if path.is_dir():
+            shutil.rmtree(path)
+            path.symlink_to(work, target_is_directory=True)
+        else:
+            path.unlink(missing_ok=True)
+            if planted.endswith("fifo"):
+                os.mkfifo(path)
+            else:
+                path.symlink_to(_victim(work))
+        return ["tune", "--analyse", str(out)]
+
+    return build
+
+
+WRITE_CASES = [
+    WriteCase(
+        "replay --record /dev/full",
+        replay_into("/dev/full"),
+        "is a device",
+        False,
+        _still(stat.S_ISCHR, "/dev/full"),
+    ),
+    WriteCase(
+        "replay --record a FIFO",
+        replay_into("WORK/f.rrd", "fifo"),
+        "is a FIFO",
+        kept=_still(stat.S_ISFIFO, "WORK/f.rrd"),
+    ),
+    WriteCase(
+        "replay --record a link",
+        replay_into("WORK/r.rrd", "link"),
+        "is a symlink",
+        kept=_victim_intact,
+    ),
+    WriteCase(
+        "replay --video poster link",
+        replay_into("WORK/clip.mp4", "poster link"),
+        "clip.png: is a symlink",
+        kept=_victim_intact,
+    ),
+    WriteCase(
+        "run --out a user's folder",
+        user_folder("run", "report.md"),
+        "is not empty and holds no run",
+        kept=_user_file_intact("report.md"),
+    ),
+    WriteCase(
+        "sweep --out foreign episodes.jsonl",
+        user_folder("sweep", "episodes.jsonl"),
+        "holds no run (no sweep.yaml; it holds episodes.jsonl)",
+        kept=_user_file_intact("episodes.jsonl"),
+    ),
+    WriteCase("resume after a mesh edit", resume_after_mesh_edit, "cube.obj: changed since"),
+    WriteCase(
+        "resume --episodes-per-point 3",
+        resume_with_other_size,
+        "--episodes-per-point 3 with --resume",
+    ),
+    WriteCase("tune/ link", tune_dir_with("tune"), "is a symlink", kept=_victim_intact),
+    WriteCase(
+        "tuned.yaml link", tune_dir_with("tune/tuned.yaml"), "is a symlink", kept=_victim_intact
+    ),
+    WriteCase(
+        "heatmap link",
+        tune_dir_with("tune/heatmaps/fr3_left_cube.png"),
+        "is a symlink",
+        kept=_victim_intact,
+    ),
+    WriteCase("tune.json link", tune_dir_with("tune.json"), "is a symlink", kept=_victim_intact),
+    WriteCase("tune/race.csv fifo", tune_dir_with("tune/race.csv.fifo"), "FIFO"),
+]
+
+
+@pytest.mark.parametrize("case", WRITE_CASES, ids=[case.name for case in WRITE_CASES])
+def test_adversarial_output_is_refused_and_left_alone(
+    case: WriteCase, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    work = tmp_path / "work"
+    work.mkdir()
+    (tmp_path / "victim.txt").write_text(VICTIM_TEXT, encoding="utf-8")
+    argv = case.build(work)
+    before = snapshot(tmp_path)
+    start = time.monotonic()
+    code, err = run_cli(argv, capsys)
+    assert time.monotonic() - start < CASE_LIMIT_S, f"{case.name}: ran past its limit"
+    assert_one_line_refusal(code, err, case, work)
+    outside = [p for p in snapshot(tmp_path) if p not in before and not p.startswith(str(work))]
+    assert not outside, f"{case.name}: wrote outside its folder: {outside}"
+    _victim_intact(work)
+    if case.kept is not None:
+        case.kept(work)
+
+
+@pytest.mark.parametrize("planted", ["grasp_audit", "grasp_audit/audit.csv", "grasp_audit/x.npy"])
+def test_grasps_audit_refuses_planted_links(
+    planted: str, finished_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 37: ``grasps audit`` wrote through links in ``grasp_audit/`` (``audit.csv``, a
+    ``<object>_cleaned.npy``) and into the target of a ``grasp_audit`` link."""
+    run_dir = copy_run(finished_run, tmp_path)
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    path = run_dir / planted
+    path.parent.mkdir(exist_ok=True)
+    path.symlink_to(elsewhere if planted == "grasp_audit" else victim)
+    code, err = run_cli(["grasps", "audit", str(run_dir), "--min-trials", "1"], capsys)
+    errors = [line for line in err.splitlines() if line.startswith("error: ")]
+    assert code == 2 and len(errors) == 1 and "Traceback" not in err, err
+    assert f"{path}: is a symlink" in errors[0], errors[0]
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+    assert not list(elsewhere.iterdir())
+
+
+@pytest.fixture
+def locked_run(tmp_path: Path) -> Iterator[tuple[Path, int]]:
+    """A run directory whose lock another process holds (as a running sweep does)."""
+    work = tmp_path / "work"
+    work.mkdir()
+    run_dir = made_run(work)
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import fcntl, sys, time\n"
+            "h = open(sys.argv[1], 'a+'); fcntl.flock(h, fcntl.LOCK_EX)\n"
+            "h.seek(0); h.truncate(); h.write(f'harness pid {__import__(\"os\").getpid()}\\n')\n"
+            "h.flush(); print('locked', flush=True); time.sleep(120)",
+            str(run_dir / ".lock"),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        yield run_dir, holder.pid
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["report", "RUN"], ["sweep", "--resume", "RUN", "--no-progress"], ["grasps", "audit", "RUN"]],
+    ids=["report", "second sweep", "audit"],
+)
+def test_writers_honour_the_run_lock(
+    argv: list[str], locked_run: tuple[Path, int], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 37: ``report`` on a run directory locked by a running sweep wrote anyway; a second
+    sweep process on it exited 0. Both now exit 2 naming the holder's pid, writing nothing."""
+    run_dir, pid = locked_run
+    before = sorted(os.listdir(run_dir))
+    code, err = run_cli([a.replace("RUN", str(run_dir)) for a in argv], capsys)
+    errors = [line for line in err.splitlines() if line.startswith("error: ")]
+    assert code == 2 and len(errors) == 1, err
+    assert f"in use by harness pid {pid}" in errors[0], errors[0]
+    assert sorted(os.listdir(run_dir)) == before
+
+
+def test_tune_write_refuses_a_fifo_or_link_named_like_the_task(tmp_path: Path) -> None:
+    """Issue 37: a FIFO with the task file's name blocked ``tune --write``; a link in its place
+    (or the ``.diff``'s) was written through. Both are refused at once, before either file."""
+    from harness.tuning.write import write_copy
+    from harness.writes import OutputFileError
+
+    source = write_yaml(tmp_path / "fr3.yaml", task_data())
+    victim = tmp_path / "victim.txt"
+    victim.write_text(VICTIM_TEXT, encoding="utf-8")
+    keys = {"approach_filter": ["downward", 140]}
+    for name, make in (("fr3.yaml", os.mkfifo), ("fr3.yaml.diff", victim.symlink_to)):
+        out = tmp_path / f"out-{name}"
+        out.mkdir()
+        if make is os.mkfifo:
+            os.mkfifo(out / name)
+        else:
+            (out / name).symlink_to(victim)
+        start = time.monotonic()
+        with pytest.raises(OutputFileError, match=re.escape(f"{out / name}: is a")):
+            write_copy(source, keys, out)
+        assert time.monotonic() - start < 5.0
+        assert sorted(os.listdir(out)) == [name]  # neither file written
+    assert victim.read_text(encoding="utf-8") == VICTIM_TEXT
+
+
+def test_a_failed_export_names_its_file_and_leaves_no_temp(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 37: a full disk during the export left ``.episodes.csv.tmp`` and was reported as
+    "stdout/stderr: no space". The error now names ``episodes.csv``; no temp file is left."""
+    import errno
+
+    import pandas as pd
+
+    from harness.cli import _os_error_line
+    from harness.runs.store import ResultStore
+
+    store = ResultStore(tmp_path)
+    store.append({"episode_id": "e0", "task": "t", "success": True})
+
+    def full(self: pd.DataFrame, *args: object, **kwargs: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")  # pandas names no file
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    with pytest.raises(OSError) as caught:
+        store.export()
+    assert _os_error_line(caught.value) == f"{tmp_path / 'episodes.csv'}: no space left on device"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["episodes.jsonl"]
+
+
+def test_two_runs_in_the_same_second_get_two_directories(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 37: two ``harness run`` started in the same second shared the default run
+    directory. The default name is claimed with ``mkdir`` (``-2``, ``-3``, ... when taken)."""
+    from harness.runs.rundir import RunDir
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("time.strftime", lambda _: "20260101-000000")
+    first, second = made_run_dirs(tmp_path, 2)
+    assert first.path != second.path
+    assert first.path.name == "adv-20260101-000000"
+    assert second.path.name == "adv-20260101-000000-2"
+    assert RunDir.default("adv").path == first.path  # claimed only at create
+
+
+def made_run_dirs(tmp_path: Path, count: int) -> list:
+    from harness.config import load_sweep
+    from harness.runs.expansion import load_sweep_tasks
+    from harness.runs.rundir import RunDir
+
+    sweep_path = write_yaml(tmp_path / "s.yaml", sweep_data())
+    sweep = load_sweep(sweep_path)
+    tasks = load_sweep_tasks(sweep, sweep_path)
+    runs = []
+    for _ in range(count):
+        run = RunDir.default(sweep.name)
+        run.create(sweep, tasks, taken="taken")
+        run.lock.release()
+        runs.append(run)
+    return runs
+
+
+def test_a_second_interrupt_says_what_was_kept_and_how_to_resume(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 37: a double Ctrl-C / SIGTERM (the second one ends the command wherever it is)
+    printed only "interrupted". It now names the rows kept and the resume command."""
+    work = tmp_path / "work"
+    work.mkdir()
+    run_dir = made_run(work)  # this process's run, as a sweep's
+    from harness.runs.store import ResultStore
+
+    ResultStore(run_dir).append({"episode_id": "e0", "task": "t", "success": True})
+
+    def second_ctrl_c(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("harness.commands.report.build_report", second_ctrl_c)
+    code, err = run_cli(["report", str(run_dir)], capsys)
+    assert code == 130
+    assert err.strip() == (
+        f"interrupted: 1 finished episode(s) are kept in {run_dir / 'episodes.jsonl'}; "
+        f"continue with harness sweep --resume {run_dir}"
+    )

@@ -86,7 +86,8 @@ def claim_new_dir(base: Path) -> Path:
     ``base-3``, ...: runs started in the same second never share a default directory."""
     base.parent.mkdir(parents=True, exist_ok=True)
     for number in range(1, 10_000):
-        candidate = base if number == 1 else base.with_name(f"{base.name}-{number}")
+        name = base.name if number == 1 else safe_file_name(f"{base.name}-{number}")
+        candidate = base.with_name(name)
         try:
             candidate.mkdir()
         except FileExistsError:

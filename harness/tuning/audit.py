@@ -186,10 +186,10 @@ def write_cleaned(table: pd.DataFrame, out_dir: Path) -> dict[str, Path]:
 
 def audit_run(run_dir: Path, min_trials: int = 3) -> AuditResult:
     """Audit the executed grasps of a run directory; write ``audit.csv`` and cleaned files."""
-    table = audit_table(executed_grasps(run_dir), min_trials)
-    out_dir = run_dir / AUDIT_DIR
-    check_outputs(run_dir, folders=(AUDIT_DIR,))  # a planted link in grasp_audit/: refused
-    with RunLock(run_dir):  # not while a sweep fills the directory
+    with RunLock(run_dir):  # not while a sweep fills the directory (one line naming its pid)
+        table = audit_table(executed_grasps(run_dir), min_trials)
+        out_dir = run_dir / AUDIT_DIR
+        check_outputs(run_dir, folders=(AUDIT_DIR,))  # a planted link in grasp_audit/: refused
         csv = write_file(out_dir / "audit.csv", table.to_csv(index=False), root=run_dir)
         return AuditResult(table, write_cleaned(table, out_dir), csv)
 
