@@ -25,8 +25,12 @@ import secrets
 import stat
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from harness.errors import HarnessError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def _process_umask() -> int:
@@ -232,7 +236,7 @@ def check_outputs(root: Path, files: tuple[str, ...] = (), folders: tuple[str, .
                     check_target(Path(entry.path))
 
 
-def write_npy(path: str | Path, array: object, root: Path | None = None) -> Path:
+def write_npy(path: str | Path, array: ArrayLike, root: Path | None = None) -> Path:
     """``np.save`` of ``array`` to exactly ``path`` under the rule above (through a handle:
     ``np.save`` given a name without ``.npy`` would write to another file)."""
     import numpy as np
