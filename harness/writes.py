@@ -98,9 +98,9 @@ def output_dir(folder: Path, root: Path | None = None) -> Path:
             current.mkdir(parents=current == root)
             continue
         if stat.S_ISLNK(mode):
+            where = "give its real path" if current == root else f"inside {root}; remove it"
             raise OutputFileError(
-                f"{current}: is a symlink inside {root}; remove it (a harness command never "
-                "follows one)"
+                f"{current}: is a symlink ({where}: a harness command never writes through one)"
             )
         if not stat.S_ISDIR(mode):
             raise OutputFileError(f"{current}: is {kind_of(mode)}, where a folder belongs")

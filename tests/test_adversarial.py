@@ -756,6 +756,19 @@ def resume_with_other_size(work: Path) -> list[str]:
     return ["sweep", "--resume", str(made_run(work)), "--episodes-per-point", "3"]
 
 
+def resume_with_fifo(name: str) -> Callable[[Path], list[str]]:
+    """``--resume`` of a run with a FIFO where it writes (refused before any episode, not at
+    the write hours later, which would block or fail)."""
+
+    def build(work: Path) -> list[str]:
+        run_dir = made_run(work)
+        (run_dir / name).parent.mkdir(exist_ok=True)
+        os.mkfifo(run_dir / name)
+        return ["sweep", "--resume", str(run_dir), "--no-progress"]
+
+    return build
+
+
 def tune_dir_with(planted: str) -> Callable[[Path], list[str]]:
     """``tune --analyse`` of a tune directory with a planted link or FIFO (refused before
     anything is read or decided)."""
@@ -822,6 +835,18 @@ WRITE_CASES = [
         "resume --episodes-per-point 3",
         resume_with_other_size,
         "--episodes-per-point 3 with --resume",
+    ),
+    WriteCase(
+        "resume with a FIFO summary.csv",
+        resume_with_fifo("summary.csv"),
+        "summary.csv: is a FIFO",
+        kept=_still(stat.S_ISFIFO, "WORK/run/summary.csv"),
+    ),
+    WriteCase(
+        "resume with a FIFO recording",
+        resume_with_fifo("episodes/e.rrd"),
+        "e.rrd: is a FIFO",
+        kept=_still(stat.S_ISFIFO, "WORK/run/episodes/e.rrd"),
     ),
     WriteCase("tune/ link", tune_dir_with("tune"), "is a symlink", kept=_victim_intact),
     WriteCase(

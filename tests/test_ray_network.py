@@ -7,11 +7,13 @@ process of that tree must be gone within seconds (``harness.runs.ray_local``'s w
 
 from __future__ import annotations
 
+import glob
 import ipaddress
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -39,6 +41,9 @@ def _ipv4(ip: str) -> str:
     return str(mapped or address)
 
 
+RAY_TEMP = os.path.join(tempfile.gettempdir(), "harness-ray-*")
+
+
 def test_a_local_ray_listens_on_loopback_and_dies_with_its_driver(tmp_path: Path) -> None:
     pytest.importorskip("ray")
     psutil = pytest.importorskip("psutil")
@@ -46,6 +51,7 @@ def test_a_local_ray_listens_on_loopback_and_dies_with_its_driver(tmp_path: Path
     sweep_path = tmp_path / "sweep.yaml"
     sweep_path.write_text(yaml.safe_dump(sweep), encoding="utf-8")
     run_dir = tmp_path / "run"
+    before = set(glob.glob(RAY_TEMP))
     driver = subprocess.Popen(
         [
             sys.executable,
@@ -92,6 +98,8 @@ def test_a_local_ray_listens_on_loopback_and_dies_with_its_driver(tmp_path: Path
             return not [p for p in tree if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
 
         _wait(all_gone, 30, "the Ray processes to end after the driver's SIGKILL")
+        # Its session files (a harness-ray-* temp folder, not /tmp/ray/session_*) go too.
+        _wait(lambda: not set(glob.glob(RAY_TEMP)) - before, 30, "the Ray temp folder to go")
     finally:
         if driver.poll() is None:
             driver.kill()

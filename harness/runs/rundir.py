@@ -34,7 +34,7 @@ from harness.runs.safety import (
 )
 from harness.runs.store import CSV_NAME, JSONL_NAME, PARQUET_NAME, ResultStore
 from harness.runs.worker import DISK_FULL_PREFIX, recording_disk_full
-from harness.writes import write_file
+from harness.writes import check_outputs, write_file
 
 SWEEP_YAML = "sweep.yaml"
 LOG_NAME = "MUJOCO_LOG.TXT"  # harness.sim.mujoco_log.LOG_NAME (not imported: loads MuJoCo)
@@ -79,6 +79,18 @@ def interrupted_line() -> str:
         f"interrupted: {kept} finished episode(s) are kept in {path / JSONL_NAME}; continue "
         f"with harness sweep --resume {path}"
     )
+
+
+OUTPUT_FOLDERS = ("episodes", "plots", "videos", "audit", "tune")
+
+
+def refuse_unwritable(run_dir: Path) -> None:
+    """Before any episode: no symlink among the run's outputs (one line naming it, as
+    ``refuse_symlinks`` words it), and no special file (a FIFO, a device) among them or inside
+    its output folders: a write hours later would be refused (``harness.writes``)."""
+    refuse_symlinks(run_dir, RUN_OUTPUTS)
+    files = tuple(name for name in RUN_OUTPUTS if name not in OUTPUT_FOLDERS)
+    check_outputs(run_dir, (*files, LOCK_NAME), OUTPUT_FOLDERS)
 
 
 def claim_new_dir(base: Path) -> Path:
@@ -134,7 +146,7 @@ class RunDir:
         run = cls(path)
         if not run.sweep_yaml.is_file():
             raise ConfigError("not a run directory (no sweep.yaml)", file=path)
-        refuse_symlinks(path, RUN_OUTPUTS)
+        refuse_unwritable(path)
         run.lock.acquire()
         try:
             hashes = (str(row.get("config_sha256") or "") for row in run.store.rows())
@@ -174,7 +186,7 @@ class RunDir:
                 file=self.path,
             )
         if self.path.exists():
-            refuse_symlinks(self.path, RUN_OUTPUTS)
+            refuse_unwritable(self.path)
             self._refuse_foreign_files()
         self.lock.acquire()
         if self.sweep_yaml.exists():
