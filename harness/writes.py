@@ -107,7 +107,7 @@ def output_dir(folder: Path, root: Path | None = None) -> Path:
     return folder
 
 
-def _named(exc: OSError, path: Path) -> OSError:
+def named_error(exc: OSError, path: Path) -> OSError:
     """``exc`` with ``path`` as its file name (one line ``PATH: reason`` at the CLI)."""
     named = OSError(exc.errno, exc.strerror or str(exc), str(path))
     named.__cause__ = exc
@@ -140,7 +140,7 @@ def write_file(path: str | Path, data: bytes | str, root: Path | None = None) ->
     try:
         tmp, fd = _temp_path(path, "")
     except OSError as exc:
-        raise _named(exc, path) from None
+        raise named_error(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as handle:
             injected = os.environ.get(DISK_FULL_ENV)
@@ -154,7 +154,7 @@ def write_file(path: str | Path, data: bytes | str, root: Path | None = None) ->
         _replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise _named(exc, path) from None
+        raise named_error(exc, path) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -174,13 +174,13 @@ def write_through(
         tmp, fd = _temp_path(path, path.suffix)
         os.close(fd)
     except OSError as exc:
-        raise _named(exc, path) from None
+        raise named_error(exc, path) from None
     try:
         write(tmp)
         _replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise _named(exc, path) from None
+        raise named_error(exc, path) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -203,7 +203,7 @@ def open_append(path: str | Path, *, read: bool = False) -> int:
             ) from None
         if exc.errno in (errno.ENXIO, errno.EISDIR):  # a FIFO without reader, a folder
             check_target(path)
-        raise _named(exc, path) from None
+        raise named_error(exc, path) from None
     mode = os.fstat(fd).st_mode
     if not stat.S_ISREG(mode):
         os.close(fd)

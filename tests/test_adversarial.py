@@ -934,8 +934,13 @@ def locked_run(tmp_path: Path) -> Iterator[tuple[Path, int]]:
 
 @pytest.mark.parametrize(
     "argv",
-    [["report", "RUN"], ["sweep", "--resume", "RUN", "--no-progress"], ["grasps", "audit", "RUN"]],
-    ids=["report", "second sweep", "audit"],
+    [
+        ["report", "RUN"],
+        ["sweep", "--resume", "RUN", "--no-progress"],
+        ["sweep", "WORK/s.yaml", "--out", "RUN", "--no-progress"],
+        ["grasps", "audit", "RUN"],
+    ],
+    ids=["report", "second resume", "second sweep", "audit"],
 )
 def test_writers_honour_the_run_lock(
     argv: list[str], locked_run: tuple[Path, int], capsys: pytest.CaptureFixture[str]
@@ -944,7 +949,8 @@ def test_writers_honour_the_run_lock(
     sweep process on it exited 0. Both now exit 2 naming the holder's pid, writing nothing."""
     run_dir, pid = locked_run
     before = sorted(os.listdir(run_dir))
-    code, err = run_cli([a.replace("RUN", str(run_dir)) for a in argv], capsys)
+    argv = [a.replace("RUN", str(run_dir)).replace("WORK", str(run_dir.parent)) for a in argv]
+    code, err = run_cli(argv, capsys)
     errors = [line for line in err.splitlines() if line.startswith("error: ")]
     assert code == 2 and len(errors) == 1, err
     assert f"in use by harness pid {pid}" in errors[0], errors[0]

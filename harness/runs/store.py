@@ -33,7 +33,7 @@ import pandas as pd
 
 from harness.errors import HarnessError
 from harness.row import SCHEMA, Column, param_columns
-from harness.writes import open_append, write_through
+from harness.writes import named_error, open_append, write_through
 
 JSONL_NAME = "episodes.jsonl"
 CSV_NAME = "episodes.csv"
@@ -187,12 +187,15 @@ class ResultStore:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         prefix = "" if self._checked_tail else self._separator()
         self._checked_tail = True
-        with os.fdopen(open_append(self.path), "a", encoding="utf-8") as handle:
-            handle.write(prefix + line + "\n")
-            handle.flush()
-            self._unsynced = True
-            if time.monotonic() - self._synced_at >= SYNC_EVERY_S:
-                self._fsync(handle.fileno())
+        try:
+            with os.fdopen(open_append(self.path), "a", encoding="utf-8") as handle:
+                handle.write(prefix + line + "\n")
+                handle.flush()
+                self._unsynced = True
+                if time.monotonic() - self._synced_at >= SYNC_EVERY_S:
+                    self._fsync(handle.fileno())
+        except OSError as exc:  # a full disk: the line names episodes.jsonl
+            raise named_error(exc, self.path) from None
 
     def sync(self) -> None:
         """Force every row written so far to disk (the end of a run, before its export)."""
