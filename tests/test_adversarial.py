@@ -1062,3 +1062,38 @@ def test_a_second_interrupt_says_what_was_kept_and_how_to_resume(
         f"interrupted: 1 finished episode(s) are kept in {run_dir / 'episodes.jsonl'}; "
         f"continue with harness sweep --resume {run_dir}"
     )
+
+
+# Calls that write a file by name: outside these modules each must go through harness.writes
+# (``write_file`` / ``write_through`` / ``write_npy``: special files and links refused, temp +
+# rename, failures named). A lambda's ``tmp`` is the temp file write_through made.
+WRITE_CALL = re.compile(
+    r"\.write_text\(|\.write_bytes\(|savefig\((?!tmp)|\.to_csv\((?!tmp|index)|"
+    r"\.to_parquet\((?!tmp)|np\.savez?\((?!tmp|handle)|imwrite\((?!tmp)|get_writer\((?!tmp)|"
+    r"open\([^)]*[\"'][wa]b?[\"']"
+)
+WRITERS_ALLOWED = {
+    "harness/api.py": "the sweep YAML of harness.sweep() in its own temp folder",
+    "harness/cli.py": "stdout to /dev/null after a failed flush",
+    "harness/objects/coacd_process.py": "the CoACD child's exchange files in its own temp folder",
+    "harness/objects/decomposition.py": "the CoACD cache: its own O_EXCL temp file + rename",
+    "harness/robots/generator/generate.py": "developer tool: regenerates robots/ in the repo",
+    "harness/robots/generator/collisions.py": "developer tool: regenerates robots/ in the repo",
+    "harness/benchmarks/sharing.py": "bench: its own output folder",
+    "harness/benchmarks/engines.py": "bench: its own output folder",
+    "harness/benchmarks/device_profile.py": "bench: its own output folder",
+    "harness/benchmarks/graspgen.py": "bench: a mesh in its own temp folder",
+}
+
+
+def test_every_file_write_goes_through_the_write_rule() -> None:
+    offenders = []
+    for path in sorted((ROOT / "harness").rglob("*.py")):
+        relative = str(path.relative_to(ROOT))
+        if relative in WRITERS_ALLOWED or relative == "harness/writes.py":
+            continue
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            code = line.split("#", 1)[0]
+            if WRITE_CALL.search(code) and '"""' not in line and "``" not in line:
+                offenders.append(f"{relative}:{number}: {line.strip()}")
+    assert not offenders, "writes outside harness/writes.py:\n" + "\n".join(offenders)
