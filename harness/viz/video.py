@@ -195,17 +195,17 @@ def _write(
     frames: list[tuple[np.ndarray, bool]],
     cause: Cause,
     overlay: Overlay,
-    path: Path,
+    tmp: Path,
     fps: int,
     size: tuple[int, int],
 ) -> np.ndarray:
-    """Render and encode the frames (the marked ones from the close camera); returns the
-    poster (the first marked frame)."""
+    """Render and encode the frames (the marked ones from the close camera) into ``tmp`` (the
+    temp file of ``write_through``); returns the poster (the first marked frame)."""
     width, height = size
     poster: np.ndarray | None = None
     with (
         mujoco.Renderer(model, height, width) as renderer,
-        imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=16) as writer,
+        imageio.get_writer(tmp, fps=fps, codec="libx264", macro_block_size=16) as writer,
     ):
         for qpos, marked in frames:
             data.qpos[:] = qpos
