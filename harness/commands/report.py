@@ -21,6 +21,7 @@ from harness.report import (
 )
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
+from harness.report.objective import RATES, other
 from harness.report.tables import setting_params
 
 SIGNIFICANCE = 0.05
@@ -36,22 +37,16 @@ def main(args: argparse.Namespace) -> int:
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
     best = pd.read_csv(paths.best_csv)
     params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
+    rate, beside = RATES[paths.objective], RATES[other(paths.objective)]
     for row in series_rows(best):
         if not row["n"]:
             name = f"{row['robot']} {row['arm']} {row['object']}"
             console.print(f"best for {name}: no rated episodes (only error rows)")
             continue
-        valid = (
-            f"; valid {row['valid_rate']:.0%}, 95% CI "
-            f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}"
-            if not math.isnan(row["valid_rate"])
-            else ""
-        )
         console.print(
             f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
-            f"{point_label(row, params)} — {row['successes']}/{row['n']} ({row['rate']:.0%}, "
-            f"95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}{valid}; ranked by "
-            f"{args.objective})",
+            f"{point_label(row, params)} — {rate.text(row)} · {beside.text(row)} (ranked by "
+            f"{paths.objective}; not confirmed on fresh seeds: harness tune)",
             soft_wrap=True,
         )
     for label, path in (
@@ -110,6 +105,13 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
     return table
 
 
+def _verdict(comparison: pd.DataFrame, objective: str) -> str:
+    """The verdict compared (``valid`` falls back to reference when no row was judged)."""
+    if "verdict" in comparison and len(comparison):
+        return str(comparison["verdict"].iloc[0])
+    return objective
+
+
 def compare(args: argparse.Namespace) -> int:
     """Per-setting success-rate differences between two runs: McNemar on shared seeds, else a
     two-proportion test (``harness.report.compare``)."""
@@ -122,7 +124,8 @@ def compare(args: argparse.Namespace) -> int:
     shown = ["filters_a", "filters_b"] if by_arm else params
     what = "robot, arm and object" if by_arm else "setting"
     table = Table(
-        title=f"B - A per {what} ({args.objective} rate)   A = {args.run_a}   B = {args.run_b}"
+        title=f"B - A per {what} ({_verdict(comparison, args.objective)} rate)   "
+        f"A = {args.run_a}   B = {args.run_b}"
     )
     for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)
