@@ -69,7 +69,7 @@ td.decision.none { background: #ffebe9 !important; }
 td.decision.wait { background: #fff8c5 !important; }
 details.section > summary h2 { display: inline; border: none; }
 details.section > summary { margin-top: 1.2em; border-bottom: 1px solid #d0d7de; }
-span.count { color: #57606a; font-size: .7em; font-weight: normal; }
+span.count { color: #57606a; font-size: .9em; }
 span.evidence { color: #57606a; font-size: .9em; }
 nav.contents ol { columns: 2; font-size: .92em; }
 input.filter { margin: .3em 0 0; padding: .2em .4em; width: 18em; font-size: .85em; }

@@ -68,7 +68,7 @@ TEMPLATE = """<!DOCTYPE html>
 <p class="note" id="recordings">Recordings (<code>.rrd</code>, linked from episode ids): open one with <code>harness view RUN_DIR/episodes/ID.rrd</code>, or in a browser with <code>rerun --web-viewer RUN_DIR/episodes/ID.rrd</code> (<code>pip install rerun-sdk==0.41.*</code>); a plain click downloads the file.</p>
 
 {% for t in tables %}
-<details class="section" id="{{ t.id }}"><summary><h2>{{ t.title }} <span class="count">({{ t.rows|length }} row{{ '' if t.rows|length == 1 else 's' }})</span></h2></summary>
+<details class="section" id="{{ t.id }}"><summary><h2>{{ t.title }}</h2> <span class="count">({{ t.rows|length }} row{{ '' if t.rows|length == 1 else 's' }})</span></summary>
 {% if t.note %}<p class="note">{{ t.note }}</p>{% endif %}
 <input class="filter" type="search" placeholder="filter rows (any text)" aria-label="filter {{ t.title }}">
 <table class="sortable"><thead><tr>{% for h in t.header %}<th>{{ h }}</th>{% endfor %}</tr></thead><tbody>

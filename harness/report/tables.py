@@ -19,7 +19,7 @@ import pandas as pd
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS, UNRATED_REASONS
 from harness.report.frames import column, frame_of, series_of
-from harness.report.objective import OBJECTIVES
+from harness.report.objective import OBJECTIVES, effective_objective
 from harness.report.stats import wilson_interval
 from harness.row import KEY_COLUMNS, ROBUSTNESS_LEVELS_G, VALIDITY_REASONS, param_columns
 from harness.runs.store import JSONL_NAME, ResultStore
@@ -328,8 +328,10 @@ def best_settings(summary: pd.DataFrame, objective: str = "valid") -> pd.DataFra
     valid rate (``objective="valid"``) or of the reference success rate (``"reference"``),
     ranked over the swept settings only (arms and objects are never pooled, never a setting).
 
-    Ties go to the higher rate, then the larger sample, then the earlier point.
+    Ties go to the higher rate, then the larger sample, then the earlier point. ``valid``
+    without any judged episode ranks by the reference rate (``attrs["objective"]`` says which).
     """
+    objective = effective_objective(summary, objective)
     ranked = ranked_points(summary, objective)
     best = ranked.groupby(GROUP_KEY, sort=True).head(1)
     settings = setting_params(summary)
