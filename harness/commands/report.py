@@ -16,12 +16,11 @@ from harness.report import (
     build_report,
     compare_runs,
     format_value,
-    point_label,
     varying_params,
 )
+from harness.report.answer import sweep_answers
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
-from harness.report.objective import RATES, other
 from harness.report.tables import setting_params
 
 SIGNIFICANCE = 0.05
@@ -35,20 +34,19 @@ def main(args: argparse.Namespace) -> int:
         console.print("replaying one success and one failure per robot arm for the videos ...")
     paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
-    best = pd.read_csv(paths.best_csv)
-    params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
-    rate, beside = RATES[paths.objective], RATES[other(paths.objective)]
-    for row in series_rows(best):
-        if not row["n"]:
-            name = f"{row['robot']} {row['arm']} {row['object']}"
-            console.print(f"best for {name}: no rated episodes (only error rows)")
-            continue
+    summary = pd.read_csv(paths.summary_csv)
+    params = setting_params(summary) or varying_params(summary)
+    for answer in sweep_answers(summary, paths.objective, params):
         console.print(
-            f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
-            f"{point_label(row, params)} — {rate.text(row)} · {beside.text(row)} (ranked by "
-            f"{paths.objective}; not confirmed on fresh seeds: harness tune)",
+            f"best for [bold]{answer.unit}[/]: {answer.decision} — {answer.setting}: "
+            f"{answer.rate} · {answer.other_rate}; runner-up {answer.runner_up}; {answer.reason}",
             soft_wrap=True,
         )
+    console.print(
+        f"ranked by the {paths.objective} rate; a best swept setting is not confirmed on "
+        "fresh seeds: harness tune",
+        soft_wrap=True,
+    )
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),

@@ -56,7 +56,13 @@ from harness.report.tables import (
     setting_params,
     summarize,
 )
-from harness.report.tune_link import own_tune, related_tunes, relative, tune_answers
+from harness.report.tune_link import (
+    decisions_table,
+    own_tune,
+    related_tunes,
+    relative,
+    tune_answers,
+)
 from harness.report.videos import Clip, load_clips, render_clips
 from harness.runs.store import JSONL_NAME, ResultStore
 
@@ -194,6 +200,9 @@ def build_report(
         *funnel_tables(funnel(frame)),
     ]
     screen = first_screen(run_dir, frame, summary, used)
+    tune = own_tune(run_dir)
+    if tune is not None:  # every column of the tune's decisions, first of the folded tables
+        tables.insert(0, decisions_table(tune))
     if used != asked:
         note = f"no episode was judged for validity: ranked by the {used} rate"
         screen = FirstScreen(screen.tables, used, screen.tune_path, screen.tune_links, note)

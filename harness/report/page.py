@@ -272,6 +272,9 @@ def render_page(
         contents.append(("plots", "Plots"))
     return template.render(
         name=run_dir.name,
+        title_name=(
+            f"{screen.tune_path.name} ({run_dir.name} run)" if screen.tune_path else run_dir.name
+        ),
         style=STYLE,
         plotly_js=get_plotlyjs() if heatmaps else "",
         overview=overview(run_dir, frame),

@@ -8,11 +8,11 @@ Only the plotly fragments, the sorter / filter scripts and the style are inserte
 
 TEMPLATE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>pick-harness report: {{ name }}</title>
+<title>pick-harness {{ 'tune' if tune_path else 'report' }}: {{ title_name }}</title>
 <style>{{ style|safe }}</style>
 {% if plotly_js %}<script type="text/javascript">{{ plotly_js|safe }}</script>{% endif %}
 </head><body>
-<h1>pick-harness report: {{ name }}</h1>
+<h1>pick-harness {{ 'tune' if tune_path else 'report' }}: {{ title_name }}</h1>
 <p class="lede">Objective: <b>{{ objective }} rate</b> ({{ objective_meaning }}), 95% Wilson intervals; the {{ other_objective }} rate beside it.{% if objective_note %} <b>{{ objective_note }}</b>.{% endif %}{% if tune_path %} This run is part of the tune <code>{{ tune_path }}</code>: its decisions (tested on fresh seeds) come first.{% endif %}{% if tune_links %} Tune results:{% for text, href in tune_links %} <a href="{{ href }}">{{ text }}</a>{% if not loop.last %},{% endif %}{% endfor %}.{% endif %}</p>
 
 <section id="answer">
