@@ -203,16 +203,12 @@ def _add_engine(p: argparse.ArgumentParser) -> None:
 
 
 def _add_objective(p: argparse.ArgumentParser, recorded: bool = False) -> None:
-    """``--objective``: valid (default) or reference; ``recorded``: a run's own comes first."""
-    default = "the run's recorded objective, else valid" if recorded else "valid"
+    default = "the run's recorded one, else valid" if recorded else "valid"
     p.add_argument(
-        "--objective",
-        choices=["valid", "reference"],
-        default=None if recorded else "valid",
-        help="the verdict that ranks settings, colours the heatmaps and answers the first "
-        "screen: the valid rate (the grasp holds) or the reference success rate; the other "
-        f"is shown beside it (default: {default})",
-    )
+        "--objective", choices=["valid", "reference"], default=None if recorded else "valid",
+        help="the verdict that ranks settings, colours the heatmaps and answers the first screen "
+        f"(the other beside it): valid (the grasp holds) or reference (default: {default})",
+    )  # fmt: skip
 
 
 def _add_compare(sub: Subparsers) -> None:
