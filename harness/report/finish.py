@@ -29,7 +29,7 @@ def finish_run(run_dir: Path, objective: str | None = None, videos: bool = False
     try:
         from harness.viz.sweep_recording import record_sweep
 
-        record_sweep(run_dir)
+        record_sweep(run_dir, paths.objective)
     except ImportError:
         pass
     return paths
