@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from harness.report.frames import column, frame_of
+
 TIMELINE = "episode"
 MAX_SERIES = 10  # settings drawn per robot, arm and object (best final rate first)
 UNIT_KEYS = ("robot", "arm", "object")
@@ -66,8 +68,8 @@ def _part(text: str) -> str:
 
 def _settings(group: pd.DataFrame) -> list[str]:
     """The ``param.*`` columns that vary within one robot, arm and object."""
-    params = [c for c in group.columns if str(c).startswith("param.")]
-    return [c for c in params if group[c].astype(str).nunique() > 1]
+    params = [str(c) for c in group.columns if str(c).startswith("param.")]
+    return [c for c in params if column(group, c).astype(str).nunique() > 1]
 
 
 def _label(row: Any, settings: list[str]) -> str:
@@ -81,19 +83,26 @@ def comparison_units(episodes: pd.DataFrame, objective: str) -> list[Unit]:
     verdict = "valid" if objective == "valid" and "valid" in episodes else "success"
     if verdict not in episodes or any(k not in episodes for k in UNIT_KEYS):
         return []
-    reasons = episodes.get("failure_reason", pd.Series("", index=episodes.index))
-    rated = episodes[~reasons.fillna("").astype(str).isin(UNRATED)]
+    reasons = (
+        column(episodes, "failure_reason").fillna("").astype(str)
+        if "failure_reason" in episodes
+        else pd.Series("", index=episodes.index)
+    )
+    rated = frame_of(episodes[~reasons.isin(UNRATED)])
     units = []
-    for key, group in rated.groupby(list(UNIT_KEYS), sort=True):
+    for key, found in rated.groupby(list(UNIT_KEYS), sort=True):
         robot, arm, obj = (str(v) for v in key)  # type: ignore[union-attr]
+        group = frame_of(found)
         settings = _settings(group)
         origin = "/compare/" + "/".join(_part(v) for v in (robot, arm, obj))
         order = "episode_index" if "episode_index" in group else "seed"
         series = []
         groups = group.groupby(settings, sort=False) if settings else [(None, group)]
-        for _, rows in groups:
-            rows = rows.sort_values(order, kind="stable") if order in rows else rows
-            met = rows[verdict].fillna(False).astype(bool).to_numpy()
+        for _, selected in groups:
+            rows = frame_of(selected)
+            rows = rows.sort_values(by=order, kind="stable") if order in rows else rows
+            # a CSV column of True/False with blanks reads as text: compare the text
+            met = column(rows, verdict).astype(str).str.lower().eq("true").to_numpy()
             rates = np.cumsum(met) / np.arange(1, len(met) + 1)
             label = _label(rows.iloc[0], settings)
             series.append(
