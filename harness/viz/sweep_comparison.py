@@ -14,12 +14,10 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
-
-from harness.report.frames import column, frame_of
 
 TIMELINE = "episode"
 MAX_SERIES = 10  # settings drawn per robot, arm and object (best final rate first)
@@ -44,6 +42,15 @@ class Unit:
     origin: str
     name: str
     series: list[Series]
+
+
+def column(frame: pd.DataFrame, name: str) -> pd.Series:
+    """One column (viz does not import the report package, which imports viz)."""
+    return cast(pd.Series, frame[name])
+
+
+def frame_of(value: Any) -> pd.DataFrame:
+    return cast(pd.DataFrame, value)
 
 
 def _value(text: Any) -> str:
