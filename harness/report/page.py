@@ -52,10 +52,11 @@ p.note { color: #57606a; font-size: .9em; margin: .2em 0; }
 .heatmaps > div { border: 1px solid #eaeef2; border-radius: 6px; }
 .videos { display: flex; flex-wrap: wrap; gap: 1em; }
 .videos figure { margin: 0; }
-video { width: 320px; height: 240px; background: #24292f; border-radius: 6px; }
+video { width: 640px; max-width: 100%; aspect-ratio: 4 / 3; background: #24292f;
+        border-radius: 6px; }
 figure { margin: 1em 0 2em; }
 figure img { max-width: 100%; border: 1px solid #d0d7de; border-radius: 6px; }
-figcaption { color: #57606a; font-size: .85em; margin-top: .3em; max-width: 320px; }
+figcaption { color: #57606a; font-size: .85em; margin-top: .3em; max-width: 640px; }
 ul.findings li { margin: .4em 0; }
 p.lede { font-size: 1.02em; margin: .2em 0 .6em; }
 #answer h2 { margin-top: .6em; }
