@@ -164,7 +164,8 @@ def test_a_tune_page_puts_its_decisions_first_and_a_sweep_links_to_it(tmp_path: 
     sweep = tmp_path / "reports" / "sweep"
     shutil.copytree(tune / "screen", sweep, ignore=shutil.ignore_patterns("report*", "*.png"))
     sweep_page = build_report(sweep).report_html.read_text(encoding="utf-8")
-    assert '<a href="../tune-fr3/screen/report.html">tune tune-fr3</a>' in sweep_page
+    link = '<a href="../tune-fr3/screen/report.html">tune-fr3 (decided on fresh seeds)</a>'
+    assert link in sweep_page
     assert "Tune decisions" not in sweep_page
 
 

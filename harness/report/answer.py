@@ -153,8 +153,5 @@ def answer_table(answers: list[Answer], objective: str, title: str = "") -> Tabl
         for a in answers
     ]
     notes = sorted({a.note for a in answers if a.note})
-    note = (
-        f"Objective: {objective} rate (--objective), 95% Wilson intervals; the "
-        f"{other(objective)} rate beside it. " + " · ".join(notes)
-    )
+    note = f"Ranked by the {objective} rate (--objective). " + " · ".join(notes)
     return Table(title or "Answer: which setting, how sure, why the rest fail", HEADER, rows, note)

@@ -150,7 +150,7 @@ def first_screen(
         tasks = {str(t) for t in column(frame, "task").dropna()} if "task" in frame else set()
         for found in related_tunes(run_dir, tasks):
             page = found.page() if found.page().is_file() else found.markdown()
-            links.append((f"tune {found.path.name}", relative(page, run_dir)))
+            links.append((f"{found.path.name} (decided on fresh seeds)", relative(page, run_dir)))
     return FirstScreen(tables, objective, tune.path if tune else None, links)
 
 

@@ -68,8 +68,9 @@ td.decision.go { background: #dafbe1 !important; }
 td.decision.keep { background: #eaeef2 !important; }
 td.decision.none { background: #ffebe9 !important; }
 td.decision.wait { background: #fff8c5 !important; }
-details.section > summary h2 { display: inline; border: none; }
-details.section > summary { margin-top: 1.2em; border-bottom: 1px solid #d0d7de; }
+details.section > summary h2 { display: inline; border: none; font-size: 1.25em; margin: 0; }
+details.section > summary { margin-top: .7em; padding-bottom: .15em;
+                            border-bottom: 1px solid #d0d7de; }
 span.count { color: #57606a; font-size: .9em; }
 span.evidence { color: #57606a; font-size: .9em; }
 nav.contents ol { columns: 2; font-size: .92em; }

@@ -22,7 +22,7 @@ TEMPLATE = """<!DOCTYPE html>
 {% endfor %}</tbody></table>
 {% if t.note %}<p class="note">{{ t.note }}</p>{% endif %}
 {% endfor %}
-{% if not tune_path %}<p class="note">{% if tune_links %}The tune results above were tested on fresh seeds; the candidates here were not.{% else %}A "best swept setting" has the highest Wilson lower bound over the swept settings on the seeds that chose it, not a tested win: <code>harness tune</code> confirms on fresh seeds.{% endif %}</p>{% endif %}
+{% if not tune_path %}<p class="note">{% if tune_links %}The tune results linked above were tested on fresh seeds; the candidates here were not.{% else %}A "best swept setting" has the highest Wilson lower bound over the swept settings on the seeds that chose it, not a tested win: <code>harness tune</code> confirms on fresh seeds.{% endif %}</p>{% endif %}
 </section>
 
 <details class="section"><summary><h2 id="summary">Summary: what to change ({{ findings|length }} point{{ '' if findings|length == 1 else 's' }})</h2></summary>
