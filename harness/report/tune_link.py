@@ -118,7 +118,7 @@ def _decision(row: Any) -> str:
     if verdict.startswith(NO_SETTING) and cause and cause not in verdict:
         return f"{verdict}: {cause}"
     if verdict.startswith("keep"):
-        return "keep"
+        return "keep current"
     return verdict or "?"
 
 
