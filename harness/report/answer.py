@@ -117,6 +117,9 @@ def sweep_answers(summary: pd.DataFrame, objective: str, params: list[str]) -> l
         if not total:
             decision, note = "no rated episodes", "every row an error: see the error table"
             reason = f"{int(best.get('errors', 0) or 0)} error rows"
+        elif not n:
+            decision, note = f"not judged by the {objective} verdict", "validity off here"
+            reason = cause_line(causes(best, REFERENCE), total)
         elif k == 0:
             pooled_causes: Counter[str] = Counter()
             for row in rows:
