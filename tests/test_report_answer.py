@@ -14,6 +14,7 @@ import re
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -208,3 +209,24 @@ def test_the_sweep_recording_names_one_series_per_arm_object_and_setting(tmp_pat
     views = blueprint_views(path)
     assert {"/compare/fr3/left/cube", "/compare/split_aloha/left/cube"} <= set(views)
     assert views["/compare/fr3/left/cube"] == "TimeSeries"
+
+
+def test_the_tune_heatmap_png_is_laid_out_as_the_page() -> None:
+    """Approach settings are the columns (x) and facing settings the rows (y, first at the
+    bottom), as the page's plotly heatmap puts the first swept axis on x."""
+    from harness.tuning.heatmaps import grid
+
+    table = pd.DataFrame(
+        {
+            "approach": ['["downward", 120]', '["downward", 140]', '["downward", 120]'],
+            "facing": ['["forward", 90]', '["forward", 90]', '["forward", 60]'],
+            "successes": [3, 5, 1],
+            "n": [5, 5, 5],
+        }
+    )
+    table["rate"] = table["successes"] / table["n"]
+    cols, rows, rates, counts = grid(table)
+    assert cols == ['["downward", 120]', '["downward", 140]']
+    assert rows == ['["forward", 60]', '["forward", 90]']
+    assert rates[1, 1] == pytest.approx(1.0) and counts[(0, 0)] == "1/5"
+    assert rates.shape == (2, 2) and np.isnan(rates[0, 1])

@@ -41,6 +41,21 @@ def _order(table: pd.DataFrame, key: str) -> list[str]:
     return sorted({str(v) for v in table[key]}, key=rank)
 
 
+def grid(
+    table: pd.DataFrame,
+) -> tuple[list[str], list[str], np.ndarray, dict[tuple[int, int], str]]:
+    """(approach values: the columns, x; facing values: the rows, y from the bottom; rates
+    [row, column]; ``k/n`` per cell), as the page's heatmap lays them out."""
+    cols, rows = _order(table, "approach"), _order(table, "facing")
+    rates = np.full((len(rows), len(cols)), np.nan)
+    counts: dict[tuple[int, int], str] = {}
+    for row in series_rows(table):
+        i, j = rows.index(str(row["facing"])), cols.index(str(row["approach"]))
+        rates[i, j] = float(row["rate"])
+        counts[(i, j)] = f"{int(row['successes'])}/{int(row['n'])}"
+    return cols, rows, rates, counts
+
+
 def heatmap(
     table: pd.DataFrame,
     title: str,
@@ -50,13 +65,7 @@ def heatmap(
     objective: str = "valid",
 ) -> Path:
     """Write the heatmap PNG of one success map (``success_map`` rows of one group)."""
-    cols, rows = _order(table, "approach"), _order(table, "facing")  # x approach, y facing
-    rates = np.full((len(rows), len(cols)), np.nan)
-    counts: dict[tuple[int, int], str] = {}
-    for row in series_rows(table):
-        i, j = rows.index(str(row["facing"])), cols.index(str(row["approach"]))
-        rates[i, j] = float(row["rate"])
-        counts[(i, j)] = f"{int(row['successes'])}/{int(row['n'])}"
+    cols, rows, rates, counts = grid(table)
     width = min(22.0, max(7.0, 4.0 + 0.55 * len(cols)))
     height = min(22.0, max(4.5, 3.0 + 0.32 * len(rows)))
     fig, ax = plt.subplots(figsize=(width, height), dpi=100)
