@@ -230,3 +230,18 @@ def test_the_tune_heatmap_png_is_laid_out_as_the_page() -> None:
     assert rows == ['["forward", 60]', '["forward", 90]']
     assert rates[1, 1] == pytest.approx(1.0) and counts[(0, 0)] == "1/5"
     assert rates.shape == (2, 2) and np.isnan(rates[0, 1])
+
+
+def test_compare_defaults_to_valid_and_says_when_it_falls_back(tmp_path: Path) -> None:
+    from harness.report import compare_runs
+
+    run = validity_run(tmp_path / "run")
+    valid = compare_runs(run, run).set_index(["robot", "point_id"])
+    assert set(valid["verdict"]) == {"valid"}
+    assert (valid.loc[("fr3", 2), "successes_a"], valid.loc[("fr3", 2), "n_a"]) == (1, 5)
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    shutil.copy(FIXTURE, plain / "episodes.csv")  # no validity columns: nothing judged
+    fallback = compare_runs(plain, plain).set_index(["robot", "point_id"])
+    assert set(fallback["verdict"]) == {"reference"}
+    assert fallback.loc[("fr3", 2), "successes_a"] == 5
