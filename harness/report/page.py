@@ -1,12 +1,15 @@
 """``report.html``: one self-contained, interactive page that opens offline, rendered with a
 Jinja2 template (``harness.report.page_template``, autoescaped).
 
-At the top the summary (what to change, with its evidence: ``harness.report.findings``) and
-the contents; then plotly.js embedded once (no CDN) with the interactive heatmaps (one per
-robot, arm and object, hover for intervals, n, failures, in each axis's own order), the outcome
-vs placement plot, the tables (sort on a click on a header, filter by typing above them,
-long ones folded), episode ids linked to their recordings with how to open them, the replayed
-videos with their posters and captions, and the static plots, embedded as base64.
+At the top the objective and the answer per robot, arm and object (``harness.report.answer``;
+a tune's decisions first: ``harness.report.tune_link``); below, each in a folded section, the
+summary (what to change, with its evidence: ``harness.report.findings``), the run's details and
+the contents, then plotly.js embedded once (no CDN) with the interactive heatmaps coloured by
+the objective (open; one per robot, arm and object, hover for intervals, n, failures, in each
+axis's own order), the outcome vs placement plot, the tables (sort on a click on a header,
+filter by typing above them), episode ids linked to their recordings with how to open them, the
+replayed videos with their posters and captions, and the static plots, embedded as base64. A
+link to a folded section opens it.
 """
 
 from __future__ import annotations
