@@ -123,6 +123,7 @@ def test_no_setting_helps_names_the_dominant_cause(tmp_path: Path) -> None:
     # 11 reference successes, all through the table; 4 failures (dropped, no_contact)
     assert fr3_answer.decision == f"{NO_SETTING}: table_penetration"
     assert fr3_answer.rate == "valid 0/15 over all settings (0%, 0.00–0.20)"
+    assert fr3_answer.other_rate == "reference 11/15 (73%) over all settings"
     assert fr3_answer.reason.startswith("15 of 15 miss: table_penetration 11")
     assert by_unit["split_aloha left cube"].decision.startswith("best swept setting")
     # by the reference verdict the same unit has a best setting

@@ -34,19 +34,7 @@ def main(args: argparse.Namespace) -> int:
         console.print("replaying one success and one failure per robot arm for the videos ...")
     paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
-    summary = pd.read_csv(paths.summary_csv)
-    params = setting_params(summary) or varying_params(summary)
-    for answer in sweep_answers(summary, paths.objective, params):
-        console.print(
-            f"best for [bold]{answer.unit}[/]: {answer.decision} — {answer.setting}: "
-            f"{answer.rate} · {answer.other_rate}; runner-up {answer.runner_up}; {answer.reason}",
-            soft_wrap=True,
-        )
-    console.print(
-        f"ranked by the {paths.objective} rate; a best swept setting is not confirmed on "
-        "fresh seeds: harness tune",
-        soft_wrap=True,
-    )
+    print_answers(console, pd.read_csv(paths.summary_csv), paths.objective)
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),
@@ -57,6 +45,22 @@ def main(args: argparse.Namespace) -> int:
     ):
         console.print(f"  {label:8s} {path}", soft_wrap=True, highlight=False)
     return 0
+
+
+def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
+    """The first screen's answers, one line per robot, arm and object."""
+    params = setting_params(summary) or varying_params(summary)
+    for answer in sweep_answers(summary, objective, params):
+        console.print(
+            f"best for [bold]{answer.unit}[/]: {answer.decision} — {answer.setting}: "
+            f"{answer.rate} · {answer.other_rate}; runner-up {answer.runner_up}; {answer.reason}",
+            soft_wrap=True,
+        )
+    console.print(
+        f"ranked by the {objective} rate; a best swept setting is not confirmed on fresh "
+        "seeds: harness tune",
+        soft_wrap=True,
+    )
 
 
 def _short(column: str) -> str:

@@ -113,7 +113,7 @@ def sweep_answers(summary: pd.DataFrame, objective: str, params: list[str]) -> l
             if len(rows) > 1 and params
             else "none (one setting run)"
         )
-        total, shown = int(best["n"]), ""
+        total, shown, other_shown = int(best["n"]), "", ""
         if not total:
             decision, note = "no rated episodes", "every row an error: see the error table"
             reason = f"{int(best.get('errors', 0) or 0)} error rows"
@@ -129,6 +129,13 @@ def sweep_answers(summary: pd.DataFrame, objective: str, params: list[str]) -> l
             n_all = sum(rate.of(r)[1] for r in rows)
             lo, hi = wilson_interval(0, n_all) if n_all else (math.nan, math.nan)
             shown = f"{objective} 0/{n_all} over all settings (0%, {lo:.2f}–{hi:.2f})"
+            k_other = sum(beside.of(r)[0] for r in rows)
+            n_other = sum(beside.of(r)[1] for r in rows)
+            other_shown = (
+                f"{beside.name} {k_other}/{n_other} ({k_other / n_other:.0%}) over all settings"
+                if n_other
+                else beside.text(best)
+            )
             note = (
                 f"0 {objective} successes at all {len(rows)} setting(s) run; the cause is "
                 "upstream of the filter (task, object or robot), not a setting to pick"
@@ -144,7 +151,8 @@ def sweep_answers(summary: pd.DataFrame, objective: str, params: list[str]) -> l
             decision, note = "best swept setting (untested)", UNCONFIRMED
             reason = cause_line(causes(best, objective), total)
         shown = shown or rate.text(best)
-        answer = Answer(robot, arm, obj, decision, label, shown, beside.text(best), runner, reason)
+        other_shown = other_shown or beside.text(best)
+        answer = Answer(robot, arm, obj, decision, label, shown, other_shown, runner, reason)
         answers.append(replace(answer, note=note))
     return answers
 
