@@ -168,7 +168,7 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_engine(p)
-    _add_objective(p)
+    _add_objective(p, recorded=True)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
 
@@ -177,7 +177,7 @@ def _add_report(sub: Subparsers) -> None:
     """``harness report RUN_DIR``"""
     p = sub.add_parser("report", help="rebuild summary, plots and report of a run directory")
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (harness sweep or run)")
-    _add_objective(p)
+    _add_objective(p, recorded=True)
     _add_videos(p, default=True)
     p.set_defaults(func=_handler("report", "main"))
 
@@ -202,13 +202,13 @@ def _add_engine(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_objective(p: argparse.ArgumentParser) -> None:
+def _add_objective(p: argparse.ArgumentParser, recorded: bool = False) -> None:
+    default = "the run's recorded one, else valid" if recorded else "valid"
     p.add_argument(
-        "--objective",
-        choices=["reference", "valid"],
-        default="reference",
-        help="rank the best settings by the reference success rate or by the valid rate",
-    )
+        "--objective", choices=["valid", "reference"], default=None if recorded else "valid",
+        help="the verdict that ranks settings, colours the heatmaps and answers the first screen "
+        f"(the other beside it): valid (the grasp holds) or reference (default: {default})",
+    )  # fmt: skip
 
 
 def _add_compare(sub: Subparsers) -> None:

@@ -171,7 +171,7 @@ def test_pooling_and_best_settings(fixture_run: Path) -> None:
     assert (by_point.loc[0, "wilson_lo"], by_point.loc[0, "wilson_hi"]) == pytest.approx(
         (0.3968, 0.8922), abs=5e-5
     )
-    best = best_settings(summary).set_index(["robot", "arm"])
+    best = best_settings(summary, "reference").set_index(["robot", "arm"])
     # fr3: 5/5 at point 2 (lower bound 0.5655) beats 4/5 at point 0 (0.3755).
     assert best.loc[("fr3", "left"), "point_id"] == 2
     assert (best.loc[("fr3", "left"), "successes"], best.loc[("fr3", "left"), "n"]) == (5, 5)
@@ -422,8 +422,9 @@ def test_valid_rate_gap_and_objective(fixture_run: Path, tmp_path: Path) -> None
     assert point["gap.table_penetration"] == 4 and point["robustness.2"] == 4
     assert point["robustness.4"] == 1
     flat = summarize(load_episodes(run))
-    assert best_settings(flat).set_index("robot").loc["fr3", "point_id"] == 2
+    assert best_settings(flat, "reference").set_index("robot").loc["fr3", "point_id"] == 2
     assert best_settings(flat, "valid").set_index("robot").loc["fr3", "point_id"] == 0
+    assert best_settings(flat).set_index("robot").loc["fr3", "point_id"] == 0  # valid: default
     paths = build_report(run, objective="valid")
     text = paths.report_md.read_text()
     assert "Validity gap" in text and "robustness_g" in text and "valid rate" in text

@@ -177,8 +177,8 @@ def test_videos_of_each_outcome_class_and_per_arm_kept_without_rendering(
         assert clip.path is not None, clip.note
         assert clip.note == ""  # the replay reproduced the stored verdict
         frames = imageio.imread(run / clip.path)
-        assert frames.shape[0] == clip.frames and frames.shape[1:3] == (240, 320)
-        assert clip.poster is not None and imageio.imread(run / clip.poster).shape == (240, 320, 3)
+        assert frames.shape[0] == clip.frames and frames.shape[1:3] == (480, 640)  # readable
+        assert clip.poster is not None and imageio.imread(run / clip.poster).shape == (480, 640, 3)
         assert clip.headline and clip.headline.split(":")[0] in {
             "SUCCESS · VALID", "REFERENCE SUCCESS · INVALID", "FAILURE"
         }  # fmt: skip

@@ -17,9 +17,9 @@ from harness.report import (
     build_report,
     compare_runs,
     format_value,
-    point_label,
     varying_params,
 )
+from harness.report.answer import sweep_answers
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
 from harness.report.tables import setting_params
@@ -47,26 +47,7 @@ def main(args: argparse.Namespace) -> int:
     with run_lock(run_dir):  # a sweep still filling the directory: refused, not raced
         paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
-    best = pd.read_csv(paths.best_csv)
-    params = varying_params(best) or [c for c in best.columns if c.startswith("param.")]
-    for row in series_rows(best):
-        if not row["n"]:
-            name = f"{row['robot']} {row['arm']} {row['object']}"
-            console.print(f"best for {name}: no rated episodes (only error rows)")
-            continue
-        valid = (
-            f"; valid {row['valid_rate']:.0%}, 95% CI "
-            f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}"
-            if not math.isnan(row["valid_rate"])
-            else ""
-        )
-        console.print(
-            f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
-            f"{point_label(row, params)} — {row['successes']}/{row['n']} ({row['rate']:.0%}, "
-            f"95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}{valid}; ranked by "
-            f"{args.objective})",
-            soft_wrap=True,
-        )
+    print_answers(console, pd.read_csv(paths.summary_csv), paths.objective)
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),
@@ -77,6 +58,22 @@ def main(args: argparse.Namespace) -> int:
     ):
         console.print(f"  {label:8s} {path}", soft_wrap=True, highlight=False)
     return 0
+
+
+def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
+    """The first screen's answers, one line per robot, arm and object."""
+    params = setting_params(summary) or varying_params(summary)
+    for answer in sweep_answers(summary, objective, params):
+        console.print(
+            f"best for [bold]{answer.unit}[/]: {answer.decision} — {answer.setting}: "
+            f"{answer.rate} · {answer.other_rate}; runner-up {answer.runner_up}; {answer.reason}",
+            soft_wrap=True,
+        )
+    console.print(
+        f"ranked by the {objective} rate; a best swept setting is not confirmed on fresh "
+        "seeds: harness tune",
+        soft_wrap=True,
+    )
 
 
 def _short(column: str) -> str:
@@ -123,6 +120,13 @@ def summary_table(summary: pd.DataFrame, title: str) -> Table:
     return table
 
 
+def _verdict(comparison: pd.DataFrame, objective: str) -> str:
+    """The verdict compared (``valid`` falls back to reference when no row was judged)."""
+    if "verdict" in comparison and len(comparison):
+        return str(comparison["verdict"].iloc[0])
+    return objective
+
+
 def compare(args: argparse.Namespace) -> int:
     """Per-setting success-rate differences between two runs: McNemar on shared seeds, else a
     two-proportion test (``harness.report.compare``)."""
@@ -135,7 +139,8 @@ def compare(args: argparse.Namespace) -> int:
     shown = ["filters_a", "filters_b"] if by_arm else params
     what = "robot, arm and object" if by_arm else "setting"
     table = Table(
-        title=f"B - A per {what} ({args.objective} rate)   A = {args.run_a}   B = {args.run_b}"
+        title=f"B - A per {what} ({_verdict(comparison, args.objective)} rate)   "
+        f"A = {args.run_a}   B = {args.run_b}"
     )
     for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
         table.add_column(column)

@@ -153,6 +153,11 @@ def print_summary(run_dir: Path, console: Console) -> None:
                 f"{top} ({fails[top]})" if top else "",
             )
         console.print(table)
+        from harness.commands.report import print_answers
+        from harness.report.objective import effective_objective, resolve_objective
+
+        objective = effective_objective(summary, resolve_objective(run_dir, None))
+        print_answers(console, summary, objective)  # the report's first screen, in short
         counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
         if sum(counts):
             console.print(

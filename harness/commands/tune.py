@@ -53,6 +53,8 @@ def main(args: argparse.Namespace) -> int:
     for line in lines(result.decisions):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     rows = [("tuned", result.tuned_yaml), ("report", result.tuned_md), ("run", result.run_dir)]
+    page = result.run_dir / "screen" / "report.html"  # the tune's page, decisions first
+    rows += [("page", page)] if page.is_file() else []
     rows += [("written", path) for path in result.written]
     for label, path in rows:
         console.print(f"  {label:9s} {path}", soft_wrap=True, highlight=False)

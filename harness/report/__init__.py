@@ -5,7 +5,10 @@ summary.csv, best.csv, plots/, report.md and report.html (``harness.report.build
 ``compare_runs(run_a, run_b)`` matches the settings of two runs and tests each rate difference,
 paired by seed when it can (``harness.report.compare``). The package's modules, each one concept:
 
+- ``objective``: the run's objective (valid by default, recorded in ``report.json``);
 - ``tables``: the run's episodes and the data tables computed from them (DataFrames);
+- ``answer``: the first screen (which setting, how sure, why the rest fail);
+  ``tune_link``: a tune's decisions on its runs' pages, links from sweeps to tunes;
 - ``labels``: parameter values and sweep points as text for people;
 - ``sections``: the overview and the rate tables shared by Markdown and HTML;
   ``episode_sections``: error rows, grouped failure messages, example episodes (linked);

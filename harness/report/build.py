@@ -25,6 +25,7 @@ import pandas as pd
 
 from harness.files import refuse_planted_links, write_atomic
 from harness.report import failure_groups
+from harness.report.answer import FirstScreen, answer_table, sweep_answers
 from harness.report.episode_sections import (
     errors_table,
     examples_table,
@@ -32,8 +33,15 @@ from harness.report.episode_sections import (
     recording_links,
 )
 from harness.report.findings import findings
+from harness.report.frames import column
 from harness.report.heatmaps import success_heatmaps
 from harness.report.labels import varying_params
+from harness.report.objective import (
+    RECORD_NAME,
+    effective_objective,
+    record_objective,
+    resolve_objective,
+)
 from harness.report.page import render_page
 from harness.report.placement import plot_placement
 from harness.report.plots import plot_failures, plot_funnel, plot_success
@@ -47,6 +55,13 @@ from harness.report.tables import (
     rated,
     setting_params,
     summarize,
+)
+from harness.report.tune_link import (
+    decisions_table,
+    own_tune,
+    related_tunes,
+    relative,
+    tune_answers,
 )
 from harness.report.videos import Clip, load_clips, render_clips
 from harness.runs.store import JSONL_NAME, ResultStore
@@ -63,6 +78,7 @@ REPORT_OUTPUTS = (
     "recording.rrd",
     SUMMARY_NAME,
     BEST_NAME,
+    RECORD_NAME,
     "plots",
     "videos",
     "report.md",
@@ -85,6 +101,7 @@ class ReportPaths:
     report_html: Path
     plots: dict[str, Path] = field(default_factory=dict)
     videos: list[Clip] = field(default_factory=list)
+    objective: str = "valid"  # the objective the report ranked by (after any fallback)
 
 
 def group_failures(frame: pd.DataFrame) -> pd.DataFrame:
@@ -108,16 +125,50 @@ def episode_tables(run_dir: Path, frame: pd.DataFrame, summary: pd.DataFrame) ->
     return tables
 
 
+def first_screen(
+    run_dir: Path, frame: pd.DataFrame, summary: pd.DataFrame, objective: str
+) -> FirstScreen:
+    """The answer tables (a tune's decisions first, when ``run_dir`` is its screening or race),
+    the objective line and links to tunes of the same tasks."""
+    params = setting_params(summary) or varying_params(summary)
+    answers = sweep_answers(summary, objective, params)
+    tune = own_tune(run_dir)
+    tables: list[Table] = []
+    links: list[tuple[str, str]] = []
+    if tune is not None:
+        tables.append(
+            answer_table(
+                tune_answers(tune), tune.objective,
+                "Tune decisions: which setting, how sure, why the rest fail",
+            )
+        )  # fmt: skip
+        tables.append(
+            answer_table(answers, objective, "Screening candidates (chosen on these seeds)")
+        )
+        links.append(("tuned.md (the keys to merge)", relative(tune.markdown(), run_dir)))
+    else:
+        tables.append(answer_table(answers, objective))
+        tasks = {str(t) for t in column(frame, "task").dropna()} if "task" in frame else set()
+        for found in related_tunes(run_dir, tasks):
+            page = found.page() if found.page().is_file() else found.markdown()
+            links.append((f"{found.path.name} (decided on fresh seeds)", relative(page, run_dir)))
+    return FirstScreen(tables, objective, tune.path if tune else None, links)
+
+
 def build_report(
-    run_dir: str | Path, export: bool = False, objective: str = "reference", videos: bool = False
+    run_dir: str | Path,
+    export: bool = False,
+    objective: str | None = None,
+    videos: bool = False,
 ) -> ReportPaths:
     """Rebuild summary.csv, best.csv, plots/, report.md and report.html of ``run_dir``.
 
     With ``export`` the store is also re-exported to episodes.csv / episodes.parquet (only when
     it has an ``episodes.jsonl``; a hand-made episodes.csv is never overwritten). ``objective``
-    ranks the best settings by the reference success rate or by the valid rate. ``videos``
-    replays one success and one failure per robot arm and embeds their MP4s (a few seconds of
-    work per clip).
+    (``valid`` or ``reference``; None: the run's recorded one, else ``valid``) ranks the
+    settings, colours the heatmaps and answers the first screen; it is recorded in
+    ``report.json``. ``videos`` replays one success and one failure per robot arm and embeds
+    their MP4s (a few seconds of work per clip).
     """
     run_dir = Path(run_dir)
     refuse_planted_links(run_dir, REPORT_OUTPUTS)  # a write must never follow a planted link
@@ -125,19 +176,22 @@ def build_report(
     if export and (run_dir / JSONL_NAME).is_file():
         ResultStore(run_dir).export()
     summary = summarize(frame)
-    best = best_settings(summary, objective)
+    asked = resolve_objective(run_dir, objective)
+    used = effective_objective(summary, asked)
+    best = best_settings(summary, used)
     summary_csv = run_dir / SUMMARY_NAME
     best_csv = run_dir / BEST_NAME
     write_atomic(
         summary_csv, summary.to_csv(index=False), root=run_dir
     )  # whole or absent, never half
     write_atomic(best_csv, best.to_csv(index=False), root=run_dir)
+    record_objective(run_dir, asked, used)
 
     plots_dir = run_dir / "plots"
     output_dir(plots_dir, run_dir)
     plots = {
-        "success": plot_success(summary, plots_dir / "success.png"),
-        "failures": plot_failures(summary, plots_dir / "failures.png"),
+        "success": plot_success(summary, plots_dir / "success.png", used),
+        "failures": plot_failures(summary, plots_dir / "failures.png", used),
         "funnel": plot_funnel(funnel(frame), plots_dir / "funnel.png"),
     }
     placement = plot_placement(frame, plots_dir / "placement.png")
@@ -148,15 +202,27 @@ def build_report(
         *episode_tables(run_dir, frame, summary),
         *funnel_tables(funnel(frame)),
     ]
+    screen = first_screen(run_dir, frame, summary, used)
+    tune = own_tune(run_dir)
+    if tune is not None:  # every column of the tune's decisions, first of the folded tables
+        tables.insert(0, decisions_table(tune))
+    if used != asked:
+        note = f"no episode was judged for validity: ranked by the {used} rate"
+        screen = FirstScreen(screen.tables, used, screen.tune_path, screen.tune_links, note)
+    found = findings(frame, best)
     # Without rendering, the videos of an earlier report stay on the page (videos/clips.json).
     clips = render_clips(run_dir, frame) if videos else load_clips(run_dir)
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
-    write_atomic(report_md, render_markdown(run_dir, frame, tables, plots, clips), root=run_dir)
+    write_atomic(
+        report_md,
+        render_markdown(run_dir, frame, tables, plots, clips, screen, found),
+        root=run_dir,
+    )
     links = recording_links(run_dir, frame)
     page = render_page(
-        run_dir, frame, tables, plots, success_heatmaps(summary), clips, links,
-        findings(frame, best),
+        run_dir, frame, tables, plots, success_heatmaps(summary, used), clips, links,
+        found, screen,
     )  # fmt: skip
     write_atomic(report_html, page, root=run_dir)
-    return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots, clips)
+    return ReportPaths(run_dir, summary_csv, best_csv, report_md, report_html, plots, clips, used)

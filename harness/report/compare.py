@@ -27,7 +27,7 @@ import pandas as pd
 from harness.errors import HarnessError
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.stats import compare_proportions, mcnemar_exact
-from harness.report.tables import load_episodes
+from harness.report.tables import judged_mask, load_episodes
 from harness.robots.facts import reference_convention
 from harness.row import KEY_COLUMNS, param_columns
 
@@ -165,11 +165,12 @@ def _test(row: Any) -> dict[str, Any]:
 
 
 def compare_runs(
-    run_a: str | Path, run_b: str | Path, match: str = "settings", objective: str = "reference"
+    run_a: str | Path, run_b: str | Path, match: str = "settings", objective: str = "valid"
 ) -> pd.DataFrame:
     """Per matched setting, ``rate_b - rate_a`` with its test (see the module docstring).
 
-    ``objective`` ``valid`` compares the validity verdicts instead of the reference success.
+    ``objective`` ``valid`` (the default) compares the validity verdicts; ``reference`` the
+    reference success (also used, and said in ``verdict``, when neither run judged validity).
     Settings found in one run only are listed with ``present`` = ``a only`` / ``b only`` and no
     test. ``test`` is ``mcnemar`` (paired: ``pairs`` shared seeds, ``only_a`` / ``only_b``
     discordant successes), ``z`` or ``fisher``.
@@ -183,7 +184,8 @@ def compare_runs(
         match = "arm" if both else "settings"
     if match == "arm":
         frame_a, frame_b = _by_arm(frame_a), _by_arm(frame_b)
-    verdict = "valid" if objective == "valid" else "success"
+    judged = bool(judged_mask(frame_a).any() or judged_mask(frame_b).any())
+    verdict = "valid" if objective == "valid" and judged else "success"
     merged = pd.merge(_side(frame_a, verdict), _side(frame_b, verdict), on=MATCH_KEY, how="outer",
                       suffixes=("_a", "_b"), indicator=True)  # fmt: skip
     merged["present"] = (
@@ -207,12 +209,13 @@ def compare_runs(
     merged["rate_b"] = merged["successes_b"] / merged["n_b"].where(merged["n_b"] > 0)
     params = _settings_columns(merged)
     merged["match"] = match
+    merged["verdict"] = "valid" if verdict == "valid" else "reference"
     for name in ("filters_a", "filters_b"):
         merged[name] = merged[name].fillna("")
     columns = [*KEY_COLUMNS, "match", "point_id", "point", "settings", "filters_a", "filters_b",
                *params.columns, "n_a",
                "successes_a", "rate_a", "n_b", "successes_b", "rate_b", "difference", "z",
-               "p_value", "test", "pairs", "only_a", "only_b", "present"]  # fmt: skip
+               "p_value", "test", "pairs", "only_a", "only_b", "present", "verdict"]  # fmt: skip
     merged = pd.concat([merged, params], axis=1)
     merged = merged.sort_values(["robot", "arm", "object", "task", "point_id"], kind="stable")
     return frame_of(merged[columns]).reset_index(drop=True)

@@ -31,8 +31,8 @@ FARTHER_M = 0.02  # reach failures this much farther (median) than successes: a 
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "
-    "(neglect_collision_names: [table] or table_contact off): rank settings by the valid rate "
-    "(--objective valid) or make the table physical",
+    "(neglect_collision_names: [table] or table_contact off): the valid rate (the default "
+    "--objective) counts these as failures; make the table physical to stop them",
     "one_finger": "only one finger holds the object: check the grasp width against the jaw",
     "slipped_in_hold": "the object slips in the hold: check friction and grip force",
     "lost_in_tug": "the grasp does not survive a 0.5 g tug: check friction and grip force",
@@ -150,20 +150,22 @@ def _best_findings(best: pd.DataFrame) -> list[Finding]:
     compared = [row for row in series_rows(best) if int(row.get("points_compared", 1) or 1) > 1]
     if not compared:
         return []
+    objective = str(best.attrs.get("objective", "reference"))
+    k, n = ("valid", "n_judged") if objective == "valid" else ("successes", "n")
     short = [
         f"{row['robot']} {row['arm']} {row['object']} "
         f"{point_label(row, params) if params else row.get('point', '')} "
-        f"{int(row['successes'])}/{int(row['n'])}"
+        f"{objective} {int(row[k])}/{int(row[n])}"
         for row in compared
-        if int(row["successes"]) < int(row["n"])
+        if int(row[k]) < int(row[n])
     ]
     evidence = (
         f"{len(compared)} robot/arm/object groups compared over their swept settings; best "
         "below a perfect rate: " + ("; ".join(short) if short else "none")
     )
     change = (
-        "candidate settings (highest Wilson lower bound) are in the table 'Best settings per "
-        "robot, arm and object'; they are not tested against the others here, harness tune "
-        "confirms on fresh seeds"
+        f"candidate settings (highest Wilson lower bound of the {objective} rate) are in the "
+        "answer table and 'Best settings per robot, arm and object'; they are not tested "
+        "against the others here, harness tune confirms on fresh seeds"
     )
     return [Finding("settings", change, evidence)]

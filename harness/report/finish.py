@@ -15,10 +15,11 @@ from harness.report.build import ReportPaths, build_report
 from harness.runs.rundir import RunDir
 
 
-def finish_run(run_dir: Path, objective: str = "reference", videos: bool = False) -> ReportPaths:
+def finish_run(run_dir: Path, objective: str | None = None, videos: bool = False) -> ReportPaths:
     """Build the report of a finalized run (once: ``objective`` and ``videos`` as
-    ``build_report``'s) and its sweep overview recording (``recording.rrd``, skipped without
-    rerun-sdk). A full disk raises the run's one-line ``DiskFullError``."""
+    ``build_report``'s; None: the run's recorded objective, else valid) and its sweep overview
+    recording (``recording.rrd``, skipped without rerun-sdk). A full disk raises the run's
+    one-line ``DiskFullError``."""
     try:
         paths = build_report(run_dir, objective=objective, videos=videos)
     except OSError as exc:
@@ -28,7 +29,7 @@ def finish_run(run_dir: Path, objective: str = "reference", videos: bool = False
     try:
         from harness.viz.sweep_recording import record_sweep
 
-        record_sweep(run_dir)
+        record_sweep(run_dir, paths.objective)
     except ImportError:
         pass
     return paths

@@ -1,7 +1,8 @@
 """Interactive success heatmaps for report.html: one plotly heatmap per robot, arm and object
-over the swept settings (never pooled over arms or objects), each cell with its reference and
-valid rate; hovering shows both Wilson intervals, n, the failures, errors and whether the
-reference fallback ran. Returned as HTML fragments without plotly.js (the page embeds it once).
+over the swept settings (never pooled over arms or objects), coloured by the run's objective
+(valid by default), each cell with both rates, the objective's first; hovering shows both
+Wilson intervals, n, the failures, errors and whether the reference fallback ran. Returned as
+HTML fragments without plotly.js (the page embeds it once).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import pandas as pd
 
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.labels import format_value, varying_params
+from harness.report.objective import VALID
 from harness.report.sections import FALLBACK_MARK
 from harness.report.tables import FAIL_PREFIX, GROUP_KEY, pooled, setting_params
 
@@ -76,21 +78,32 @@ def _interval(lo: float, hi: float) -> str:
     return "" if math.isnan(lo) or math.isnan(hi) else f"{lo:.2f}–{hi:.2f}"
 
 
-def _cell(row: Any) -> tuple[float | None, str, str]:
-    """(colour value, cell text, hover text) of one pooled summary row."""
+def _cell(row: Any, objective: str = VALID) -> tuple[float | None, str, str]:
+    """(colour value, cell text, hover text) of one pooled summary row: coloured by the
+    objective's rate, its count first, the other verdict's count beside it."""
     n, k = int(row["n"]), int(row["successes"])
     judged = int(row.get("n_judged", 0) or 0)
     fallback, errors = int(row.get("fallback", 0) or 0), int(row.get("errors", 0) or 0)
     rate = k / n if n else None
-    text = f"{k}/{n}" + (f"<br>{rate:.0%}" if rate is not None else "")
-    if judged:
-        text += f"<br>valid {int(row['valid'])}/{judged}"
+    valid_rate = int(row["valid"]) / judged if judged else None
+    reference_text = f"reference {k}/{n}"
+    valid_text = f"valid {int(row['valid'])}/{judged}" if judged else ""
+    if objective == VALID:
+        value = valid_rate
+        text = valid_text or "valid: not judged"
+        text += f"<br>{valid_rate:.0%}" if valid_rate is not None else ""
+        text += f"<br>{reference_text}"
+    else:
+        value = rate
+        text = f"{k}/{n}" + (f"<br>{rate:.0%}" if rate is not None else "")
+        text += f"<br>{valid_text}" if valid_text else ""
     if fallback:
         text += f" {FALLBACK_MARK}"
     if errors:
         text += f"<br>+{errors} error{'s' if errors > 1 else ''}"
     hover = [
-        f"reference {k}/{n}" + (f" = {rate:.0%}" if rate is not None else ""),
+        f"colour: {objective} rate",
+        reference_text + (f" = {rate:.0%}" if rate is not None else ""),
         f"95% CI {_interval(row['wilson_lo'], row['wilson_hi'])}" if n else "no rated episodes",
     ]
     if judged:
@@ -103,10 +116,12 @@ def _cell(row: Any) -> tuple[float | None, str, str]:
         hover.append(f"error rows (not in the rate): {errors}")
     if fallback:
         hover.append(f"{FALLBACK_MARK} reference fallback ran in {fallback}/{n} episodes")
-    return rate, text, "<br>".join(hover)
+    return value, text, "<br>".join(hover)
 
 
-def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[Any, int]:
+def _figure(
+    group: pd.DataFrame, axes: list[str], title: str, objective: str = VALID
+) -> tuple[Any, int]:
     import plotly.graph_objects as go  # ~0.5 s: only when a page is drawn
 
     x_axis = axes[0] if axes else None
@@ -121,7 +136,7 @@ def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[Any, int]
     for row in series_rows(cells):
         i = y_values.index(row[y_axis]) if y_axis else 0
         j = x_values.index(row[x_axis]) if x_axis else 0
-        z[i][j], text[i][j], hover[i][j] = _cell(row)
+        z[i][j], text[i][j], hover[i][j] = _cell(row, objective)
         if row.get("fallback", 0):
             flagged.append((i, j))
     figure = go.Figure(
@@ -164,15 +179,16 @@ def _figure(group: pd.DataFrame, axes: list[str], title: str) -> tuple[Any, int]
     return figure, len(flagged)
 
 
-def success_heatmaps(summary: pd.DataFrame) -> list[Heatmap]:
-    """One heatmap per robot, arm and object over its swept settings (summary rows of a run)."""
+def success_heatmaps(summary: pd.DataFrame, objective: str = VALID) -> list[Heatmap]:
+    """One heatmap per robot, arm and object over its swept settings (summary rows of a run),
+    coloured by the objective's rate (``harness.report.objective``)."""
     settings = setting_params(summary) or varying_params(summary)
     out: list[Heatmap] = []
     for key, group in summary.groupby(GROUP_KEY, sort=True):
         robot, arm, obj = (str(part) for part in cast(tuple[Any, ...], key))
         group = frame_of(group)
         axes = [a for a in settings if column(group, a).nunique(dropna=True) > 1] or settings[:1]
-        figure, fallback_cells = _figure(group, axes, f"{robot} · {arm} · {obj}")
+        figure, fallback_cells = _figure(group, axes, f"{robot} · {arm} · {obj}", objective)
         div_id = f"heatmap-{robot}-{arm}-{obj}".replace(" ", "_")
         html = figure.to_html(
             full_html=False,

@@ -1,12 +1,15 @@
 """``report.html``: one self-contained, interactive page that opens offline, rendered with a
 Jinja2 template (``harness.report.page_template``, autoescaped).
 
-At the top the summary (what to change, with its evidence: ``harness.report.findings``) and
-the contents; then plotly.js embedded once (no CDN) with the interactive heatmaps (one per
-robot, arm and object, hover for intervals, n, failures, in each axis's own order), the outcome
-vs placement plot, the tables (sort on a click on a header, filter by typing above them,
-long ones folded), episode ids linked to their recordings with how to open them, the replayed
-videos with their posters and captions, and the static plots, embedded as base64.
+At the top the objective and the answer per robot, arm and object (``harness.report.answer``;
+a tune's decisions first: ``harness.report.tune_link``); below, each in a folded section, the
+summary (what to change, with its evidence: ``harness.report.findings``), the run's details and
+the contents, then plotly.js embedded once (no CDN) with the interactive heatmaps coloured by
+the objective (open; one per robot, arm and object, hover for intervals, n, failures, in each
+axis's own order), the outcome vs placement plot, the tables (sort on a click on a header,
+filter by typing above them), episode ids linked to their recordings with how to open them, the
+replayed videos with their posters and captions, and the static plots, embedded as base64. A
+link to a folded section opens it.
 """
 
 from __future__ import annotations
@@ -20,8 +23,10 @@ from typing import Any
 
 import pandas as pd
 
+from harness.report.answer import NO_SETTING, FirstScreen
 from harness.report.findings import MIN_SHARE, Finding
 from harness.report.heatmaps import Heatmap
+from harness.report.objective import VALID, other
 from harness.report.page_template import FIGURE, TEMPLATE
 from harness.report.render import PLOT_CAPTIONS
 from harness.report.sections import FALLBACK_MARK, Table, overview
@@ -50,11 +55,26 @@ p.note { color: #57606a; font-size: .9em; margin: .2em 0; }
 .heatmaps > div { border: 1px solid #eaeef2; border-radius: 6px; }
 .videos { display: flex; flex-wrap: wrap; gap: 1em; }
 .videos figure { margin: 0; }
-video { width: 320px; height: 240px; background: #24292f; border-radius: 6px; }
+video { width: 640px; max-width: 100%; aspect-ratio: 4 / 3; background: #24292f;
+        border-radius: 6px; }
 figure { margin: 1em 0 2em; }
 figure img { max-width: 100%; border: 1px solid #d0d7de; border-radius: 6px; }
-figcaption { color: #57606a; font-size: .85em; margin-top: .3em; max-width: 320px; }
+figcaption { color: #57606a; font-size: .85em; margin-top: .3em; max-width: 640px; }
 ul.findings li { margin: .4em 0; }
+p.lede { font-size: 1.02em; margin: .2em 0 .6em; }
+#answer h2 { margin-top: .6em; }
+table.answer { font-size: .9em; }
+table.answer th { cursor: default; }
+table.answer td { vertical-align: top; }
+td.decision { font-weight: 600; white-space: nowrap; }
+td.decision.go { background: #dafbe1 !important; }
+td.decision.keep { background: #eaeef2 !important; }
+td.decision.none { background: #ffebe9 !important; }
+td.decision.wait { background: #fff8c5 !important; }
+details.section > summary h2 { display: inline; border: none; font-size: 1.25em; margin: 0; }
+details.section > summary { margin-top: .7em; padding-bottom: .15em;
+                            border-bottom: 1px solid #d0d7de; }
+span.count { color: #57606a; font-size: .9em; }
 span.evidence { color: #57606a; font-size: .9em; }
 nav.contents ol { columns: 2; font-size: .92em; }
 input.filter { margin: .3em 0 0; padding: .2em .4em; width: 18em; font-size: .85em; }
@@ -100,8 +120,20 @@ SORTER = """
 })();
 """
 
+# A link to a section inside a folded <details> opens it (contents, #placement, ...).
+OPEN_TARGET = """
+(function () {
+  function open() {
+    var id = location.hash ? decodeURIComponent(location.hash.slice(1)) : '';
+    var el = id ? document.getElementById(id) : null;
+    for (; el; el = el.parentElement) { if (el.tagName === 'DETAILS') { el.open = true; } }
+  }
+  window.addEventListener('hashchange', open);
+  open();
+})();
+"""
+
 NUMERIC_MARKS = ("%", "/", "–", ".", ",", FALLBACK_MARK, " ")
-COLLAPSE_ROWS = 40  # longer tables start folded (a tune's per-point table has hundreds of rows)
 
 # Type in the box above a table to keep only the rows that contain the text.
 FILTER = """
@@ -156,8 +188,32 @@ def _table_context(table: Table, taken: set[str]) -> dict[str, Any]:
         "note": table.note,
         "header": table.header,
         "rows": rows,
-        "collapsed": len(rows) > COLLAPSE_ROWS,
     }
+
+
+MEANING = {
+    "valid": "the grasp really holds: no table penetration, two fingers, hold, tug",
+    "reference": "InternDataEngine's is_success verdict",
+}
+
+
+def decision_kind(decision: str) -> str:
+    """The colour class of a decision cell: go (switch / best swept), keep, none, wait."""
+    if decision.startswith(NO_SETTING) or decision.startswith("no rated"):
+        return "none"
+    if decision.startswith("undecided"):
+        return "wait"
+    if decision.startswith(("keep", "tie")):
+        return "keep"
+    return "go"
+
+
+def _answer_context(table: Table) -> dict[str, Any]:
+    rows = [
+        {"cells": _cells(table, i, row), "kind": decision_kind(row[1]) if len(row) > 1 else ""}
+        for i, row in enumerate(table.rows)
+    ]
+    return {"title": table.title, "note": table.note, "header": table.header, "rows": rows}
 
 
 def _data_uri(path: Path, mime: str) -> str:
@@ -195,20 +251,23 @@ def render_page(
     clips: Sequence[Clip] = (),
     links: Mapping[str, str] | None = None,
     findings: Sequence[Finding] = (),
+    screen: FirstScreen | None = None,
 ) -> str:
-    """The whole page (Jinja2, autoescaped). The static success plot is left out when the
-    heatmaps show it."""
+    """The whole page (Jinja2, autoescaped): the first screen's answers (``screen``), then
+    everything else folded. The static success plot is left out when the heatmaps show it."""
     from jinja2 import Environment
     from plotly.offline import get_plotlyjs  # only when a page is drawn
 
     env = Environment(autoescape=True, trim_blocks=False)
     template = env.from_string(FIGURE + TEMPLATE)
-    taken = {"summary", "heatmaps", "placement", "recordings", "videos", "plots"}
+    screen = screen or FirstScreen([], VALID)
+    objective = screen.objective
+    taken = {"summary", "heatmaps", "placement", "recordings", "videos", "plots", "answer"}
     table_contexts = [_table_context(t, taken) for t in tables]
     others = {n: p for n, p in plots.items() if n not in ("success", "placement")}
-    contents = [("summary", "Summary: what to change")]
+    contents = [("answer", "Answer"), ("summary", "Summary: what to change")]
     if heatmaps or "success" in plots:
-        contents.append(("heatmaps", "Success over the swept settings"))
+        contents.append(("heatmaps", f"{objective.capitalize()} rate over the swept settings"))
     if "placement" in plots:
         contents.append(("placement", "Outcome vs placement per robot arm"))
     contents += [(t["id"], t["title"]) for t in table_contexts]
@@ -218,9 +277,24 @@ def render_page(
         contents.append(("plots", "Plots"))
     return template.render(
         name=run_dir.name,
+        title_name=(
+            f"{screen.tune_path.name} ({run_dir.name} run)" if screen.tune_path else run_dir.name
+        ),
         style=STYLE,
         plotly_js=get_plotlyjs() if heatmaps else "",
         overview=overview(run_dir, frame),
+        objective=objective,
+        objective_meaning=MEANING.get(objective, objective),
+        other_objective=other(objective),
+        objective_note=screen.note,
+        cell_text=(
+            "valid successes / judged episodes, rate, reference successes / rated episodes"
+            if objective == VALID
+            else "reference successes / rated episodes, rate, valid successes / judged episodes"
+        ),
+        tune_path=str(screen.tune_path) if screen.tune_path else "",
+        tune_links=screen.tune_links,
+        answers=[_answer_context(t) for t in screen.tables],
         findings=list(findings),
         min_share=f"{MIN_SHARE:.0%}",
         contents=contents,
@@ -232,5 +306,5 @@ def render_page(
         tables=table_contexts,
         clips=[_clip_context(run_dir, c, links or {}) for c in clips],
         plots=[_figure(n, p) for n, p in others.items()],
-        sorter=SORTER + FILTER,
+        sorter=SORTER + FILTER + OPEN_TARGET,
     )

@@ -86,7 +86,7 @@ def plot_placement(frame: pd.DataFrame, path: Path) -> Path | None:
     if frame.empty:
         return None
     arms = sorted({(str(r), str(a)) for r, a in zip(frame["robot"], frame["arm"], strict=True)})
-    fig, axes = plt.subplots(len(arms), 2, figsize=(11, 3.6 * len(arms)), dpi=DPI, squeeze=False)
+    fig, axes = plt.subplots(len(arms), 2, figsize=(11, 4.3 * len(arms)), dpi=DPI, squeeze=False)
     limit = float(column(frame, "object_distance_m").max()) * 1.1
     for (robot, arm), (left, right) in zip(arms, axes, strict=True):
         mine = frame_of(frame[(frame["robot"] == robot) & (frame["arm"] == arm)])
@@ -95,8 +95,8 @@ def plot_placement(frame: pd.DataFrame, path: Path) -> Path | None:
         _rates(right, mine, limit)
         right.set_title(f"{robot} {arm} arm: success vs distance (95% Wilson)", fontsize=10)
     fig.tight_layout()
-    try:
-        write_through(path, fig.savefig)
+    try:  # the legends sit below the axes
+        write_through(path, lambda tmp: fig.savefig(tmp, bbox_inches="tight"))
     finally:
         plt.close(fig)
     return path
@@ -165,7 +165,9 @@ def _scatter(ax: Axes, frame: pd.DataFrame, limit: float) -> None:
             6, f"IK out of reach ({int(np.sum(reach_counts))} episodes)", marker="x", mec="black"
         ),
     ]
-    ax.legend(handles=handles, fontsize=7, loc="upper left")
+    # Below the axes, never over the placements.
+    ax.legend(handles=handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2),
+              ncols=2, frameon=False)  # fmt: skip
 
 
 def _rates(ax: Axes, frame: pd.DataFrame, limit: float) -> None:
@@ -184,4 +186,4 @@ def _rates(ax: Axes, frame: pd.DataFrame, limit: float) -> None:
     ax.set_ylim(0, 1.05)
     ax.set_xlabel(f"object distance from the arm base (m, {BIN_M * 100:.0f} cm bins)")
     ax.set_ylabel("success rate")
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncols=2, frameon=False)

@@ -96,13 +96,14 @@ def _grid(count: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
 # Success
 
 
-def plot_success(summary: pd.DataFrame, path: Path) -> Path:
+def plot_success(summary: pd.DataFrame, path: Path, objective: str = "reference") -> Path:
     """Per robot, a heatmap with one row per arm and object (and value of a second swept
-    setting) over the first swept setting; arms and objects are never pooled. Without a swept
-    setting: bars per robot, arm and object."""
+    setting) over the first swept setting, coloured by the objective's rate; arms and objects
+    are never pooled. Without a swept setting: bars per robot, arm and object."""
     axes = setting_params(summary) or varying_params(summary)
     if axes:
-        return _success_heatmap(summary, axes[0], axes[1] if len(axes) > 1 else None, path)
+        second = axes[1] if len(axes) > 1 else None
+        return _success_heatmap(summary, axes[0], second, path, objective)
     return _success_per_task(summary, path)
 
 
@@ -111,7 +112,9 @@ def _row_label(row: pd.Series, y_axis: str | None) -> str:
     return label + (f" · {format_value(row[y_axis])}" if y_axis else "")
 
 
-def _success_heatmap(summary: pd.DataFrame, x_axis: str, y_axis: str | None, path: Path) -> Path:
+def _success_heatmap(
+    summary: pd.DataFrame, x_axis: str, y_axis: str | None, path: Path, objective: str
+) -> Path:
     robots = sorted(summary["robot"].unique())
     x_values = _axis_order(summary, x_axis)
     by = ["arm", "object", *([y_axis] if y_axis else []), x_axis]
@@ -128,10 +131,15 @@ def _success_heatmap(summary: pd.DataFrame, x_axis: str, y_axis: str | None, pat
         for values in series_rows(cells):
             i = labels.index(_row_label(values, y_axis))
             j = x_values.index(values[x_axis])
-            rate[i, j] = values["rate"]
-            text = f"{int(values['successes'])}/{int(values['n'])}"
-            if values.get("n_judged", 0):
-                text += f"\nvalid {int(values['valid'])}/{int(values['n_judged'])}"
+            judged = int(values.get("n_judged", 0) or 0)
+            reference = f"{int(values['successes'])}/{int(values['n'])}"
+            valid = f"valid {int(values['valid'])}/{judged}" if judged else ""
+            if objective == "valid":
+                rate[i, j] = values["valid_rate"] if judged else np.nan
+                text = f"{valid}\nref {reference}" if judged else f"ref {reference}"
+            else:
+                rate[i, j] = values["rate"]
+                text = reference + (f"\n{valid}" if valid else "")
             texts[(i, j)] = text + (" *" if values.get("fallback", 0) else "")
         ax.imshow(np.ma.masked_invalid(rate), cmap=RATE_CMAP, vmin=0.0, vmax=1.0, aspect="auto")
         ax.set_facecolor("#eaeef2")
@@ -147,13 +155,14 @@ def _success_heatmap(summary: pd.DataFrame, x_axis: str, y_axis: str | None, pat
         ax.set_xlabel(x_axis.split(".")[-1], fontsize=9)
         ax.set_title(robot, fontsize=11, fontweight="bold")
         plt.setp(ax.get_xticklabels(), rotation=30 if cell_width > 1.0 else 0, ha="right")
+    cells = "valid, reference" if objective == "valid" else "reference, valid"
     fig.suptitle(
-        "Reference success per robot, arm and object (cells: successes/episodes, valid; "
-        "* reference fallback ran)",
+        f"{objective.capitalize()} rate per robot, arm and object (cells: {cells} successes/"
+        "episodes; * reference fallback ran)",
         fontsize=10,
     )
     mappable = ScalarMappable(cmap=RATE_CMAP, norm=Normalize(0, 1))
-    fig.colorbar(mappable, ax=axes, shrink=0.8, label="success rate", format="{x:.0%}")
+    fig.colorbar(mappable, ax=axes, shrink=0.8, label=f"{objective} rate", format="{x:.0%}")
     return _save(fig, path)
 
 
@@ -240,8 +249,13 @@ def _outcome_rows(summary: pd.DataFrame) -> tuple[pd.DataFrame, list[str], str]:
     return table.reset_index(drop=True), labels, note_text
 
 
-def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
-    """Horizontal stacked bars: successes and each failure reason, per point."""
+INVALID_COLOUR = "#e3a21a"  # a reference success that is not valid (the report's orange)
+
+
+def plot_failures(summary: pd.DataFrame, path: Path, objective: str = "reference") -> Path:
+    """Horizontal stacked bars: successes and each failure reason, per point. Under the
+    ``valid`` objective the successes split into valid ones and reference successes that are
+    not valid, so the green bar is the objective's count."""
     table, labels, note = _outcome_rows(summary)
     reasons = [
         c.removeprefix(FAIL_PREFIX)
@@ -253,7 +267,14 @@ def plot_failures(summary: pd.DataFrame, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(6.5 + 0.055 * longest, height))
     y = np.arange(len(table))[::-1]
     left = np.zeros(len(table))
-    segments = [("success", table["successes"].to_numpy(dtype=float), SUCCESS_COLOUR)]
+    successes = table["successes"].to_numpy(dtype=float)
+    segments = [("success", successes, SUCCESS_COLOUR)]
+    if objective == "valid" and "valid" in table and column(table, "n_judged").sum() > 0:
+        valid = table["valid"].to_numpy(dtype=float)
+        segments = [
+            ("valid", valid, SUCCESS_COLOUR),
+            ("reference success, not valid", np.clip(successes - valid, 0, None), INVALID_COLOUR),
+        ]
     segments += [
         (reason, table[FAIL_PREFIX + reason].to_numpy(dtype=float), REASON_COLOURS.get(reason))
         for reason in reasons

@@ -11,6 +11,8 @@ from pathlib import Path
 import pandas as pd
 
 from harness.markdown import markdown_table, markdown_text
+from harness.report.answer import FirstScreen
+from harness.report.findings import Finding
 from harness.report.sections import Table, overview
 from harness.report.videos import Clip
 
@@ -30,14 +32,50 @@ def _markdown_rows(table: Table) -> list[list[str]]:
     return rows
 
 
+def _first_screen(screen: FirstScreen | None, findings: Sequence[Finding]) -> list[str]:
+    lines: list[str] = []
+    if screen is not None:
+        lines += [f"Objective: **{screen.objective} rate** (--objective)."]
+        if screen.note:
+            lines[-1] += f" {markdown_text(screen.note)}."
+        if screen.tune_path is not None:
+            lines[-1] += f" Part of the tune `{markdown_text(screen.tune_path)}`."
+        for text, href in screen.tune_links:
+            lines[-1] += f" Tune results: [{markdown_text(text)}]({href})."
+        lines.append("")
+        for table in screen.tables:
+            lines += [f"## {markdown_text(table.title)}", ""]
+            lines += markdown_table(table.header, table.rows)
+            lines.append("")
+            if table.note:
+                lines += [markdown_text(table.note), ""]
+    lines += ["## Summary: what to change", ""]
+    if findings:
+        lines += [
+            f"- **{markdown_text(f.subject)}**: {markdown_text(f.change)}. "
+            f"Evidence: {markdown_text(f.evidence)}."
+            for f in findings
+        ]
+    else:
+        lines.append("Nothing stands out.")
+    lines.append("")
+    return lines
+
+
 def render_markdown(
     run_dir: Path,
     frame: pd.DataFrame,
     tables: list[Table],
     plots: dict[str, Path],
     clips: Sequence[Clip] = (),
+    screen: FirstScreen | None = None,
+    findings: Sequence[Finding] = (),
 ) -> str:
+    """report.md: the first screen's answers and the summary first, then the run's details,
+    the tables, videos and plots."""
     lines = [f"# pick-harness report: {markdown_text(run_dir.name)}", ""]
+    lines += _first_screen(screen, findings)
+    lines += ["## Run details", ""]
     lines += [f"- **{key}**: {markdown_text(value)}" for key, value in overview(run_dir, frame)]
     lines.append("")
     for table in tables:

@@ -61,20 +61,32 @@ def fallback_cell(row: Any) -> str:
     return f"{FALLBACK_MARK} {count}/{int(row['n'])}" if count else ""
 
 
-RATE_HEADER = ["reference", "rate", "95% CI", "valid", "valid rate", "95% CI"]
+REFERENCE_HEADER, VALID_HEADER = ["reference", "rate", "95% CI"], ["valid", "valid rate", "95% CI"]
+RATE_HEADER = [*REFERENCE_HEADER, *VALID_HEADER]
 
 
-def rate_cells(row: Any) -> list[str]:
-    """Reference and valid rate side by side: ``k/n``, rate, Wilson interval, for each."""
+def rate_header(objective: str = "reference") -> list[str]:
+    """The rate columns' header, the objective's three first."""
+    if objective == "valid":
+        return [*VALID_HEADER, *REFERENCE_HEADER]
+    return list(RATE_HEADER)
+
+
+def rate_cells(row: Any, objective: str = "reference") -> list[str]:
+    """Reference and valid rate side by side: ``k/n``, rate, Wilson interval, for each; the
+    objective's first."""
     judged = int(row.get("n_judged", 0) or 0)
-    return [
+    reference = [
         f"{int(row['successes'])}/{int(row['n'])}",
         _percent(row["rate"]) if row["n"] else "",
         _ci(row["wilson_lo"], row["wilson_hi"]) if row["n"] else "",
+    ]
+    valid = [
         f"{int(row['valid'])}/{judged}" if judged else "",
         _percent(row["valid_rate"]) if judged else "",
         _ci(row["valid_ci_low"], row["valid_ci_high"]) if judged else "",
     ]
+    return [*valid, *reference] if objective == "valid" else [*reference, *valid]
 
 
 @dataclass(frozen=True)
@@ -107,14 +119,16 @@ RATES_NOTE = (
 
 def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame) -> list[Table]:
     """The rate tables: per robot, arm and object; best settings; per point; validity gap;
-    failure reasons (the candidate funnel is ``funnel_table``)."""
+    failure reasons (the candidate funnel is ``funnel_table``). Rate columns put the best
+    table's objective (``best.attrs["objective"]``) first."""
     params = setting_params(summary) or varying_params(summary)
+    objective = str(best.attrs.get("objective", "reference"))
     tables: list[Table] = [
-        _overall_table(summary),
+        _overall_table(summary, objective),
         # best carries the swept settings only; an axis that only picks the object
         # (object.mesh) is in params (it varies) but is no setting, so it is not in best
         _best_table(best, [name for name in params if name in best.columns]),
-        _points_table(summary, params),
+        _points_table(summary, params, objective),
     ]
     if "n_judged" in summary and column(summary, "n_judged").to_numpy().sum() > 0:
         tables += [_gap_table(summary, params), _robustness_table(summary)]
@@ -124,17 +138,17 @@ def report_tables(frame: pd.DataFrame, summary: pd.DataFrame, best: pd.DataFrame
     return tables
 
 
-def _overall_table(summary: pd.DataFrame) -> Table:
+def _overall_table(summary: pd.DataFrame, objective: str) -> Table:
     overall = pooled(summary, ["robot", "arm", "object"]).sort_values(["robot", "arm", "object"])
     return Table(
         "Success per robot, arm and object (all points pooled)",
-        ["robot", "arm", "object", *RATE_HEADER, "fallback", "errors"],
+        ["robot", "arm", "object", *rate_header(objective), "fallback", "errors"],
         [
             [
                 str(r["robot"]),
                 str(r["arm"]),
                 str(r["object"]),
-                *rate_cells(r),
+                *rate_cells(r, objective),
                 fallback_cell(r),
                 str(int(r.get("errors", 0))),
             ]
@@ -149,14 +163,17 @@ def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
     objective = best.attrs.get("objective", "reference")
     return Table(
         "Best settings per robot, arm and object",
-        ["robot", "arm", "object", "setting", *RATE_HEADER, "fallback", "points compared"],
+        [
+            *["robot", "arm", "object", "setting", *rate_header(objective)],
+            *["fallback", "points compared"],
+        ],
         [
             [
                 str(r["robot"]),
                 str(r["arm"]),
                 str(r["object"]),
                 point_label(r, params),
-                *rate_cells(r),
+                *rate_cells(r, objective),
                 fallback_cell(r),
                 str(int(r["points_compared"])),
             ]
@@ -168,17 +185,20 @@ def _best_table(best: pd.DataFrame, params: list[str]) -> Table:
     )
 
 
-def _points_table(summary: pd.DataFrame, params: list[str]) -> Table:
+def _points_table(summary: pd.DataFrame, params: list[str], objective: str) -> Table:
     return Table(
         "Success per point: reference rate and valid rate",
-        ["robot", "arm", "object", "setting", *RATE_HEADER, "fallback", "errors", "top failures"],
+        [
+            *["robot", "arm", "object", "setting", *rate_header(objective)],
+            *["fallback", "errors", "top failures"],
+        ],
         [
             [
                 str(r["robot"]),
                 str(r["arm"]),
                 str(r["object"]),
                 point_label(r, params),
-                *rate_cells(r),
+                *rate_cells(r, objective),
                 fallback_cell(r),
                 str(int(r.get("errors", 0))),
                 _top_failures(r),

@@ -19,6 +19,7 @@ import pandas as pd
 from harness.errors import HarnessError
 from harness.failures import FAILURE_REASONS, UNRATED_REASONS
 from harness.report.frames import column, frame_of, series_of
+from harness.report.objective import OBJECTIVES, effective_objective
 from harness.report.stats import wilson_interval
 from harness.row import KEY_COLUMNS, ROBUSTNESS_LEVELS_G, VALIDITY_REASONS, param_columns
 from harness.runs.store import JSONL_NAME, ResultStore
@@ -29,7 +30,6 @@ POINT_KEY: tuple[str, ...] = (*KEY_COLUMNS, "point")
 FAIL_PREFIX = "fail."
 GAP_PREFIX = "gap."  # reference successes that are not valid, per invalid_reason
 ROBUSTNESS_PREFIX = "robustness."  # episodes per robustness_g level (judged episodes)
-OBJECTIVES: tuple[str, ...] = ("reference", "valid")
 
 
 MAX_MESSAGES = 10
@@ -299,13 +299,10 @@ def setting_params(summary: pd.DataFrame) -> list[str]:
     return [name for name in params if bool((varying[name] > 1).any())]
 
 
-def best_settings(summary: pd.DataFrame, objective: str = "reference") -> pd.DataFrame:
-    """Per robot, arm and object, the point with the highest Wilson lower bound of the
-    reference success rate (``objective="reference"``) or of the valid rate (``"valid"``),
-    ranked over the swept settings only (arms and objects are never pooled, never a setting).
-
-    Ties go to the higher rate, then the larger sample, then the earlier point.
-    """
+def ranked_points(summary: pd.DataFrame, objective: str = "valid") -> pd.DataFrame:
+    """Every point pooled per robot, arm and object, each group's points best first: by the
+    Wilson lower bound of the objective's rate (``harness.report.objective``), then the rate,
+    the larger sample, the earlier point. ``points_compared`` counts each group's points."""
     if objective not in OBJECTIVES:
         raise HarnessError(f"objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
     per_point = pooled(summary, [*GROUP_KEY, "point"])
@@ -318,12 +315,24 @@ def best_settings(summary: pd.DataFrame, objective: str = "reference") -> pd.Dat
         if name not in per_point:
             per_point[name] = 0
     lo, rate = ("valid_ci_low", "valid_rate") if objective == "valid" else ("wilson_lo", "rate")
-    ranked = per_point.sort_values(
+    return per_point.sort_values(
         [*GROUP_KEY, lo, rate, "n", "point_id"],
         ascending=[True, True, True, False, False, False, True],
         kind="stable",
         na_position="last",
     )
+
+
+def best_settings(summary: pd.DataFrame, objective: str = "valid") -> pd.DataFrame:
+    """Per robot, arm and object, the point with the highest Wilson lower bound of the
+    valid rate (``objective="valid"``) or of the reference success rate (``"reference"``),
+    ranked over the swept settings only (arms and objects are never pooled, never a setting).
+
+    Ties go to the higher rate, then the larger sample, then the earlier point. ``valid``
+    without any judged episode ranks by the reference rate (``attrs["objective"]`` says which).
+    """
+    objective = effective_objective(summary, objective)
+    ranked = ranked_points(summary, objective)
     best = ranked.groupby(GROUP_KEY, sort=True).head(1)
     settings = setting_params(summary)
     columns = [

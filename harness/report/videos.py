@@ -31,8 +31,10 @@ from harness.writes import output_dir
 
 VIDEOS_DIR = "videos"
 SWEEP_YAML = "sweep.yaml"  # harness.runs.rundir.SWEEP_YAML (rundir imports the report)
-FPS = 10
-WIDTH, HEIGHT = 320, 240
+# Readable captions at a bounded cost: 640x480 (the caption band's text is 16 px) at 20 fps,
+# which halves the frames of harness replay --video's 30 fps; chosen, no public source.
+FPS = 20
+WIDTH, HEIGHT = 640, 480
 MAX_CLIPS = 24
 MANIFEST = "clips.json"
 CHECKED = ("success", "failure_reason", "chosen_index")  # what a caption must be true about

@@ -1,14 +1,16 @@
 """Tune heatmaps: the success map of one robot, arm and object over approach x facing cones.
 
-Rows are approach settings, columns facing settings, each sorted (single angles ascending, then
-bands, then no filter); the colour is the objective's screening rate, each
-cell says k/n when the grid is small enough to read. The chosen setting is outlined in black, the
-current one in white dashes.
+Oriented as the screening's report.html heatmap: columns are approach settings (x), rows facing
+settings (y, the first at the bottom), each sorted (single angles ascending, then bands, then no
+filter); the colour is the objective's screening rate, each cell says k/n when the grid is small
+enough to read. The chosen setting is outlined in black, the current one in white dashes. The
+title is wrapped to the figure's width, never clipped.
 """
 
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -40,6 +42,21 @@ def _order(table: pd.DataFrame, key: str) -> list[str]:
     return sorted({str(v) for v in table[key]}, key=rank)
 
 
+def grid(
+    table: pd.DataFrame,
+) -> tuple[list[str], list[str], np.ndarray, dict[tuple[int, int], str]]:
+    """(approach values: the columns, x; facing values: the rows, y from the bottom; rates
+    [row, column]; ``k/n`` per cell), as the page's heatmap lays them out."""
+    cols, rows = _order(table, "approach"), _order(table, "facing")
+    rates = np.full((len(rows), len(cols)), np.nan)
+    counts: dict[tuple[int, int], str] = {}
+    for row in series_rows(table):
+        i, j = rows.index(str(row["facing"])), cols.index(str(row["approach"]))
+        rates[i, j] = float(row["rate"])
+        counts[(i, j)] = f"{int(row['successes'])}/{int(row['n'])}"
+    return cols, rows, rates, counts
+
+
 def heatmap(
     table: pd.DataFrame,
     title: str,
@@ -49,37 +66,31 @@ def heatmap(
     objective: str = "valid",
 ) -> Path:
     """Write the heatmap PNG of one success map (``success_map`` rows of one group)."""
-    rows, cols = _order(table, "approach"), _order(table, "facing")
-    rates = np.full((len(rows), len(cols)), np.nan)
-    counts: dict[tuple[int, int], str] = {}
-    for row in series_rows(table):
-        i, j = rows.index(str(row["approach"])), cols.index(str(row["facing"]))
-        rates[i, j] = float(row["rate"])
-        counts[(i, j)] = f"{int(row['successes'])}/{int(row['n'])}"
+    cols, rows, rates, counts = grid(table)
     width = min(22.0, max(7.0, 4.0 + 0.55 * len(cols)))
-    height = min(22.0, max(4.5, 2.5 + 0.32 * len(rows)))
+    height = min(22.0, max(4.5, 3.0 + 0.32 * len(rows)))
     fig, ax = plt.subplots(figsize=(width, height), dpi=100)
-    image = ax.imshow(rates, cmap="viridis", vmin=0.0, vmax=1.0, aspect="auto")
+    image = ax.imshow(rates, cmap="viridis", vmin=0.0, vmax=1.0, aspect="auto", origin="lower")
     fig.colorbar(image, ax=ax, label=f"{objective} rate")
     ax.set_xticks(range(len(cols)), [filter_label(c) for c in cols], rotation=60, ha="right")
     ax.set_yticks(range(len(rows)), [filter_label(r) for r in rows])
-    ax.set_xlabel("facing_filter (facing axis angle from base +X)")
-    ax.set_ylabel("approach_filter (angle from base +Z)")
-    ax.set_title(title)
+    ax.set_xlabel("approach_filter (angle from base +Z)")
+    ax.set_ylabel("facing_filter (facing axis angle from base +X)")
+    ax.set_title("\n".join(textwrap.wrap(title, width=int(width * 11))), fontsize=10)
     if rates.size <= ANNOTATE_MAX_CELLS:
         for (i, j), text in counts.items():
             dark = rates[i, j] < 0.6
             ax.text(j, i, text, ha="center", va="center", fontsize=7,
                     color="white" if dark else "black")  # fmt: skip
     for (approach, facing), style in ((current, "--"), (best, "-")):
-        if approach in rows and facing in cols:
-            i, j = rows.index(approach), cols.index(facing)
+        if approach in cols and facing in rows:
+            i, j = rows.index(facing), cols.index(approach)
             colour = "white" if style == "--" else "black"
             ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, lw=2.2,
                                    ls=style, edgecolor=colour))  # fmt: skip
     fig.tight_layout()
     try:
-        write_through(path, fig.savefig)
+        write_through(path, lambda tmp: fig.savefig(tmp, bbox_inches="tight"))
     finally:
         plt.close(fig)
     return path

@@ -4,7 +4,8 @@
 ``<out>/confirm`` the race's run directory (fresh seeds, ``harness.tuning.race``),
 ``<out>/tune.json`` the tune's options, and ``<out>/tune/``: ``decisions.csv`` (one row per
 robot, arm and object), ``race.csv`` (every racer), ``success_map.csv`` (the screening),
-``heatmaps/``, ``tuned.yaml`` (the keys to merge per task file) and ``tuned.md``. A tune run
+``heatmaps/``, ``tuned.yaml`` (the keys to merge per task file) and ``tuned.md``; the report of
+``<out>/screen`` (``report.html``) is the tune's page, its decisions first. A tune run
 again with the same ``--out`` reuses every stored episode; ``--analyse`` only reads them.
 """
 
@@ -20,6 +21,7 @@ import yaml
 
 from harness.config import TaskConfig
 from harness.errors import HarnessError
+from harness.report.build import build_report
 from harness.report.finish import finish_run
 from harness.report.frames import frame_of
 from harness.report.tables import load_episodes
@@ -135,7 +137,7 @@ def tune(
             )
         finally:
             path.unlink(missing_ok=True)
-    finish_run(outcome.run_dir)
+    finish_run(outcome.run_dir, options.objective)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
     options = TuneOptions(**{**asdict(options), "sources": sources})
     write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
@@ -230,7 +232,7 @@ def decide(
     )
     log = run_race(units, runner, options.block, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
-        finish_run(out / CONFIRM_DIR)
+        finish_run(out / CONFIRM_DIR, options.objective)
     why = "budget spent" if log.budget_spent else ("interrupted" if log.interrupted else "")
     decisions = pd.DataFrame(
         [unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why) for u in units]
@@ -246,8 +248,13 @@ def decide(
     header = _header(out, sweep.seed, options, log)
     text = tuned_yaml(decisions, tasks, header, options.sources)
     write_file(folder / "tuned.yaml", text, root=out)
-    write_file(folder / "tuned.md", tuned_markdown(decisions, text, header, images), root=out)
+    link = f"../{SCREEN_DIR}/report.html"
+    page = f"\nPage (decisions first, then the screening): [{link}]({link})\n"
+    markdown = tuned_markdown(decisions, text, header, images) + page
+    write_file(folder / "tuned.md", markdown, root=out)
     written = _write(decisions, tasks, options, write) if write else []
+    if (screen.path / "report.html").is_file():  # the tune's page: its decisions first
+        build_report(screen.path, objective=options.objective)
     return TuneResult(
         out,
         log.interrupted,

@@ -16,6 +16,7 @@ import numpy as np
 
 from harness.pick.terms import term_columns
 from harness.viz.headline import caption, headline
+from harness.viz.label_layout import LabelLayout, log_labels
 from harness.viz.scene_geometry import rerun_sdk
 
 # Candidate verdict -> RGB. Chosen is drawn on top, thicker; ``fallback`` is the infeasible
@@ -65,7 +66,9 @@ def _label_rows(trace: Any, status: str, rows: np.ndarray) -> set[int]:
     return set(ranked[:MAX_LABELS])
 
 
-def log_candidates(rec: Any, trace: Any, approach_index: int, tcp_offset: float) -> None:
+def log_candidates(
+    rec: Any, trace: Any, approach_index: int, tcp_offset: float, layout: LabelLayout | None = None
+) -> None:
     """The tested candidates as arrows from their EE origin to their TCP (the chosen or
     fallback one and the first few of each verdict labelled with pose index and failing
     stage, the others labelled on hover only), the untested ones as points at their TCP; one
@@ -106,26 +109,22 @@ def log_candidates(rec: Any, trace: Any, approach_index: int, tcp_offset: float)
         )
         # Hover shows every arrow's instance; the readable few carry their label in the scene.
         picked = [k for k, r in enumerate(rows.tolist()) if r in shown]
-        if picked:
-            rec.log(
-                f"{entity}/labels",
-                rr.Points3D(
-                    (origins + vectors)[picked],
-                    colors=[color],
-                    radii=[0.001],
-                    labels=[labels[k] for k in picked],
-                    show_labels=True,
-                ),
-                static=True,
-            )
+        if picked:  # anchors placed apart (``layout``) so the labels do not print over each other
+            tips = (origins + vectors)[picked]
+            log_labels(rec, f"{entity}/labels", tips, [labels[k] for k in picked], color, layout)
 
 
-def log_cause(rec: Any, cause: Any, time_s: float | None) -> None:
+def log_cause(
+    rec: Any, cause: Any, time_s: float | None, layout: LabelLayout | None = None
+) -> None:
     """The cause's mark (``harness.viz.cause``): a red sphere at its point, labelled, static so
-    it shows at any time (its label says when, for an executed moment)."""
+    it shows at any time (its label says when, for an executed moment). Placed first in the
+    scene's ``layout``: other labels make way for it."""
     rr = rerun_sdk()
     if cause.point is None:
         return
+    if layout is not None:
+        layout.place(np.asarray(cause.point, dtype=float))
     rec.log(
         "/world/cause",
         rr.Points3D(
@@ -139,9 +138,12 @@ def log_cause(rec: Any, cause: Any, time_s: float | None) -> None:
     )
 
 
-def log_targets(rec: Any, trace: Any, approach_index: int, tcp_offset: float) -> None:
+def log_targets(
+    rec: Any, trace: Any, approach_index: int, tcp_offset: float, layout: LabelLayout | None = None
+) -> None:
     """The tested candidates' approach (pre-grasp TCP -> grasp TCP, coloured by verdict), and
-    the chosen candidate's pre-grasp, grasp and lift as small frames."""
+    the chosen candidate's pre-grasp, grasp and lift as small frames, each named by a label
+    placed apart from the others (``<frame>/label``, ``layout``)."""
     rr = rerun_sdk()
     tested = trace.tested_index if trace.tested_index is not None else np.zeros(0)
     statuses = np.asarray(trace.tested_status if len(tested) else [], dtype=str)
@@ -173,10 +175,12 @@ def log_targets(rec: Any, trace: Any, approach_index: int, tcp_offset: float) ->
                 colors=list(AXIS_COLORS),
                 radii=[0.002] * 3,
                 labels=[name, "", ""],
-                show_labels=True,
+                show_labels=False,
             ),
             static=True,
         )
+        label_colour = (230, 230, 230)
+        log_labels(rec, f"/world/targets/chosen/{name}/label", origin, [name], label_colour, layout)
 
 
 def _chosen_targets(trace: Any, tested_status: np.ndarray) -> dict[str, np.ndarray]:

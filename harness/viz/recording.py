@@ -33,6 +33,7 @@ from harness.viz.episode_layers import (
     log_targets,
     log_verdict,
 )
+from harness.viz.label_layout import LabelLayout
 from harness.viz.scene_geometry import body_entity, log_model_geometry
 from harness.viz.scene_geometry import rerun_sdk as _rr
 
@@ -149,11 +150,15 @@ def record_episode(result: Any, path: Path, task: Any) -> Path:
     frames = _frame_indices(times)
     _log_scene(rec, model, trace, frames)
     cause = find_cause(row, trace, model, getattr(result, "scene", None))
-    log_cause(rec, cause, float(times[cause.row]) if cause.row is not None and len(times) else None)
+    layout = LabelLayout()  # the cause's label first, then the chosen targets', then candidates'
+    log_cause(
+        rec, cause, float(times[cause.row]) if cause.row is not None and len(times) else None,
+        layout,
+    )  # fmt: skip
     convention = RobotModel.load(task.robot).convention
     tcp_offset = task.pick.tcp_offset or convention.tcp_offset
-    log_candidates(rec, trace, convention.approach_index, tcp_offset)
-    log_targets(rec, trace, convention.approach_index, tcp_offset)
+    log_targets(rec, trace, convention.approach_index, tcp_offset, layout)
+    log_candidates(rec, trace, convention.approach_index, tcp_offset, layout)
     _log_tcp_paths(rec, trace, frames)
     log_contacts(rec, trace)
     _log_plots(rec, trace, times)

@@ -233,7 +233,7 @@ class Overlay:
         self.headline = headline(row)
         self.cause = cause_label
         self.color = KIND_COLORS[outcome_kind(row)]
-        size = max(9, round(width / 48))
+        size = max(9, round(width / 40))  # 16 px at 640 wide
         self.font = ImageFont.load_default(size=size)
         self.size = size
 
