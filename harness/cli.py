@@ -121,7 +121,7 @@ def _add_run(sub: Subparsers) -> None:
 
 def _add_sweep(sub: Subparsers) -> None:
     """``harness sweep [SWEEP.yaml] [--resume RUN_DIR] ...``"""
-    from harness.runs.limits import MAX_EPISODES  # the help says the number
+    from harness.runs.limits import MAX_EPISODES, MAX_POINTS  # the help says the numbers
 
     p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
     p.add_argument(
@@ -164,7 +164,8 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument(
         "--max-points",
         type=_bounded_int(1, 10**7),
-        help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
+        metavar="N",
+        help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
     _add_engine(p)

@@ -140,6 +140,13 @@ def test_format_table_rows_spreads_and_verdicts() -> None:
     assert "| nan s |" in nan_row and "| 0 |" in nan_row
 
 
+def test_format_table_for_a_terminal_keeps_comparison_signs() -> None:
+    fig = figure("engines", "batches of <= 8 worlds", [1.0], "s", notes="x")
+    terminal = format_table([fig])
+    assert "batches of <= 8 worlds" in terminal and "&lt;" not in terminal  # printed as typed
+    assert "batches of &lt;= 8 worlds" in format_table([fig], escape_html=True)  # for a page
+
+
 def test_target_notes_list_missed_targets_first() -> None:
     notes = format_target_notes(_figures()).splitlines()
     assert notes == ["- sweeps / scaling: no (17% short); busy"]

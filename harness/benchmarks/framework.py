@@ -300,8 +300,9 @@ def _number(value: float) -> str:
     return "nan" if not math.isfinite(value) else f"{value:.4g}"
 
 
-def format_table(figures: list[Figure]) -> str:
-    """A plain-text table (also valid Markdown) of the figures.
+def format_table(figures: list[Figure], escape_html: bool = False) -> str:
+    """A plain-text table (also valid Markdown) of the figures; ``escape_html`` for a page
+    that renders raw HTML (the terminal gets ``<=`` as typed, not ``&lt;=``).
 
     The spread column is the 10th - 90th percentile of the repetitions, or the 95% Wilson
     interval for success rates (marked "CI"); one repetition has no spread ("-")."""
@@ -322,7 +323,7 @@ def format_table(figures: list[Figure]) -> str:
             verdict = f"**{verdict}**"
         median = f"{_number(fig.median)} {fig.unit}"
         rows.append([fig.section, fig.name, median, spread, fig.repetitions, target, verdict])
-    return "\n".join(markdown_table(header, rows))
+    return "\n".join(markdown_table(header, rows, escape_html))
 
 
 def format_target_notes(figures: list[Figure]) -> str:
