@@ -168,7 +168,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
-    _add_engine(p)
+    _add_engine(p, resumable=True)
     _add_objective(p)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -193,13 +193,14 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
     )
 
 
-def _add_engine(p: argparse.ArgumentParser) -> None:
+def _add_engine(p: argparse.ArgumentParser, resumable: bool = False) -> None:
     p.add_argument(
         "--engine",
         choices=["mujoco", "mjwarp"],
-        default="mujoco",
-        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
-        "worlds on a GPU, Warp's CPU device without one)",
+        default=None if resumable else "mujoco",
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra and a "
+        "CUDA device, or HARNESS_WARP_DEVICE=cpu; batched worlds)"
+        + ("; --resume keeps the run's engine" if resumable else ""),
     )
 
 

@@ -120,12 +120,14 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from harness.runs.engine_check import check_engine, write_engine
     from harness.runs.expansion import absolute_paths, expand
     from harness.runs.rundir import RunDir
     from harness.runs.worker import execute
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
+    check_engine(args.engine)  # one line before anything is written, not an error row each
     console = make_console()
     picks = load_interndata_picks(args) if args.interndata else []
     tasks = [absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
@@ -148,6 +150,7 @@ def main(args: argparse.Namespace) -> int:
     check_tasks([episode.task for episode in episodes[:: sweep.episodes_per_point]])
     run = RunDir(Path(args.out) if args.out else RunDir.default_path(sweep.name))
     run.create(sweep, tasks, taken="run directory already holds a run; choose another --out")
+    write_engine(run.path, args.engine)
     if picks:
         from harness.interndata import note_lines, summary_lines
 

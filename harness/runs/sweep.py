@@ -17,6 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from harness.config import ConfigError, SweepConfig, load_sweep
+from harness.runs.engine_check import (
+    DEFAULT_ENGINE,
+    check_engine,
+    recorded_engine,
+    resume_engine,
+    write_engine,
+)
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
@@ -68,7 +75,7 @@ def run_sweep(
     max_episodes: int = MAX_EPISODES,
     retry_errors: bool = False,
     share: bool | None = None,
-    engine: str = "mujoco",
+    engine: str | None = None,
     max_points: int | None = MAX_POINTS,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
@@ -80,10 +87,17 @@ def run_sweep(
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
     differ only in selection keys; the rows are the same either way); ``engine`` executes the
-    chosen plans (``harness.engines``: the row's ``engine`` column).
+    chosen plans (``harness.engines``: the row's ``engine`` column; default ``mujoco``, and on
+    resume the run's own engine: another is refused). An engine that cannot run here (the
+    ``gpu`` extra or a device missing) is refused before the run directory is written.
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
+        if resume_dir is not None:
+            rows = (row.get("engine") for row in run.store.rows())
+            engine = resume_engine(run.path, recorded_engine(run.path, rows), engine)
+        engine = engine or DEFAULT_ENGINE
+        check_engine(engine)
         updates: dict[str, Any] = {}
         if record is not None:
             updates["record"] = record
@@ -104,6 +118,7 @@ def run_sweep(
             )
             if notes:
                 run.write_notes(notes)
+        write_engine(run.path, engine)
         done_ids = run.completed_ids(retry_errors=retry_errors)
         todo = [
             dataclasses.replace(e, engine=engine) for e in episodes if e.resolved_id not in done_ids
