@@ -122,6 +122,7 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 def main(args: argparse.Namespace) -> int:
     from harness.runs.engine_check import check_engine, write_engine
     from harness.runs.expansion import absolute_paths, expand
+    from harness.runs.progress import ProgressLines
     from harness.runs.rundir import RunDir
     from harness.runs.worker import execute
 
@@ -165,6 +166,8 @@ def main(args: argparse.Namespace) -> int:
         )
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
+    # Without a terminal the live table shows only at the end: plain lines meanwhile.
+    lines = None if console.is_terminal else ProgressLines("run", len(episodes)).start()
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
             for episode in episodes:
@@ -172,8 +175,14 @@ def main(args: argparse.Namespace) -> int:
                 run.append(row)
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
+                if lines is not None:
+                    successes = sum(bool(r.get("success")) for r in rows)
+                    lines.advance(note=f"success {successes}/{len(rows)}")
     except KeyboardInterrupt:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
+    finally:
+        if lines is not None:
+            lines.stop()
     console.print()
     run.finalize()
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run

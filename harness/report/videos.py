@@ -150,10 +150,13 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
     (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
     scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
-    clips = [
-        _film(run_dir, row, specs.get(str(row["episode_id"])), scenes)
-        for _, row in chosen.iterrows()
-    ]
+    clips = []
+    from harness.runs.progress import ProgressLines  # a line every 30 s while filming is long
+
+    with ProgressLines("report videos", len(chosen), unit="clips") as lines:
+        for _, row in chosen.iterrows():
+            clips.append(_film(run_dir, row, specs.get(str(row["episode_id"])), scenes))
+            lines.advance()
     save_manifest(run_dir, clips)
     return clips
 

@@ -131,7 +131,15 @@ def tune(
     (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
     if outcome.stats.interrupted:
         return TuneResult(out, True, pd.DataFrame())
-    return decide(out, options, backend=backend, workers=workers, may_run=True, write=write)
+    return decide(
+        out,
+        options,
+        backend=backend,
+        workers=workers,
+        may_run=True,
+        write=write,
+        progress=progress,
+    )
 
 
 def analyse(out: Path, objective: str | None = None, write: Path | None = None) -> TuneResult:
@@ -188,8 +196,10 @@ def decide(
     workers: int | None,
     may_run: bool,
     write: Path | None,
+    progress: bool = False,
 ) -> TuneResult:
-    """Race the screening's best against the current setting per unit and write the outputs."""
+    """Race the screening's best against the current setting per unit and write the outputs;
+    ``progress`` shows each race round's episodes."""
     screen = RunDir(out / SCREEN_DIR)
     sweep = screen.load_sweep()
     tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
@@ -206,6 +216,7 @@ def decide(
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
+        progress=progress,
     )
     log = run_race(units, runner, options.block, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
