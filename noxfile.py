@@ -1,16 +1,26 @@
 """Sessions: ``tests`` (the CI command), ``demo`` (the main job), ``benchmark``, ``lint``.
 
-Each session installs the project from its own files. uv is used when present (fast, cached);
-otherwise nox falls back to virtualenv + pip.
+Each session installs the project from its own files. uv is used when present (fast, cached:
+the sessions' environments share its files); otherwise virtualenv + pip, chosen here so that nox
+prints no "uv binary not found" warning.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import shutil
 
 import nox
 
-nox.options.default_venv_backend = "uv|virtualenv"
+
+def venv_backend() -> str:
+    """``uv`` when a uv binary is on PATH or the uv package is beside nox, else ``virtualenv``."""
+    has_uv = shutil.which("uv") is not None or importlib.util.find_spec("uv") is not None
+    return "uv" if has_uv else "virtualenv"
+
+
+nox.options.default_venv_backend = venv_backend()
 nox.options.reuse_venv = "yes"
 nox.options.sessions = ["lint", "tests"]
 

@@ -180,10 +180,9 @@ def main(args: argparse.Namespace) -> int:
                     lines.advance(note=f"success {successes}/{len(rows)}")
     except KeyboardInterrupt:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
-    finally:
-        if lines is not None:
-            lines.stop()
-    console.print()
+    console.print()  # ends the live table's last line
+    if lines is not None:
+        lines.stop()  # its last line: how long the run took
     run.finalize()
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
