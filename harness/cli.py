@@ -397,7 +397,12 @@ def _add_bench(sub: Subparsers) -> None:
     from harness.benchmarks.framework import SECTIONS
 
     p = sub.add_parser("bench", help="measure speed on this machine")
-    p.add_argument("--quick", action="store_true", help="fewer repetitions (~25 s)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="fewer repetitions (minutes on 2 cores; the run prints its expected time first, "
+        "from a measured run scaled by a probe of this machine)",
+    )
     p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
     p.add_argument(
         "--only",
