@@ -164,7 +164,6 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument(
         "--max-points",
         type=_bounded_int(1, 10**7),
-        metavar="N",
         help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
@@ -198,9 +197,8 @@ def _add_engine(p: argparse.ArgumentParser, resumable: bool = False) -> None:
         "--engine",
         choices=["mujoco", "mjwarp"],
         default=None if resumable else "mujoco",
-        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra and a "
-        "CUDA device, or HARNESS_WARP_DEVICE=cpu; batched worlds)"
-        + ("; --resume keeps the run's engine" if resumable else ""),
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra and a CUDA "
+        f"device, or HARNESS_WARP_DEVICE=cpu){'; --resume keeps it' if resumable else ''}",
     )
 
 
@@ -397,12 +395,7 @@ def _add_bench(sub: Subparsers) -> None:
     from harness.benchmarks.framework import SECTIONS
 
     p = sub.add_parser("bench", help="measure speed on this machine")
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="fewer repetitions (minutes on 2 cores; the run prints its expected time first, "
-        "from a measured run scaled by a probe of this machine)",
-    )
+    p.add_argument("--quick", action="store_true", help="fewer repetitions (prints an estimate)")
     p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
     p.add_argument(
         "--only",

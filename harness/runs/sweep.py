@@ -59,6 +59,32 @@ def prepare_run(
     return sweep, sweep_path, RunDir(out or RunDir.default_path(sweep.name))
 
 
+def run_engine(run: RunDir, resumed: bool, engine: str | None) -> str:
+    """The engine of this run: ``engine`` (default ``mujoco``); on resume the run's own, another
+    refused (``harness.runs.engine_check``). One that cannot run here (the ``gpu`` extra or a
+    device missing) is refused before the run directory is written."""
+    if resumed:
+        rows = (row.get("engine") for row in run.store.rows())
+        engine = resume_engine(run.path, recorded_engine(run.path, rows), engine)
+    engine = engine or DEFAULT_ENGINE
+    check_engine(engine)
+    return engine
+
+
+def with_overrides(
+    sweep: SweepConfig, record: str | None, episodes_per_point: int | None
+) -> SweepConfig:
+    """The sweep with the command line's ``--record`` / ``--episodes-per-point``."""
+    updates: dict[str, Any] = {}
+    if record is not None:
+        updates["record"] = record
+    if episodes_per_point is not None:
+        updates["episodes_per_point"] = episodes_per_point
+    if not updates:
+        return sweep
+    return SweepConfig.model_validate({**sweep.model_dump(), **updates})
+
+
 def run_sweep(
     sweep_path: Path | None = None,
     *,
@@ -87,24 +113,12 @@ def run_sweep(
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
     differ only in selection keys; the rows are the same either way); ``engine`` executes the
-    chosen plans (``harness.engines``: the row's ``engine`` column; default ``mujoco``, and on
-    resume the run's own engine: another is refused). An engine that cannot run here (the
-    ``gpu`` extra or a device missing) is refused before the run directory is written.
+    chosen plans (the row's ``engine`` column; ``run_engine``).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
-        if resume_dir is not None:
-            rows = (row.get("engine") for row in run.store.rows())
-            engine = resume_engine(run.path, recorded_engine(run.path, rows), engine)
-        engine = engine or DEFAULT_ENGINE
-        check_engine(engine)
-        updates: dict[str, Any] = {}
-        if record is not None:
-            updates["record"] = record
-        if episodes_per_point is not None:
-            updates["episodes_per_point"] = episodes_per_point
-        if updates:
-            sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
+        engine = run_engine(run, resume_dir is not None, engine)
+        sweep = with_overrides(sweep, record, episodes_per_point)
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)
