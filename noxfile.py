@@ -15,8 +15,14 @@ import nox
 
 
 def venv_backend() -> str:
-    """``uv`` when a uv binary is on PATH or the uv package is beside nox, else ``virtualenv``."""
-    has_uv = shutil.which("uv") is not None or importlib.util.find_spec("uv") is not None
+    """``uv`` when nox can use one (``$UV``, on PATH, or the uv package beside nox: nox's own
+    ``find_uv``), else ``virtualenv``."""
+    try:
+        from nox.virtualenv import find_uv  # nox >= 2024.4
+
+        has_uv = find_uv()[0]
+    except (ImportError, OSError):
+        has_uv = shutil.which("uv") is not None or importlib.util.find_spec("uv") is not None
     return "uv" if has_uv else "virtualenv"
 
 
