@@ -85,6 +85,23 @@ def test_sweep_progress_without_a_terminal_prints_lines(
     assert out[-1].startswith("race round 2: 3/4 episodes in ")
 
 
+def test_a_sweep_names_its_progress_lines(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``run_sweep(progress="tune screen")``: the tune's screening sweep says what it is."""
+    from harness.runs.sweep import run_sweep
+
+    monkeypatch.setenv(EVERY_ENV, "0.05")
+    sweep = tmp_path / "one.yaml"
+    task = str(ROOT / "tasks" / "pick" / "fr3.yaml")
+    sweep.write_text(yaml.safe_dump({"name": "one", "tasks": [task], "episodes_per_point": 1}))
+    run_sweep(sweep, out=tmp_path / "run", backend="serial", progress="tune screen")
+    out = capsys.readouterr().out.splitlines()
+    ticks = [m for m in map(LINE.match, out) if m]
+    assert ticks and {m["label"] for m in ticks} == {"tune screen"}
+    assert out[-1].startswith("tune screen: 1/1 episodes in ")
+
+
 def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     """The command with stdout on a pipe, as under CI or ``| tee``, and a short interval."""
     return subprocess.run(

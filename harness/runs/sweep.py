@@ -95,7 +95,7 @@ def run_sweep(
     address: str | None = None,
     record: str | None = None,
     episodes_per_point: int | None = None,
-    progress: bool = True,
+    progress: bool | str = True,
     limit: int | None = None,
     force: bool = False,
     max_episodes: int = MAX_EPISODES,
@@ -106,6 +106,7 @@ def run_sweep(
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
+    ``progress``: a bar or progress lines (``harness.runs.progress``), a text names them.
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
     ``max_episodes`` / ``max_points`` refuse larger sweeps before expanding them (``None``
@@ -122,7 +123,7 @@ def run_sweep(
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)
-        episodes = expand(sweep, source, tasks, progress=progress)
+        episodes = expand(sweep, source, tasks, progress=bool(progress))
         check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:
             run.create(
@@ -141,9 +142,9 @@ def run_sweep(
             todo = todo[:limit]
         workers = workers or sweep.workers or default_workers()
         pool = min(workers, len(todo)) if backend != "serial" else None
-        with SweepProgress(
-            len(episodes), len(episodes) - len(todo), enabled=progress, workers=pool
-        ) as on_row:
+        label = progress if isinstance(progress, str) else "sweep"  # e.g. "tune screen"
+        already = len(episodes) - len(todo)
+        with SweepProgress(len(episodes), already, bool(progress), pool, label) as on_row:
 
             def on_result(row: dict[str, Any]) -> None:
                 run.append(row)

@@ -108,7 +108,7 @@ def tune(
             resume_dir=screen,
             workers=workers,
             backend=backend,
-            progress=progress,
+            progress="tune screen" if progress else False,
             engine=options.engine,
             max_points=None,
         )
@@ -121,7 +121,7 @@ def tune(
                 out=screen,
                 workers=workers,
                 backend=backend,
-                progress=progress,
+                progress="tune screen" if progress else False,
                 engine=options.engine,
                 max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
