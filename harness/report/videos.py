@@ -136,6 +136,7 @@ def _differences(stored: Any, replayed: dict[str, Any]) -> str:
 
 def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS) -> list[Clip]:
     """Replay and film the chosen episodes of ``run_dir`` into ``run_dir/videos/``."""
+    from harness.runs.progress import ProgressLines
     from harness.viz.render import use_offscreen_gl
 
     use_offscreen_gl()  # before mujoco is first imported
@@ -150,9 +151,8 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         return [_clip(row, None, note="videos/ is a symlink") for _, row in chosen.iterrows()]
     (run_dir / VIDEOS_DIR).mkdir(exist_ok=True)
     scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
-    clips = []
-    from harness.runs.progress import ProgressLines  # a line every 30 s while filming is long
-
+    clips: list[Clip] = []
+    # A progress line every 30 s while filming takes long (``harness.runs.progress``).
     with ProgressLines("report videos", len(chosen), unit="clips") as lines:
         for _, row in chosen.iterrows():
             clips.append(_film(run_dir, row, specs.get(str(row["episode_id"])), scenes))
