@@ -1,16 +1,32 @@
 """Sessions: ``tests`` (the CI command), ``demo`` (the main job), ``benchmark``, ``lint``.
 
-Each session installs the project from its own files. uv is used when present (fast, cached);
-otherwise nox falls back to virtualenv + pip.
+Each session installs the project from its own files. uv is used when present (fast, cached:
+the sessions' environments share its files); otherwise virtualenv + pip, chosen here so that nox
+prints no "uv binary not found" warning.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import shutil
 
 import nox
 
-nox.options.default_venv_backend = "uv|virtualenv"
+
+def venv_backend() -> str:
+    """``uv`` when nox can use one (``$UV``, on PATH, or the uv package beside nox: nox's own
+    ``find_uv``), else ``virtualenv``."""
+    try:
+        from nox.virtualenv import find_uv  # nox >= 2024.4
+
+        has_uv = find_uv()[0]
+    except (ImportError, OSError):
+        has_uv = shutil.which("uv") is not None or importlib.util.find_spec("uv") is not None
+    return "uv" if has_uv else "virtualenv"
+
+
+nox.options.default_venv_backend = venv_backend()
 nox.options.reuse_venv = "yes"
 nox.options.sessions = ["lint", "tests"]
 

@@ -9,6 +9,7 @@ episode table. Process-pool sweeps are safe to start from a script without an
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -60,28 +61,84 @@ def sweep(
     workers: int | None = None,
     backend: str = "process",
     progress: bool = False,
+    resume: bool = False,
+    overwrite: bool = False,
 ) -> pd.DataFrame:
     """Run a sweep and return its episode table (one row per episode, ``episodes.csv``'s
     columns). ``config``: a sweep YAML path, a ``SweepConfig`` or a dict in the YAML's shape.
-    The run directory (report, recordings) is ``out``, else ``reports/<name>-<time>``."""
+    The run directory (report, recordings) is ``out``, else ``reports/<name>-<time>``.
+
+    When ``out`` already holds a run: ``resume=True`` runs only its missing episodes (the
+    run's own sweep: a ``config`` that differs from it is refused), ``overwrite=True`` deletes
+    that run and starts again; without either, ``HarnessError`` says which to pass. A script
+    that calls ``sweep(..., out=X, resume=True)`` can therefore run again and again."""
     from harness.report.finish import finish_run  # scipy, matplotlib: only when sweeping
 
-    if isinstance(config, (str, Path)):
-        outcome = run_sweep(
-            Path(config), out=_out(out), workers=workers, backend=backend, progress=progress
-        )
-        finish_run(outcome.run_dir)
-        return load_run(outcome.run_dir)
-    data = config.model_dump(mode="json") if isinstance(config, SweepConfig) else dict(config)
-    data["tasks"] = [_absolute_task(entry) for entry in data.get("tasks", [])]
+    target = _out(out)
+    existing = _existing_run(target, resume, overwrite)
     with tempfile.TemporaryDirectory(prefix="harness-sweep-") as folder:
-        path = Path(folder) / "sweep.yaml"
-        path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-        outcome = run_sweep(
-            path, out=_out(out), workers=workers, backend=backend, progress=progress
-        )
+        if isinstance(config, (str, Path)):
+            path = Path(config)
+        else:
+            data = (
+                config.model_dump(mode="json") if isinstance(config, SweepConfig) else dict(config)
+            )
+            data["tasks"] = [_absolute_task(entry) for entry in data.get("tasks", [])]
+            path = Path(folder) / "sweep.yaml"
+            path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+        if existing is not None:
+            _check_same_sweep(path, existing)
+            outcome = run_sweep(
+                resume_dir=existing, workers=workers, backend=backend, progress=progress
+            )
+        else:
+            outcome = run_sweep(
+                path, out=target, workers=workers, backend=backend, progress=progress
+            )
     finish_run(outcome.run_dir)
     return load_run(outcome.run_dir)
+
+
+def _existing_run(out: Path | None, resume: bool, overwrite: bool) -> Path | None:
+    """The run in ``out`` to resume; None to start one there (after deleting the run it held
+    with ``overwrite``)."""
+    from harness.errors import HarnessError
+    from harness.runs.rundir import SWEEP_YAML, RunDir
+
+    if resume and overwrite:
+        raise HarnessError("sweep(): pass resume=True or overwrite=True, not both")
+    if out is None or not (out / SWEEP_YAML).is_file():
+        if resume and out is None:
+            raise HarnessError("sweep(resume=True) needs out= (the run directory to continue)")
+        return None
+    if resume:
+        return out
+    if not overwrite:
+        raise HarnessError(
+            f"{out} already holds a run: pass resume=True to run its missing episodes, or "
+            "overwrite=True to delete it and start again"
+        )
+    run = RunDir.existing(out, force=True)  # refuses a run another process is writing
+    run.lock.release()
+    shutil.rmtree(out)
+    return None
+
+
+def _check_same_sweep(path: Path, run_dir: Path) -> None:
+    """Refuse to resume ``run_dir`` with a sweep other than the one it was created with."""
+    from harness.config import load_sweep
+    from harness.errors import HarnessError
+    from harness.runs.expansion import load_sweep_tasks
+    from harness.runs.rundir import RunDir, resolved_sweep_document
+
+    given = load_sweep(path)
+    document = resolved_sweep_document(given, load_sweep_tasks(given, path))
+    stored = RunDir(run_dir).load_sweep().model_dump(mode="json")
+    if yaml.safe_load(yaml.safe_dump(document)) != yaml.safe_load(yaml.safe_dump(stored)):
+        raise HarnessError(
+            f"{run_dir} holds a run of another sweep (its sweep.yaml differs from this "
+            "config): overwrite=True replaces it, or choose another out="
+        )
 
 
 def load_run(run_dir: PathLike) -> pd.DataFrame:

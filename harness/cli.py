@@ -121,7 +121,7 @@ def _add_run(sub: Subparsers) -> None:
 
 def _add_sweep(sub: Subparsers) -> None:
     """``harness sweep [SWEEP.yaml] [--resume RUN_DIR] ...``"""
-    from harness.runs.limits import MAX_EPISODES  # the help says the number
+    from harness.runs.limits import MAX_EPISODES, MAX_POINTS  # the help says the numbers
 
     p = sub.add_parser("sweep", help="run a sweep YAML: tasks x points x seeds")
     p.add_argument(
@@ -164,10 +164,10 @@ def _add_sweep(sub: Subparsers) -> None:
     p.add_argument(
         "--max-points",
         type=_bounded_int(1, 10**7),
-        help="refuse sweeps with more (task, point) pairs (default: limits.MAX_POINTS)",
+        help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
-    _add_engine(p)
+    _add_engine(p, resumable=True)
     _add_objective(p, recorded=True)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -192,13 +192,13 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
     )
 
 
-def _add_engine(p: argparse.ArgumentParser) -> None:
+def _add_engine(p: argparse.ArgumentParser, resumable: bool = False) -> None:
     p.add_argument(
         "--engine",
         choices=["mujoco", "mjwarp"],
-        default="mujoco",
-        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
-        "worlds on a GPU, Warp's CPU device without one)",
+        default=None if resumable else "mujoco",
+        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra and a CUDA "
+        f"device, or HARNESS_WARP_DEVICE=cpu){'; --resume keeps it' if resumable else ''}",
     )
 
 
@@ -395,7 +395,7 @@ def _add_bench(sub: Subparsers) -> None:
     from harness.benchmarks.framework import SECTIONS
 
     p = sub.add_parser("bench", help="measure speed on this machine")
-    p.add_argument("--quick", action="store_true", help="fewer repetitions (~25 s)")
+    p.add_argument("--quick", action="store_true", help="fewer repetitions (prints an estimate)")
     p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
     p.add_argument(
         "--only",

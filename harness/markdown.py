@@ -20,14 +20,20 @@ def markdown_text(value: Any) -> str:
     )
 
 
-def markdown_cell(value: Any) -> str:
-    """A value as one table cell: HTML escaped (``markdown_text``), ``|`` escaped."""
-    return markdown_text(value).replace("|", "\\|")
+def markdown_cell(value: Any, escape_html: bool = True) -> str:
+    """A value as one table cell: HTML escaped (``markdown_text``) unless ``escape_html`` is
+    off (text for a terminal, where ``&gt;`` would be printed as is), ``|`` escaped."""
+    text = markdown_text(value) if escape_html else str(value).replace("\n", " ")
+    return text.replace("|", "\\|")
 
 
-def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> list[str]:
-    """The lines of a Markdown table: the header, the ``|---|`` rule, one line per row."""
-    lines = ["| " + " | ".join(markdown_cell(h) for h in header) + " |"]
-    lines.append("|" + "---|" * len(header))
-    lines += ["| " + " | ".join(markdown_cell(c) for c in row) + " |" for row in rows]
-    return lines
+def markdown_table(
+    header: Sequence[Any], rows: Iterable[Sequence[Any]], escape_html: bool = True
+) -> list[str]:
+    """The lines of a Markdown table: the header, the ``|---|`` rule, one line per row.
+    ``escape_html=False``: the same table for a terminal (cells keep ``<`` and ``>``)."""
+
+    def line(cells: Sequence[Any]) -> str:
+        return "| " + " | ".join(markdown_cell(c, escape_html) for c in cells) + " |"
+
+    return [line(header), "|" + "---|" * len(header), *(line(row) for row in rows)]

@@ -1,21 +1,22 @@
-"""Shared test fixtures: paths to the project's and the shared example data."""
+"""Shared test fixtures: the InternDataEngine example data (``helpers.INTERNDATA_EXAMPLES``:
+``PICK_HARNESS_EXAMPLES`` or ``../shared/datasets/interndata-examples``), skipping with a reason
+that names the folder and where to get it when it is absent."""
 
 from __future__ import annotations
 
 import os
+from collections import Counter
 from pathlib import Path
+from typing import Any
 
 # Offscreen rendering without a display (must be set before mujoco is first imported).
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import pytest
+from helpers import INTERNDATA_EXAMPLES as EXAMPLES_DIR
+from helpers import NO_INTERNDATA_EXAMPLES as NO_EXAMPLES
 
-PROJECT_ROOT = Path(__file__).resolve().parents[1]
-SHARED_DIR = PROJECT_ROOT.parent / "shared"
-EXAMPLES_DIR = SHARED_DIR / "datasets" / "interndata-examples"
 EXAMPLE_OBJECTS_DIR = EXAMPLES_DIR / "objects"
-
-NO_EXAMPLES = "../shared/datasets/interndata-examples is absent (InternDataEngine example data)"
 
 
 def example_object_dirs() -> list[Path]:
@@ -40,3 +41,17 @@ def example_objects() -> list[Path]:
     if not dirs:
         pytest.skip(NO_EXAMPLES)
     return dirs
+
+
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    """The skipped tests' reasons, one line each with its count (``-rs`` lists every test:
+    81 lines of the same missing folder), so a skip count never comes without its cause."""
+    reasons: Counter[str] = Counter()
+    for report in terminalreporter.stats.get("skipped", []):
+        longrepr = getattr(report, "longrepr", None)
+        if isinstance(longrepr, tuple) and len(longrepr) == 3:
+            reasons[str(longrepr[2]).removeprefix("Skipped: ")] += 1
+    if reasons:
+        terminalreporter.write_sep("-", "skipped, by reason")
+        for reason, count in reasons.most_common():
+            terminalreporter.write_line(f"{count:4d} skipped: {reason}")

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -30,6 +31,20 @@ from harness.robots.facts import interndata_robots, robot_arms
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = PROJECT_ROOT / "tasks" / "examples"
+
+# The InternDataEngine example data (objects, grasp files, task and robot YAMLs of the public
+# reference; CC BY-NC-SA 4.0, so not in this repository): PICK_HARNESS_EXAMPLES, else
+# ../shared/datasets/interndata-examples beside the repository. docs/interndata.md, "Example
+# data", says where it comes from.
+INTERNDATA_EXAMPLES_ENV = "PICK_HARNESS_EXAMPLES"
+INTERNDATA_EXAMPLES = Path(
+    os.environ.get(INTERNDATA_EXAMPLES_ENV)
+    or PROJECT_ROOT.parent / "shared" / "datasets" / "interndata-examples"
+)
+NO_INTERNDATA_EXAMPLES = (
+    f"InternDataEngine example data not found at {INTERNDATA_EXAMPLES}: set "
+    f"{INTERNDATA_EXAMPLES_ENV}=DIR (where to get it: docs/interndata.md#example-data)"
+)
 HARNESS = Path(sys.executable).with_name("harness")
 
 # --------------------------------------------------------------------------------------------

@@ -57,3 +57,55 @@ def test_python_doc_example_runs_as_a_script(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     assert "episode: " in result.stdout
     assert (workdir / "reports" / "api-example" / "episodes.csv").is_file()
+    # Run twice in a row, as a user re-running a notebook does: it continues the same run.
+    again = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=workdir,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert again.stdout.splitlines()[0] == result.stdout.splitlines()[0]  # the same episode
+
+
+def test_sweep_into_a_used_folder_says_which_flag_to_pass(tmp_path: Path) -> None:
+    from harness.errors import HarnessError
+
+    config = {"name": "x", "tasks": [str(ROOT / "tasks" / "pick" / "fr3.yaml")]}
+    with pytest.raises(HarnessError, match="not both"):
+        harness.sweep(config, out=tmp_path, resume=True, overwrite=True)
+    with pytest.raises(HarnessError, match="needs out="):
+        harness.sweep(config, resume=True)
+    (tmp_path / "sweep.yaml").write_text("name: x\n", encoding="utf-8")
+    with pytest.raises(HarnessError, match="already holds a run: pass resume=True"):
+        harness.sweep(config, out=tmp_path)
+
+
+@pytest.mark.slow
+def test_sweep_into_a_used_folder_resumes_or_overwrites(tmp_path: Path) -> None:
+    from harness.errors import HarnessError
+
+    out = tmp_path / "run"
+    config = {
+        "name": "api-twice",
+        "tasks": [str(ROOT / "tasks" / "pick" / "fr3.yaml")],
+        "episodes_per_point": 1,
+        "record": "none",
+    }
+    first = harness.sweep(config, out=out, backend="serial")
+    assert len(first) == 1
+    with pytest.raises(HarnessError, match=r"pass resume=True .* or overwrite=True"):
+        harness.sweep(config, out=out, backend="serial")
+    before = (out / "episodes.jsonl").read_text(encoding="utf-8")
+    again = harness.sweep(config, out=out, backend="serial", resume=True)
+    assert again["episode_id"].tolist() == first["episode_id"].tolist()
+    assert (out / "episodes.jsonl").read_text(encoding="utf-8") == before  # nothing re-run
+    with pytest.raises(HarnessError, match="holds a run of another sweep"):
+        harness.sweep({**config, "seed": 5}, out=out, backend="serial", resume=True)
+    (out / "marker").write_text("old run", encoding="utf-8")
+    fresh = harness.sweep({**config, "seed": 5}, out=out, backend="serial", overwrite=True)
+    assert not (out / "marker").exists() and len(fresh) == 1
+    assert fresh["seed"].tolist() != first["seed"].tolist()

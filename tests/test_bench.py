@@ -8,12 +8,20 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
 
 from harness.benchmarks import framework as bench
 from harness.benchmarks import grasps as grasps_bench
+from harness.benchmarks.estimate import (
+    REFERENCE,
+    estimate,
+    left_line,
+    probe_seconds,
+    save_times,
+)
 from harness.benchmarks.framework import (
     PERCENTILES,
     WILSON_95,
@@ -140,6 +148,13 @@ def test_format_table_rows_spreads_and_verdicts() -> None:
     assert "| nan s |" in nan_row and "| 0 |" in nan_row
 
 
+def test_format_table_for_a_terminal_keeps_comparison_signs() -> None:
+    fig = figure("engines", "batches of <= 8 worlds", [1.0], "s", notes="x")
+    terminal = format_table([fig])
+    assert "batches of <= 8 worlds" in terminal and "&lt;" not in terminal  # printed as typed
+    assert "batches of &lt;= 8 worlds" in format_table([fig], escape_html=True)  # for a page
+
+
 def test_target_notes_list_missed_targets_first() -> None:
     notes = format_target_notes(_figures()).splitlines()
     assert notes == ["- sweeps / scaling: no (17% short); busy"]
@@ -219,9 +234,19 @@ def test_cli_quick_grasps_and_timing_write_valid_json(
     """``harness bench --quick --only grasps timing --json FILE`` through the CLI. The example
     grasp file is hidden so the run exercises the fallback that works without ../shared."""
     monkeypatch.setattr(grasps_bench, "EXAMPLE", tmp_path / "absent.npy")
+    monkeypatch.setenv("PICK_HARNESS_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "reports" / "bench.json"
     code = cli_main(["bench", "--quick", "--only", "grasps", "timing", "--json", str(out)])
     assert code == 0
+    # The estimate before the run and the time left after each section come from measurements;
+    # this run's section times are kept for the next estimate on this machine.
+    captured = capsys.readouterr()
+    err = captured.err
+    assert "bench: about " in err and "expected (a quick run on 2 vCPUs at commit" in err
+    assert re.search(r"bench: grasps \d+ figures in [\d.]+ s; about \d+ s left", err)
+    times = json.loads((tmp_path / "cache" / "bench-times.json").read_text(encoding="utf-8"))
+    assert set(times["quick"]["sections"]) >= {"grasps", "timing"}
+    assert times["quick"]["probe_s"] > 0
     data = _strict_json(out.read_text(encoding="utf-8"))
     assert isinstance(data, dict)
     assert data["quick"] is True
@@ -244,8 +269,42 @@ def test_cli_quick_grasps_and_timing_write_valid_json(
     assert million["target"] == 100.0
     assert any(name.startswith("Ruckig") for name in by_name)
     assert any(name.startswith("TOPP-RA") for name in by_name)
-    printed = capsys.readouterr().out
+    printed = captured.out
     assert "| section | figure |" in printed and str(out) in printed
+
+
+def test_estimate_scales_this_machines_last_run_by_the_probe(tmp_path: Path) -> None:
+    path = tmp_path / "bench-times.json"
+    save_times(True, 0.1, {"grasps": 10.0, "sweeps": 100.0}, path)
+    save_times(True, 0.2, {"grasps": 30.0}, path)  # a later run of one section, twice as slow
+    stored = json.loads(path.read_text(encoding="utf-8"))["quick"]
+    assert stored["probe_s"] == 0.2
+    assert stored["sections"] == {"grasps": 30.0, "sweeps": pytest.approx(200.0)}
+    expected = estimate(True, 0.1, path)  # the machine is twice as fast now
+    assert expected.sections == {"grasps": pytest.approx(15.0), "sweeps": pytest.approx(100.0)}
+    assert expected.total(["grasps", "sweeps"]) == pytest.approx(115.0)
+    line = expected.line(["grasps", "sweeps"])
+    assert line.startswith("bench: about 115 s expected (this machine's last quick run, ")
+    assert "x0.50" in line
+    assert "no measured time for engines" in expected.line(["grasps", "engines"])
+    # Half way, the finished section took twice its estimate: the rest is doubled too.
+    assert left_line(expected, {"grasps": 30.0}, ["sweeps"]) == "about 3.3 min left"
+    assert left_line(expected, {"grasps": 30.0}, []) is None
+    assert left_line(expected, {"grasps": 30.0}, ["engines"]) is None
+
+
+def test_estimate_without_a_run_here_uses_the_reference_run(tmp_path: Path) -> None:
+    reference = REFERENCE["quick"]
+    expected = estimate(True, reference["probe_s"], tmp_path / "none.json")
+    assert expected.sections == pytest.approx(reference["sections"])
+    assert f"at commit {reference['commit']}" in expected.source
+    assert set(reference["sections"]) == set(bench.SECTIONS)  # every default section measured
+    assert (
+        estimate(False, 0.1, tmp_path / "none.json")
+        .line(["grasps"])
+        .startswith("bench: no measured time for grasps")
+    )
+    assert 0 < probe_seconds(rounds=1) < 10
 
 
 def test_sections_are_modules_with_run() -> None:

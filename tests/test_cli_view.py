@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
 
 from harness.cli import main
+from harness.commands.view import open_instructions
 
 
 def test_view_without_display_prints_instructions(tmp_path: Path, monkeypatch, capsys):
@@ -16,7 +18,24 @@ def test_view_without_display_prints_instructions(tmp_path: Path, monkeypatch, c
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["view", str(recording)]) == 0
     out = capsys.readouterr().out
-    assert "no display" in out and "rerun x.rrd" in out
+    assert "no display" in out
+    # Commands that run as printed: this interpreter's `-m rerun` (no bare `rerun` that a venv
+    # under nox leaves off PATH), the full path of the file, and the browser option.
+    assert f"{sys.executable} -m rerun {recording}" in out
+    assert f"--bind 127.0.0.1 --web-viewer {recording}" in out
+    assert "\n  - on a machine with a display: rerun " not in out
+
+
+def test_view_names_the_viewer_binary_of_this_environment(tmp_path: Path) -> None:
+    binary = tmp_path / "bin" / "rerun"
+    binary.parent.mkdir()
+    binary.write_text("#!/bin/sh\n", encoding="utf-8")
+    binary.chmod(0o755)
+    lines = open_instructions(tmp_path / "x.rrd", str(binary))
+    assert f"  - on a machine with a display: {binary} {tmp_path / 'x.rrd'}" in lines
+    assert not any("pip install" in line for line in lines)
+    missing = open_instructions(tmp_path / "x.rrd", None)
+    assert any(f"{sys.executable} -m pip install 'rerun-sdk==0.41.*'" in line for line in missing)
 
 
 def test_view_a_run_directory_opens_its_recording(tmp_path: Path, monkeypatch, capsys):

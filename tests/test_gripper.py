@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 import yaml
-from helpers import ROBOT_ARMS
+from helpers import INTERNDATA_EXAMPLES, NO_INTERNDATA_EXAMPLES, ROBOT_ARMS
 from reference_robots import FINGERTIP_M, pinned
 
 from harness.config import ConfigError, SweepConfig, apply_overrides, load_task
@@ -32,7 +32,7 @@ from harness.runs.expansion import expand
 from harness.sim import scene_key
 
 ROOT = Path(__file__).resolve().parents[1]
-REFERENCE = Path("/work/shared/datasets/interndata-examples")
+REFERENCE = INTERNDATA_EXAMPLES  # the reference robot configs (robots_<name>.yaml)
 ARMS = ROBOT_ARMS
 
 
@@ -57,7 +57,7 @@ def compiled(
 def test_jaw_opens_to_the_reference_gripper_max_width(name: str, arm_name: str) -> None:
     path = REFERENCE / f"robots_{name}.yaml"
     if not path.is_file():
-        pytest.skip(f"reference robot config {path} is not on this machine")
+        pytest.skip(NO_INTERNDATA_EXAMPLES)
     reference = yaml.safe_load(path.read_text())["gripper_max_width"]
     robot = RobotModel.load(name)
     model, data, addresses = compiled(robot)

@@ -29,6 +29,8 @@ def test_sweep_help_prints_the_episode_limit_not_a_python_symbol() -> None:
     text = _help("sweep")
     assert "harness.runs" not in text and "MAX_EPISODES" not in text
     assert "200,000" in " ".join(text.split())
+    assert "limits.MAX_POINTS" not in text  # --max-points says its number (issue 36)
+    assert "pairs (default: 2,000)" in " ".join(text.split())
 
 
 def test_bench_only_help_lists_every_section() -> None:

@@ -55,7 +55,7 @@ def test_replay_reproduces_a_stored_row_and_writes_a_playable_mp4(tmp_path: Path
     executed = rows[rows["sim_steps"] > 0]
     assert len(executed), "no executed episode to film"
     episode_id = str(executed.iloc[0]["episode_id"])
-    video = tmp_path / "episode.mp4"
+    video = tmp_path / "videos" / "new" / "episode.mp4"  # replay makes the missing folders
     replay = cli("replay", str(run_dir), episode_id, "--video", str(video), cwd=tmp_path)
     assert replay.returncode == 0, replay.stdout + replay.stderr
     assert "row reproduced exactly" in replay.stdout
@@ -81,5 +81,7 @@ def test_replay_of_an_unknown_episode_is_one_line(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     run_dir.mkdir()
     (run_dir / "episodes.jsonl").write_text("", encoding="utf-8")
-    result = cli("replay", str(run_dir), "nope", cwd=tmp_path)
+    video = tmp_path / "out" / "nope.mp4"
+    result = cli("replay", str(run_dir), "nope", "--video", str(video), cwd=tmp_path)
     assert result.returncode == 2 and "no episode 'nope' in this run" in result.stderr
+    assert not video.parent.exists()  # no folder made for an episode that is not there

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from helpers import INTERNDATA_EXAMPLES, NO_INTERNDATA_EXAMPLES
 
 from harness.cli import main as cli_main
 from harness.config import load_task
@@ -32,7 +33,7 @@ from harness.tuning.write import merged_text
 
 ROOT = Path(__file__).resolve().parents[1]
 FR3 = ROOT / "tasks" / "pick" / "fr3.yaml"
-INTERNDATA = ROOT.parent / "shared" / "datasets" / "interndata-examples"
+INTERNDATA = INTERNDATA_EXAMPLES
 EPISODES = 3
 OPTIONS = TuneOptions(screen_seeds=EPISODES, block=3, max_seeds=6)
 
@@ -141,7 +142,7 @@ def test_the_keys_to_merge_hold_the_decision_in_the_robots_keys(tuned, tmp_path:
 def test_the_keys_merge_into_an_interndata_file(tuned, tmp_path: Path) -> None:
     source = INTERNDATA / "tasks" / "franka_single_pick_banana.yaml"
     if not source.is_file():
-        pytest.skip("the InternDataEngine example data (../shared) is not here")
+        pytest.skip(NO_INTERNDATA_EXAMPLES)
     keys = yaml.safe_load(tuned.tuned_yaml.read_text())["fr3_pick"]["pick"]
     data = yaml.safe_load(source.read_text())
     skill = data["tasks"][0]["skills"][0]["franka"][0]["left"][0]

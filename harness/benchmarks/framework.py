@@ -24,6 +24,13 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.benchmarks.estimate import (
+    Estimate,
+    estimate,
+    left_line,
+    probe_seconds,
+    save_times,
+)
 from harness.benchmarks.machine import (
     cpu_snapshot,
     cpu_use_between,
@@ -286,14 +293,25 @@ def run_section(name: str, quick: bool) -> SectionRun:
     return SectionRun(name, figures, use.wall_s, load_start, load_average(), use.others_cpus, error)
 
 
-def run_sections(names: list[str] | None, quick: bool) -> list[SectionRun]:
-    runs = []
-    for name in names or list(SECTIONS):
+def run_sections(
+    names: list[str] | None, quick: bool, expected: Estimate | None = None
+) -> list[SectionRun]:
+    """Run the sections in order; with ``expected``, each section's line says how long the
+    rest should take (``harness.benchmarks.estimate``)."""
+    chosen = names or list(SECTIONS)
+    runs: list[SectionRun] = []
+    for index, name in enumerate(chosen):
         print(f"bench: {name} ...", file=sys.stderr, flush=True)
         run = run_section(name, quick)
         state = f"failed: {run.error}" if run.error else f"{len(run.figures)} figures"
-        print(f"bench: {name} {state} in {run.seconds:.1f} s", file=sys.stderr, flush=True)
         runs.append(run)
+        done = {r.name: r.seconds for r in runs}
+        left = left_line(expected, done, chosen[index + 1 :]) if expected else None
+        print(
+            f"bench: {name} {state} in {run.seconds:.1f} s" + (f"; {left}" if left else ""),
+            file=sys.stderr,
+            flush=True,
+        )
     return runs
 
 
@@ -301,8 +319,9 @@ def _number(value: float) -> str:
     return "nan" if not math.isfinite(value) else f"{value:.4g}"
 
 
-def format_table(figures: list[Figure]) -> str:
-    """A plain-text table (also valid Markdown) of the figures.
+def format_table(figures: list[Figure], escape_html: bool = False) -> str:
+    """A plain-text table (also valid Markdown) of the figures; ``escape_html`` for a page
+    that renders raw HTML (the terminal gets ``<=`` as typed, not ``&lt;=``).
 
     The spread column is the 10th - 90th percentile of the repetitions, or the 95% Wilson
     interval for success rates (marked "CI"); one repetition has no spread ("-")."""
@@ -323,7 +342,7 @@ def format_table(figures: list[Figure]) -> str:
             verdict = f"**{verdict}**"
         median = f"{_number(fig.median)} {fig.unit}"
         rows.append([fig.section, fig.name, median, spread, fig.repetitions, target, verdict])
-    return "\n".join(markdown_table(header, rows))
+    return "\n".join(markdown_table(header, rows, escape_html))
 
 
 def format_target_notes(figures: list[Figure]) -> str:
@@ -373,9 +392,13 @@ def main_bench(names: list[str] | None, quick: bool, json_path: str | None) -> l
     """Run the sections, print the machine line and the table, and write the JSON if asked."""
     info = machine_info()
     load_start = load_average()
+    probe_s = probe_seconds()
+    expected = estimate(quick, probe_s)
+    print(expected.line(names or list(SECTIONS)), file=sys.stderr, flush=True)
     start = time.perf_counter()
-    runs = run_sections(names, quick)
+    runs = run_sections(names, quick, expected)
     seconds = time.perf_counter() - start
+    save_times(quick, probe_s, {run.name: run.seconds for run in runs if run.error is None})
     load_end = load_average()
     print(format_machine(info, load_start, load_end))
     print()

@@ -18,20 +18,15 @@ def main(args: argparse.Namespace) -> int:
     from harness.runs.replay import find_episode, row_differences
     from harness.viz.headline import headline
 
-    for flag, target in (("--record", args.record), ("--video", args.video)):
-        if target and not Path(target).parent.is_dir():
-            from harness.errors import HarnessError
-
-            raise HarnessError(
-                f"{flag} {target}: the folder {Path(target).parent} does not exist (create it "
-                "first; replay writes no folders outside a run)"
-            )
     for target in (args.record, args.video, args.video and Path(args.video).with_suffix(".png")):
         if target:  # /dev/full, a FIFO, a link: refused before the episode runs
             check_target(Path(target))
     console = make_console()
     run_dir = Path(args.run_dir)
     spec, stored = find_episode(run_dir, args.episode_id)
+    for target in (args.record, args.video):  # their folders, once the episode is found
+        if target:
+            Path(target).parent.mkdir(parents=True, exist_ok=True)
     console.print(f"replaying {args.episode_id} (seed {spec.seed}) ...", highlight=False)
     result = run_episode(spec)
     differences = row_differences(stored, result.row)

@@ -120,12 +120,15 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from harness.runs.engine_check import check_engine, write_engine
     from harness.runs.expansion import absolute_paths, expand
+    from harness.runs.progress import ProgressLines
     from harness.runs.rundir import RunDir
     from harness.runs.worker import execute
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
+    check_engine(args.engine)  # one line before anything is written, not an error row each
     console = make_console()
     picks = load_interndata_picks(args) if args.interndata else []
     tasks = [absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
@@ -155,6 +158,7 @@ def main(args: argparse.Namespace) -> int:
         taken="run directory already holds a run; choose another --out",
         inputs=inputs,
     )
+    write_engine(run.path, args.engine)
     if picks:
         from harness.interndata import note_lines, summary_lines
 
@@ -169,6 +173,8 @@ def main(args: argparse.Namespace) -> int:
         )
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
+    # Without a terminal the live table shows only at the end: plain lines meanwhile.
+    lines = None if console.is_terminal else ProgressLines("run", len(episodes)).start()
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
             for episode in episodes:
@@ -176,11 +182,16 @@ def main(args: argparse.Namespace) -> int:
                 run.append(row)
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
+                if lines is not None:
+                    successes = sum(bool(r.get("success")) for r in rows)
+                    lines.advance(note=f"success {successes}/{len(rows)}")
     except KeyboardInterrupt:
         from harness.runs.rundir import interrupted_line
 
         console.print(interrupted_line(), markup=False, highlight=False, soft_wrap=True)
-    console.print()
+    console.print()  # ends the live table's last line
+    if lines is not None:
+        lines.stop()  # its last line: how long the run took
     run.finalize()
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 

@@ -23,6 +23,9 @@ def main(args: argparse.Namespace) -> int:
     elif not args.files:
         raise HarnessError("give task or sweep files, or --analyse DIR")
     else:
+        from harness.runs.engine_check import check_engine
+
+        check_engine(args.engine)  # one line before the screen's run directory is made
         options = TuneOptions(
             objective=args.objective,
             screen_seeds=args.episodes or TuneOptions.screen_seeds,

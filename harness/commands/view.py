@@ -44,12 +44,37 @@ def main(args: argparse.Namespace) -> int:
             f"{path}: not a Rerun recording (expected an .rrd file starting with the Rerun "
             "magic bytes RRF; a run directory opens its recording.rrd)"
         )
-    viewer = shutil.which("rerun")
+    viewer = rerun_viewer()
     if has_display() and viewer:
         # Loopback only: the viewer's server must not listen on every interface.
         return subprocess.call([viewer, "--bind", "127.0.0.1", str(path)])
-    print(f"no display here; to look at {path}:")
-    print(f"  - on a machine with a display: pip install rerun-sdk==0.41.* && rerun {path.name}")
-    print(f"  - or serve it to a browser:     rerun --bind 127.0.0.1 --web-viewer {path}")
-    print("  - or drag the file onto https://rerun.io/viewer (version 0.41)")
+    for line in open_instructions(path, viewer):
+        print(line)
     return 0
+
+
+def rerun_viewer() -> str | None:
+    """The ``rerun`` binary of the installed rerun-sdk: beside this interpreter (a venv's
+    ``bin/``, which is often not on PATH, e.g. under nox), else on PATH; None without it."""
+    beside = Path(sys.executable).parent / ("rerun.exe" if sys.platform == "win32" else "rerun")
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("rerun")
+
+
+def open_instructions(path: Path, viewer: str | None) -> list[str]:
+    """How to open ``path`` without a display here: commands that run as printed (the viewer
+    binary by its full path, or ``python -m rerun`` with this interpreter), a browser option."""
+    python = sys.executable
+    native = viewer or f"{python} -m rerun"
+    lines = [f"no display here; to look at {path}:"]
+    if viewer is None:
+        lines.append(f"  - install the viewer: {python} -m pip install 'rerun-sdk==0.41.*'")
+    lines.append(f"  - on a machine with a display: {native} {path}")
+    if viewer is not None:
+        lines.append(f"    (or: {python} -m rerun {path})")
+    return [
+        *lines,
+        f"  - or serve it to a browser:     {native} --bind 127.0.0.1 --web-viewer {path}",
+        "  - or drag the file onto https://rerun.io/viewer (version 0.41)",
+    ]

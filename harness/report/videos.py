@@ -139,6 +139,7 @@ def _differences(stored: Any, replayed: dict[str, Any]) -> str:
 
 def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS) -> list[Clip]:
     """Replay and film the chosen episodes of ``run_dir`` into ``run_dir/videos/``."""
+    from harness.runs.progress import ProgressLines
     from harness.viz.render import use_offscreen_gl
 
     use_offscreen_gl()  # before mujoco is first imported
@@ -151,10 +152,12 @@ def render_clips(run_dir: Path, frame: pd.DataFrame, max_clips: int = MAX_CLIPS)
         return [_clip(row, None, note=f"not replayable: {exc}") for _, row in chosen.iterrows()]
     output_dir(run_dir / VIDEOS_DIR, run_dir)  # a planted videos/ link: refused, not followed
     scenes: dict[Any, Any] = {}  # one scene per robot and object, as a sweep worker keeps them
-    clips = [
-        _film(run_dir, row, specs.get(str(row["episode_id"])), scenes)
-        for _, row in chosen.iterrows()
-    ]
+    clips: list[Clip] = []
+    # A progress line every 30 s while filming takes long (``harness.runs.progress``).
+    with ProgressLines("report videos", len(chosen), unit="clips") as lines:
+        for _, row in chosen.iterrows():
+            clips.append(_film(run_dir, row, specs.get(str(row["episode_id"])), scenes))
+            lines.advance()
     save_manifest(run_dir, clips)
     return clips
 

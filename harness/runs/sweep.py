@@ -18,6 +18,13 @@ from typing import Any
 
 from harness.config import ConfigError, SweepConfig, load_sweep
 from harness.files import recording_reads
+from harness.runs.engine_check import (
+    DEFAULT_ENGINE,
+    check_engine,
+    recorded_engine,
+    resume_engine,
+    write_engine,
+)
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
@@ -53,6 +60,47 @@ def prepare_run(
     return sweep, sweep_path, RunDir(out) if out else RunDir.default(sweep.name)
 
 
+def run_engine(run: RunDir, resumed: bool, engine: str | None) -> str:
+    """The engine of this run: ``engine`` (default ``mujoco``); on resume the run's own, another
+    refused (``harness.runs.engine_check``). One that cannot run here (the ``gpu`` extra or a
+    device missing) is refused before the run directory is written."""
+    if resumed:
+        rows = (row.get("engine") for row in run.store.rows())
+        engine = resume_engine(run.path, recorded_engine(run.path, rows), engine)
+    engine = engine or DEFAULT_ENGINE
+    check_engine(engine)
+    return engine
+
+
+def check_resume_size(run: RunDir, sweep: SweepConfig, episodes_per_point: int | None) -> None:
+    """Refuse ``--episodes-per-point`` that differs from the resumed run's: a resume finishes the
+    run as created, so the directory's sweep.yaml always says the run's size."""
+    if episodes_per_point in (None, sweep.episodes_per_point):
+        return
+    raise ConfigError(
+        f"--episodes-per-point {episodes_per_point} with --resume: this run has "
+        f"{sweep.episodes_per_point} episode(s) per point and a resume finishes it as "
+        f"created (start a new run: harness sweep {run.sweep_yaml} --out NEW_DIR "
+        f"--episodes-per-point {episodes_per_point})",
+        file=run.sweep_yaml,
+        key="episodes_per_point",
+    )
+
+
+def with_overrides(
+    sweep: SweepConfig, record: str | None, episodes_per_point: int | None
+) -> SweepConfig:
+    """The sweep with the command line's ``--record`` / ``--episodes-per-point``."""
+    updates: dict[str, Any] = {}
+    if record is not None:
+        updates["record"] = record
+    if episodes_per_point is not None:
+        updates["episodes_per_point"] = episodes_per_point
+    if not updates:
+        return sweep
+    return SweepConfig.model_validate({**sweep.model_dump(), **updates})
+
+
 def run_sweep(
     sweep_path: Path | None = None,
     *,
@@ -63,17 +111,18 @@ def run_sweep(
     address: str | None = None,
     record: str | None = None,
     episodes_per_point: int | None = None,
-    progress: bool = True,
+    progress: bool | str = True,
     limit: int | None = None,
     force: bool = False,
     max_episodes: int = MAX_EPISODES,
     retry_errors: bool = False,
     share: bool | None = None,
-    engine: str = "mujoco",
+    engine: str | None = None,
     max_points: int | None = MAX_POINTS,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
 
+    ``progress``: a bar or progress lines (``harness.runs.progress``), a text names them.
     ``limit`` stops after that many new episodes (used to test interruption and resume).
     ``force`` resumes a run whose ``sweep.yaml`` was edited since it was created;
     ``max_episodes`` / ``max_points`` refuse larger sweeps before expanding them (``None``
@@ -81,31 +130,19 @@ def run_sweep(
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
     differ only in selection keys; the rows are the same either way); ``engine`` executes the
-    chosen plans (``harness.engines``: the row's ``engine`` column).
+    chosen plans (the row's ``engine`` column; ``run_engine``).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
-        updates: dict[str, Any] = {}
-        if resume_dir is not None and episodes_per_point not in (None, sweep.episodes_per_point):
-            raise ConfigError(
-                f"--episodes-per-point {episodes_per_point} with --resume: this run has "
-                f"{sweep.episodes_per_point} episode(s) per point and a resume finishes it as "
-                f"created (start a new run: harness sweep {run.sweep_yaml} --out NEW_DIR "
-                f"--episodes-per-point {episodes_per_point})",
-                file=run.sweep_yaml,
-                key="episodes_per_point",
-            )
-        if record is not None:
-            updates["record"] = record
-        if episodes_per_point is not None:
-            updates["episodes_per_point"] = episodes_per_point
-        if updates:
-            sweep = SweepConfig.model_validate({**sweep.model_dump(), **updates})
+        engine = run_engine(run, resume_dir is not None, engine)
+        if resume_dir is not None:
+            check_resume_size(run, sweep, episodes_per_point)
+        sweep = with_overrides(sweep, record, episodes_per_point)
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)
-        episodes = expand(sweep, source, tasks, progress=progress)
-        with recording_reads() as inputs:
+        episodes = expand(sweep, source, tasks, progress=bool(progress))
+        with recording_reads() as inputs:  # the files the tasks load, hashed for --resume
             check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:
             run.create(
@@ -116,6 +153,7 @@ def run_sweep(
             )
             if notes:
                 run.write_notes(notes)
+        write_engine(run.path, engine)
         done_ids = run.completed_ids(retry_errors=retry_errors)
         todo = [
             dataclasses.replace(e, engine=engine) for e in episodes if e.resolved_id not in done_ids
@@ -124,9 +162,9 @@ def run_sweep(
             todo = todo[:limit]
         workers = workers or sweep.workers or default_workers()
         pool = min(workers, len(todo)) if backend != "serial" else None
-        with SweepProgress(
-            len(episodes), len(episodes) - len(todo), enabled=progress, workers=pool
-        ) as on_row:
+        label = progress if isinstance(progress, str) else "sweep"  # e.g. "tune screen"
+        already = len(episodes) - len(todo)
+        with SweepProgress(len(episodes), already, bool(progress), pool, label) as on_row:
 
             def on_result(row: dict[str, Any]) -> None:
                 run.append(row)

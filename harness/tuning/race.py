@@ -20,6 +20,7 @@ from harness.episode.ids import episode_seed
 from harness.episode.spec import EpisodeSpec
 from harness.runs.executors import executor_for
 from harness.runs.expansion import point_overrides, sweep_points
+from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
 from harness.tuning.decide import UnitRace, update
 from harness.tuning.grid import APPROACH_KEY, FACING_KEY
@@ -99,7 +100,9 @@ class RaceRunner:
         backend: str,
         workers: int,
         may_run: bool,
+        progress: bool = False,
     ) -> None:
+        """``progress``: each round's episodes as the sweep shows them (``SweepProgress``)."""
         self.sweep = confirm_sweep(screen, max_seeds)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
@@ -113,6 +116,7 @@ class RaceRunner:
             may_run,
         )
         self.engine = engine
+        self.progress = progress
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -169,9 +173,16 @@ class RaceRunner:
             log.interrupted = True
             return False
         if todo:
-            stats = executor_for(self.backend, self.workers)(
-                todo, self.run.path, "none", self._store, share=True
-            )
+            label = f"race round {log.rounds + 1}"
+            with SweepProgress(len(todo), 0, self.progress, label=label) as on_row:
+
+                def store(row: dict[str, Any]) -> None:
+                    self._store(row)
+                    on_row(row)
+
+                stats = executor_for(self.backend, self.workers)(
+                    todo, self.run.path, "none", store, share=True
+                )
             if stats.interrupted:
                 log.interrupted = True
                 return False

@@ -113,7 +113,7 @@ def tune(
             resume_dir=screen,
             workers=workers,
             backend=backend,
-            progress=progress,
+            progress="tune screen" if progress else False,
             engine=options.engine,
             max_points=None,
         )
@@ -131,7 +131,7 @@ def tune(
                 out=screen,
                 workers=workers,
                 backend=backend,
-                progress=progress,
+                progress="tune screen" if progress else False,
                 engine=options.engine,
                 max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
@@ -143,7 +143,15 @@ def tune(
     write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
     if outcome.stats.interrupted:
         return TuneResult(out, True, pd.DataFrame())
-    return decide(out, options, backend=backend, workers=workers, may_run=True, write=write)
+    return decide(
+        out,
+        options,
+        backend=backend,
+        workers=workers,
+        may_run=True,
+        write=write,
+        progress=progress,
+    )
 
 
 TUNE_FILES = (OPTIONS_FILE, SCREEN_SWEEP, *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS))
@@ -211,8 +219,10 @@ def decide(
     workers: int | None,
     may_run: bool,
     write: Path | None,
+    progress: bool = False,
 ) -> TuneResult:
-    """Race the screening's best against the current setting per unit and write the outputs."""
+    """Race the screening's best against the current setting per unit and write the outputs;
+    ``progress`` shows each race round's episodes."""
     screen = RunDir(out / SCREEN_DIR)
     sweep = screen.load_sweep()
     tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
@@ -229,6 +239,7 @@ def decide(
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
+        progress=progress,
     )
     log = run_race(units, runner, options.block, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
