@@ -11,10 +11,13 @@ again with the same ``--out`` reuses every stored episode; ``--analyse`` only re
 from __future__ import annotations
 
 import json
+import math
 import tempfile
-from dataclasses import asdict, dataclass, field
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import pandas as pd
 import yaml
@@ -29,7 +32,7 @@ from harness.runs.rundir import RunDir
 from harness.runs.sweep import default_workers, run_sweep
 from harness.tuning.analysis import challengers, settings_frame, success_map
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
-from harness.tuning.decide import Racer, UnitRace
+from harness.tuning.decide import NO_SETTING_HELPS, UNDECIDED, Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
 from harness.tuning.grid import (
     APPROACH_KEY,
@@ -42,9 +45,13 @@ from harness.tuning.grid import (
 )
 from harness.tuning.heatmaps import write_heatmaps
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
+from harness.tuning.sequential import Plan, correlated_discordance, plan_block, seeds_for_power
 from harness.tuning.write import write_copy
 
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
+TARGET_GAIN = 0.05  # the gain a default race has 80% power to confirm (issue 35)
+OUTCOME_CORRELATION = 0.45  # settings' outcome correlation on a seed, measured (issue 23)
+RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain")
 
 
 @dataclass(frozen=True)
@@ -55,11 +62,72 @@ class TuneOptions:
     screen_seeds: int = 10
     top: int = 3  # challengers raced against the current setting, per unit
     block: int = 20  # fresh seeds per race round
-    max_seeds: int = 100  # fresh seeds per unit at most (max_seeds / block looks)
+    max_seeds: int | None = None  # fresh seeds per unit at most; None: sized by power
     budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
     alpha: float = 0.05
     engine: str = "mujoco"  # the execution engine of every screening and race episode
     sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
+    target_gain: float = TARGET_GAIN  # the gain the power-sized race is planned to see
+    seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
+    plans: dict[str, dict[str, Any]] = field(default_factory=dict)  # unit key -> its Plan
+
+    @staticmethod
+    def load(path: Path) -> TuneOptions:
+        """``tune.json``, checked: a garbage or mistyped file is one line naming it and the key."""
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise HarnessError(f"{path}: not a tune's options file ({error})") from None
+        if not isinstance(data, dict):
+            raise HarnessError(f"{path}: expected a JSON object of tune options")
+        known = {f.name: f for f in fields(TuneOptions)}
+        for key, value in data.items():
+            if key not in known:
+                raise HarnessError(f"{path}: key {key!r}: not a tune option")
+            if not _fits(key, value):
+                raise HarnessError(f"{path}: key {key!r}: {value!r} is not a valid value")
+        return TuneOptions(**data)
+
+
+# The types each tune.json key may hold (JSON numbers: int or float).
+_TYPES: dict[str, tuple[type, ...]] = {
+    "objective": (str,),
+    "screen_seeds": (int,),
+    "top": (int,),
+    "block": (int,),
+    "max_seeds": (int, type(None)),
+    "budget": (str, type(None)),
+    "alpha": (float, int),
+    "engine": (str,),
+    "sources": (dict,),
+    "target_gain": (float, int),
+    "seconds_each": (float, int),
+    "plans": (dict,),
+}
+_PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
+
+
+def _fits(key: str, value: Any) -> bool:
+    if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
+        return False
+    if key in ("screen_seeds", "top", "block") and value < 1:
+        return False
+    if key == "max_seeds" and value is not None and value < 1:
+        return False
+    if key == "alpha" and not 0 < value < 1:
+        return False
+    if key == "plans":
+        return all(
+            isinstance(p, dict)
+            and all(
+                isinstance(p.get(k), t) and not isinstance(p.get(k), bool)
+                for k, t in _PLAN_KEYS.items()
+            )
+            and p["seeds"] >= 1
+            and p["block"] >= 1
+            for p in value.values()
+        )
+    return True
 
 
 @dataclass(frozen=True)
@@ -89,8 +157,13 @@ def tune(
     backend: str = "process",
     progress: bool = False,
     write: Path | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> TuneResult:
-    """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide."""
+    """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide.
+
+    On an ``out`` that holds a started race (``tune.json`` with plans) the tune continues that
+    race: the same sequential test, its looks replayed from the stored rows at the same levels;
+    options that would change the test (``RACE_KEYS``) must equal the stored ones."""
     tasks, axes, sweep_seed = load_inputs(paths)
     tasks = objective_tasks(tasks, options.objective)
     sweep = tune_sweep(
@@ -102,7 +175,12 @@ def tune(
         seed=seed if seed is not None else (sweep_seed or 0),
     )
     out = out or RunDir.default_path(sweep.name)
+    stored = _stored_options(out)
+    if stored is not None and stored.plans:
+        _check_continuation(out, stored, options)
+        options = TuneOptions(**{**asdict(options), "plans": stored.plans})
     screen = out / SCREEN_DIR
+    started = time.perf_counter()
     if (screen / "sweep.yaml").is_file():
         outcome = run_sweep(
             resume_dir=screen,
@@ -125,13 +203,42 @@ def tune(
                 engine=options.engine,
                 max_points=None,  # the tune grid is generated and bounded by --step / --bands
             )
+    elapsed = time.perf_counter() - started
     finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
-    options = TuneOptions(**{**asdict(options), "sources": sources})
+    ran = outcome.stats.finished
+    seconds_each = elapsed / ran if ran else (stored.seconds_each if stored else 0.0)
+    options = TuneOptions(**{**asdict(options), "sources": sources, "seconds_each": seconds_each})
     (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
     if outcome.stats.interrupted:
         return TuneResult(out, True, pd.DataFrame())
-    return decide(out, options, backend=backend, workers=workers, may_run=True, write=write)
+    return decide(
+        out,
+        options,
+        backend=backend,
+        workers=workers,
+        may_run=True,
+        write=write,
+        announce=announce,
+    )
+
+
+def _stored_options(out: Path) -> TuneOptions | None:
+    path = out / OPTIONS_FILE
+    return TuneOptions.load(path) if path.is_file() else None
+
+
+def _check_continuation(out: Path, stored: TuneOptions, given: TuneOptions) -> None:
+    """Refuse options that would make a continued race a different test."""
+    for key in RACE_KEYS:
+        before, now = getattr(stored, key), getattr(given, key)
+        if before != now:
+            flag = "--" + key.replace("_", "-")
+            raise HarnessError(
+                f"{flag} {now}: the race in {out} was planned with {before} ({OPTIONS_FILE} key "
+                f"{key!r}); a rerun continues that sequential test: give the same value, or a new "
+                "--out (and --seed) for a new test"
+            )
 
 
 def analyse(out: Path, objective: str | None = None, write: Path | None = None) -> TuneResult:
@@ -139,7 +246,7 @@ def analyse(out: Path, objective: str | None = None, write: Path | None = None) 
     path = out / OPTIONS_FILE
     if not path.is_file():
         raise HarnessError(f"{out}: not a tune directory (no {OPTIONS_FILE})")
-    options = TuneOptions(**json.loads(path.read_text(encoding="utf-8")))
+    options = TuneOptions.load(path)
     if objective:
         options = TuneOptions(**{**asdict(options), "objective": objective})
     return decide(out, options, backend="serial", workers=1, may_run=False, write=write)
@@ -157,27 +264,143 @@ def _current(task: TaskConfig, axes: dict[str, list[object]]) -> tuple[str, str]
     return found[0], found[1]
 
 
+def unit_key(task: str, context: str) -> str:
+    """A unit's key in ``tune.json``'s plans."""
+    return f"{task}\t{context}"
+
+
+def screening_discordance(
+    settings: pd.DataFrame,
+    unit: tuple[str, str],
+    current: tuple[str, str],
+    others: list[tuple[str, str]],
+) -> float:
+    """Mean share of screening seeds on which a raced challenger and the current setting
+    disagree (the screening's settings share each seed): NaN without pairs."""
+    rows = settings[(settings["task"] == unit[0]) & (settings["context"] == unit[1])]
+
+    def outcomes(setting: tuple[str, str]) -> pd.Series:
+        at = rows[(rows["approach"] == setting[0]) & (rows["facing"] == setting[1])]
+        return at.groupby("episode_index")["ok"].first()
+
+    base = outcomes(current)
+    shares = []
+    for other in others:
+        pair = pd.concat([base, outcomes(other)], axis=1, join="inner")
+        if len(pair):
+            shares.append(float((pair.iloc[:, 0] != pair.iloc[:, 1]).mean()))
+    return float(sum(shares) / len(shares)) if shares else math.nan
+
+
+def make_plan(rate: float, discordance: float, options: TuneOptions, challengers: int) -> Plan:
+    """A unit's race plan: ``max_seeds`` when given, else the seeds that give 80% power to
+    confirm a ``target_gain`` gain over the current setting's screening ``rate`` (clipped to
+    0.05-0.95), at the larger of the screening's discordance and the one outcome correlation
+    0.45 implies (issue 23's measurement), Holm's first step over the challengers."""
+    base = min(max(rate, 0.05), 0.95)
+    gain = options.target_gain
+    psi = correlated_discordance(base, gain, OUTCOME_CORRELATION)
+    if not math.isnan(discordance):
+        psi = max(psi, discordance)
+    psi = round(psi, 2)
+    share = options.alpha / max(1, challengers)
+    seeds = options.max_seeds or seeds_for_power(gain, psi, options.block, share)
+    block = plan_block(seeds, options.block)
+    return Plan(seeds, block, options.alpha, max(1, challengers), gain, psi)
+
+
+def _plan_of(stored: dict[str, Any], options: TuneOptions, challengers: int) -> Plan:
+    return Plan(
+        int(stored["seeds"]),
+        int(stored["block"]),
+        options.alpha,
+        max(1, challengers),
+        options.target_gain,
+        float(stored["discordance"]),
+    )
+
+
 def _units(
     success: pd.DataFrame,
+    settings: pd.DataFrame,
     tasks: dict[str, TaskConfig],
     axes: dict[str, list[object]],
     options: TuneOptions,
-) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]]]:
-    units, names = [], {}
-    looks = max(1, options.max_seeds // options.block)
+) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]], dict[str, dict[str, Any]]]:
+    units, names, plans = [], {}, {}
     for key, group in success.groupby(["task", "context"], sort=False):
         task, context = cast(tuple[str, str], key)
         current = _current(tasks[str(task)], axes)
         chosen = challengers(frame_of(group), current, options.top)
         racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
-        units.append(Unit(str(task), str(context), UnitRace(racers, looks, options.alpha)))
+        at = group[(group["approach"] == current[0]) & (group["facing"] == current[1])]
+        rate = float(at["rate"].iloc[0]) if len(at) else 0.5
+        name = unit_key(str(task), str(context))
+        if name in options.plans:
+            plan = _plan_of(options.plans[name], options, len(chosen))
+        else:
+            psi = screening_discordance(settings, (str(task), str(context)), current, chosen)
+            plan = make_plan(rate, psi, options, len(chosen))
+        plans[name] = {
+            "seeds": plan.seeds,
+            "block": plan.block,
+            "discordance": plan.discordance,
+            "rate": rate,
+        }
+        units.append(Unit(str(task), str(context), UnitRace(racers, plan)))
         first = group.iloc[0]
         names[(str(task), str(context))] = {
             "robot": str(first["robot"]),
             "arm": str(first["arm"]),
             "object": object_name(str(context), str(first["object"])),
         }
-    return units, names
+    return units, names, plans
+
+
+def plan_lines(
+    units: list[Unit], names: dict[tuple[str, str], dict[str, str]], options: TuneOptions
+) -> list[str]:
+    """Up front, per unit: the seeds its race needs, the minutes that costs on this engine
+    (the screening's measured seconds per episode), and what a ``--budget`` lets it see."""
+    budget = Budget.parse(options.budget)
+    racers = sum(len(u.race.racers) for u in units)
+    out = []
+    for unit in units:
+        plan, label = unit.race.plan, names[(unit.task, unit.context)]
+        head = f"{label['robot']} {label['arm']} {label['object']}: "
+        episodes = plan.seeds * len(unit.race.racers)
+        minutes = episodes * options.seconds_each / 60.0
+        how = (
+            f"--max-seeds {options.max_seeds}"
+            if options.max_seeds
+            else f"80% power for a +{plan.target_gain:.0%} gain, discordance {plan.discordance:.2f}"
+        )
+        line = (
+            f"{head}this race needs ~{plan.seeds} seeds per contender ({how}; "
+            f"{plan.looks} looks of {plan.block}): ~{minutes:.0f} minutes on this engine "
+            f"({len(unit.race.racers)} racers, {options.seconds_each:.2f} s per screening "
+            "episode; less where racers share a seed's execution)"
+        )
+        cap = _seeds_allowed(budget, racers, options.seconds_each)
+        if cap is not None and cap < plan.seeds:
+            looks = cap // plan.block
+            seen = plan.detectable(looks)
+            line += f"; --budget {options.budget} allows ~{looks * plan.block} seeds: " + (
+                f"it can see a gain of {seen:+.0%} or more at 80% power"
+                if math.isfinite(seen)
+                else "too few to confirm any gain at 80% power"
+            )
+        out.append(line)
+    return out
+
+
+def _seeds_allowed(budget: Budget, racers: int, seconds_each: float) -> int | None:
+    """Seeds per contender the budget allows when every unit's racers share it evenly."""
+    if budget.episodes is not None:
+        return budget.episodes // max(1, racers)
+    if budget.seconds is not None and seconds_each > 0:
+        return int(budget.seconds / seconds_each) // max(1, racers)
+    return None
 
 
 def decide(
@@ -188,6 +411,7 @@ def decide(
     workers: int | None,
     may_run: bool,
     write: Path | None,
+    announce: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Race the screening's best against the current setting per unit and write the outputs."""
     screen = RunDir(out / SCREEN_DIR)
@@ -195,24 +419,41 @@ def decide(
     tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
     settings = settings_frame(load_episodes(screen.path), sweep, options.objective)
     success = success_map(settings)
-    units, names = _units(success, tasks, sweep.axes, options)
+    units, names, plans = _units(success, settings, tasks, sweep.axes, options)
+    if may_run:
+        options = TuneOptions(**{**asdict(options), "plans": plans})
+        (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
+    for line in plan_lines(units, names, options) if announce else []:
+        announce(line)
     runner = RaceRunner(
         out / CONFIRM_DIR,
         sweep,
         list(tasks.values()),
-        options.max_seeds,
+        max(u.race.plan.seeds for u in units),
         objective=options.objective,
         engine=options.engine,
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
+        seconds_each=options.seconds_each,
     )
-    log = run_race(units, runner, options.block, Budget.parse(options.budget))
+    log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
         finish_run(out / CONFIRM_DIR)
-    why = "budget spent" if log.budget_spent else ("interrupted" if log.interrupted else "")
+    why = (
+        f"budget {options.budget} spent"
+        if log.budget_spent
+        else "interrupted"
+        if log.interrupted
+        else "race rows not stored (--analyse runs nothing)"
+        if log.missing
+        else ""
+    )
     decisions = pd.DataFrame(
-        [unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why) for u in units]
+        [
+            unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why, options.objective)
+            for u in units
+        ]
     )
     folder = out / TUNE_DIR
     folder.mkdir(parents=True, exist_ok=True)
@@ -246,9 +487,14 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
     return [
         f"harness tune {out}: objective {options.objective}; screening {options.screen_seeds} "
         f"seeds (sweep seed {seed}); race of the current + {options.top} best on fresh seeds "
-        f"(sweep seed {seed + 100_000}), blocks of {options.block} up to {options.max_seeds}; "
-        f"exact one-sided McNemar, Holm over the racers, alpha {options.alpha} split over "
-        f"{max(1, options.max_seeds // options.block)} looks"
+        f"(sweep seed {seed + 100_000}), per unit a group-sequential plan "
+        + (
+            f"of {options.max_seeds} seeds"
+            if options.max_seeds
+            else f"sized for 80% power at a +{options.target_gain:.0%} gain"
+        )
+        + f" in looks of {options.block} or more; exact one-sided McNemar at Lan-DeMets "
+        f"Pocock-type levels (one-sided alpha {options.alpha}), Holm over the challengers"
         + (
             "; the validity phase is not run under reference semantics (nothing this objective"
             " reads needs it: the rows' validity columns are empty, as with validity: off)."
@@ -257,16 +503,21 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
         ),
         f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode-seconds"
         + ("; budget spent" if log.budget_spent else "")
-        + ("; interrupted (run the tune again with the same --out)" if log.interrupted else ""),
+        + ("; interrupted (run the tune again with the same --out)" if log.interrupted else "")
+        + ("; race rows missing (run the tune to continue the race)" if log.missing else ""),
     ]
 
 
 def _write(
     decisions: pd.DataFrame, tasks: dict[str, TaskConfig], options: TuneOptions, folder: Path
 ) -> list[Path]:
-    """Per task with a file: the merged copy and its diff under ``folder``."""
+    """Per task with a file: the merged copy and its diff under ``folder``. A task whose race
+    decided nothing (undecided: cut short, no look, rows missing) or found no setting that
+    helps gets no copy: there is nothing to merge."""
     written: list[Path] = []
     for name, decided, _ in task_decisions(decisions):
+        if decided["verdict"] in (UNDECIDED, NO_SETTING_HELPS):
+            continue
         source = options.sources.get(name)
         if source is None or not Path(source).is_file():
             continue  # an inline or InternDataEngine task: no task file of ours to copy

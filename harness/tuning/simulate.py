@@ -16,6 +16,7 @@ import numpy as np
 from scipy.stats import norm
 
 from harness.tuning.decide import SWITCH, Racer, UnitRace, advance, verdict
+from harness.tuning.sequential import Plan
 
 
 def draw(rates: list[float], seeds: int, latent: float, rng: np.random.Generator) -> np.ndarray:
@@ -43,7 +44,8 @@ def one_race(
     """(verdict, chosen rank or -1, seeds used) of one race; rates[0] is the current setting."""
     outcomes = draw(rates, max_seeds, latent, rng)
     racers = [Racer(("a", str(k)), k) for k in range(len(rates))]
-    race = UnitRace(racers, looks=max_seeds // block, alpha=alpha)
+    plan = Plan(max_seeds, block, alpha, challengers=len(rates) - 1)
+    race = UnitRace(racers, plan)
     while not race.stopped:
         start = race.look * block
         advance(race, {k: list(outcomes[k, start : start + block]) for k in range(len(rates))})
