@@ -11,6 +11,7 @@ from scipy.stats import binomtest
 
 from harness.tuning.decide import (
     KEEP,
+    STOP_RULED_OUT,
     SWITCH,
     UNDECIDED,
     Racer,
@@ -21,6 +22,8 @@ from harness.tuning.decide import (
     verdict,
 )
 from harness.tuning.grid import approach_values, axis_values, facing_values, filter_key
+from harness.tuning.intervals import paired_gain_bounds, table
+from harness.tuning.sequential import Plan
 
 BLOCK = 10
 
@@ -28,7 +31,7 @@ BLOCK = 10
 def race_on(outcomes: list[list[bool]], looks: int, fallback: int | None = None) -> UnitRace:
     """Race settings whose outcomes per seed are given (row 0: the current setting)."""
     racers = [Racer(("a", str(k)), k, fallback=k == fallback) for k in range(len(outcomes))]
-    race = UnitRace(racers, looks=looks)
+    race = UnitRace(racers, Plan(looks * BLOCK, BLOCK, challengers=len(outcomes) - 1))
     while not race.stopped:
         start = race.look * BLOCK
         advance(race, {k: row[start : start + BLOCK] for k, row in enumerate(outcomes)})
@@ -41,8 +44,14 @@ def test_ties_keep_the_current_setting() -> None:
     race = race_on([same, same, same, same], looks=4)
     decided = verdict(race)
     assert decided.verdict == KEEP and decided.chosen is None
-    assert race.look == race.min_looks == 2  # no challenger ahead after two looks: stop early
-    assert decided.seeds == 2 * BLOCK
+    # Stops at the first look where every challenger's Newcombe upper bound on the gain is
+    # below the plan's 5-point target (a gain that size ruled out), before the plan's end.
+    assert race.stopped == STOP_RULED_OUT and race.look < 4
+    bounds = [
+        paired_gain_bounds(*table(same[: k * BLOCK], same[: k * BLOCK]))[1] for k in (1, 2, 3, 4)
+    ]
+    assert race.look == 1 + next(k for k, hi in enumerate(bounds) if hi < 0.05)
+    assert decided.seeds == race.look * BLOCK
 
 
 def test_a_clear_gain_switches_with_its_confirming_look() -> None:

@@ -27,7 +27,8 @@ After each round (a *look*):
 The race of a unit stops (:func:`stop_reason`) when a challenger is confirmed (decided), when
 every racer's rate is below the floor (no setting helps), when no challenger is alive, when
 every alive challenger's gain is shown below the plan's target (its Newcombe 95% upper bound
-below ``target_gain``: a gain that size is ruled out), or after the plan's last look. A race
+below ``target_gain`` at the look's nominal level: a gain that size is rejected), or after
+the plan's last look. A race
 the budget, an interruption or missing rows cut short did not stop by its own rule, and decides
 nothing: "undecided" (never "keep").
 """
@@ -40,8 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import bdtrc
 
-from harness.report.stats import wilson_interval
-from harness.tuning.intervals import paired_gain_bounds, paired_gain_interval, table
+from harness.tuning.intervals import exact_interval, paired_gain_bounds, table
 from harness.tuning.sequential import Plan, seeds_for_power
 
 KEEP = "keep current"
@@ -189,16 +189,24 @@ def gain(racer: Racer, current: Racer) -> int:
 
 
 def rate_bounds(racer: Racer) -> tuple[float, float]:
-    """The racer's Wilson 95% interval on its fresh seeds."""
-    return wilson_interval(racer.successes, len(racer.outcomes))
+    """The racer's exact (Clopper-Pearson) 95% interval on its fresh seeds."""
+    lo, hi = exact_interval(racer.successes, len(racer.outcomes))
+    return float(lo), float(hi)
 
 
 def gain_interval(racer: Racer, current: Racer, confidence: float = 0.95) -> tuple[float, float]:
     """Newcombe's method-10 interval of the paired gain (``harness.tuning.intervals``)."""
-    if confidence == 0.95:
-        return paired_gain_bounds(*table(racer.outcomes, current.outcomes))
-    lo, hi = paired_gain_interval(*table(racer.outcomes, current.outcomes), confidence)
-    return float(lo), float(hi)
+    return paired_gain_bounds(*table(racer.outcomes, current.outcomes), confidence)
+
+
+def gain_upper(race: UnitRace, racer: Racer) -> float:
+    """Upper bound of the paired gain at the look's one-sided nominal level (Newcombe at
+    confidence 1 - 2 level): below the plan's target, a gain that size is rejected at the
+    race's own sequential level, so "keep" errs on a real target gain at most about alpha."""
+    level = race.plan.level(race.look, 1)
+    if level <= 0.0:
+        return math.inf
+    return gain_interval(racer, race.current, 1.0 - 2.0 * level)[1]
 
 
 def stop_reason(race: UnitRace) -> str:
@@ -210,7 +218,7 @@ def stop_reason(race: UnitRace) -> str:
         return STOP_FLOOR
     if not challengers:
         return STOP_DROPPED
-    if all(gain_interval(r, race.current)[1] < race.plan.target_gain for r in challengers):
+    if all(gain_upper(race, r) < race.plan.target_gain for r in challengers):
         return STOP_RULED_OUT
     if race.look >= race.plan.looks:
         return STOP_PLAN

@@ -1,7 +1,7 @@
 """The tune's decisions as tables: one row per unit (``decisions.csv``), one per task file.
 
 Per unit (robot, arm, object) the verdict with its evidence from the race's fresh seeds only:
-the chosen (or current) setting's rate with its 95% Wilson interval, the reference rate beside
+the chosen (or current) setting's rate with its exact (Clopper-Pearson) 95% interval, the reference rate beside
 it, the paired gain over the current setting with its interval, the Holm-adjusted p-value of the
 look that confirmed it, and the screening rate for context (never the evidence). Per task file
 the units (its objects) are pooled only when they agree: every object switches to the same
@@ -17,7 +17,6 @@ from typing import Any
 import pandas as pd
 
 from harness.report.frames import series_rows
-from harness.report.stats import wilson_interval
 from harness.tuning.analysis import filter_label, isolated
 from harness.tuning.causes import cause_sentence
 from harness.tuning.decide import (
@@ -29,6 +28,7 @@ from harness.tuning.decide import (
     gain_interval,
     verdict,
 )
+from harness.tuning.intervals import exact_interval
 from harness.tuning.race import Unit
 
 
@@ -39,7 +39,7 @@ def setting_label(setting: tuple[str, str]) -> str:
 def _rates(racer: Racer, prefix: str, n: int | None = None) -> dict[str, Any]:
     outcomes, reference = racer.outcomes[:n], racer.reference[:n]
     k, total = int(sum(outcomes)), len(outcomes)
-    lo, hi = wilson_interval(k, total) if total else (float("nan"), float("nan"))
+    lo, hi = exact_interval(k, total) if total else (float("nan"), float("nan"))
     return {
         f"{prefix}n": total,
         f"{prefix}successes": k,

@@ -67,10 +67,10 @@ def table(new: list[bool], current: list[bool]) -> tuple[int, int, int, int]:
 
 
 def paired_gain_bounds(
-    both: int, new_only: int, current_only: int, neither: int
+    both: int, new_only: int, current_only: int, neither: int, confidence: float = 0.95
 ) -> tuple[float, float]:
-    """:func:`paired_gain_interval` (95%) of one table, in scalar arithmetic (the race calls it
-    at every look; tests check the two agree)."""
+    """:func:`paired_gain_interval` of one table, in scalar arithmetic (the race calls it at
+    every look; tests check the two agree)."""
     from harness.report.stats import wilson_interval
 
     a, b, c, d = both, new_only, current_only, neither
@@ -78,11 +78,26 @@ def paired_gain_bounds(
     if n == 0:
         return -1.0, 1.0
     p1, p2 = (a + b) / n, (a + c) / n
-    l1, u1 = wilson_interval(a + b, n)
-    l2, u2 = wilson_interval(a + c, n)
+    l1, u1 = wilson_interval(a + b, n, confidence)
+    l2, u2 = wilson_interval(a + c, n, confidence)
     margins = (a + b) * (c + d) * (a + c) * (b + d)
     phi = (a * d - b * c) / math.sqrt(margins) if margins > 0 else 0.0
     dl1, du1, dl2, du2 = p1 - l1, u1 - p1, p2 - l2, u2 - p2
     low = p1 - p2 - math.sqrt(max(dl1**2 - 2 * phi * dl1 * du2 + du2**2, 0.0))
     high = p1 - p2 + math.sqrt(max(du1**2 - 2 * phi * du1 * dl2 + dl2**2, 0.0))
     return low, high
+
+
+def exact_interval(successes: ArrayOrFloat, n: ArrayOrFloat, confidence: float = 0.95):
+    """Clopper-Pearson interval (lo, hi) of successes / n (``binomtest(...).proportion_ci``
+    method "exact"); (0, 1) where n is 0. The decisions quote it for the race's rates: a race
+    stops at a look chosen by its data, and the exact interval keeps its coverage there
+    (``tests/test_tune_sequential.py``), where Wilson's dips to 0.93."""
+    from scipy.special import betaincinv
+
+    k, m = np.asarray(successes, float), np.asarray(n, float)
+    tail = 0.5 * (1.0 - confidence)
+    lo = np.where(k > 0, betaincinv(np.maximum(k, 1e-9), m - k + 1, tail), 0.0)
+    hi = np.where(k < m, betaincinv(k + 1, np.maximum(m - k, 1e-9), 1.0 - tail), 1.0)
+    lo, hi = np.where(m > 0, lo, 0.0), np.where(m > 0, hi, 1.0)
+    return (float(lo), float(hi)) if lo.ndim == 0 else (lo, hi)
