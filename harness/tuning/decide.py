@@ -41,7 +41,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import bdtrc
 
-from harness.tuning.intervals import exact_interval, paired_gain_bounds, table
+from harness.tuning.intervals import (
+    exact_interval,
+    paired_gain_bounds,
+    paired_gain_interval,
+    table,
+)
 from harness.tuning.sequential import Plan, seeds_for_power
 
 KEEP = "keep current"
@@ -49,6 +54,7 @@ SWITCH = "switch"
 UNDECIDED = "undecided within budget"
 NO_SETTING_HELPS = "no setting helps"
 VERDICTS = (KEEP, SWITCH, UNDECIDED, NO_SETTING_HELPS)
+MIN_DISCORDANT = 5  # discordant seeds before Newcombe's bound may stop a race as "keep" (chosen)
 FLOOR = 0.10  # "no setting helps": every racer's Wilson 95% upper bound below this (chosen)
 
 STOP_CONFIRMED = "a challenger confirmed better"
@@ -199,14 +205,29 @@ def gain_interval(racer: Racer, current: Racer, confidence: float = 0.95) -> tup
     return paired_gain_bounds(*table(racer.outcomes, current.outcomes), confidence)
 
 
+def futility_bound(won, lost, both, neither, level: float):
+    """Upper bound of the paired gain at one-sided ``level``: Newcombe's (confidence
+    1 - 2 level) with at least ``MIN_DISCORDANT`` discordant seeds; with fewer, Newcombe's
+    interval collapses (phi near 1: zero width on identical outcomes), so the bound is the
+    exact one-sided upper bound of the share of seeds only the challenger wins (the gain is
+    at most that share). Arrays work (the simulation calls it)."""
+    won, lost = np.asarray(won), np.asarray(lost)
+    n = won + lost + np.asarray(both) + np.asarray(neither)
+    newcombe = paired_gain_interval(both, won, lost, neither, 1.0 - 2.0 * level)[1]
+    share = exact_interval(won, n, 1.0 - 2.0 * level)[1]
+    bound = np.where(won + lost >= MIN_DISCORDANT, newcombe, share)
+    return float(bound) if bound.ndim == 0 else bound
+
+
 def gain_upper(race: UnitRace, racer: Racer) -> float:
-    """Upper bound of the paired gain at the look's one-sided nominal level (Newcombe at
-    confidence 1 - 2 level): below the plan's target, a gain that size is rejected at the
-    race's own sequential level, so "keep" errs on a real target gain at most about alpha."""
+    """:func:`futility_bound` of a challenger at the look's nominal level: below the plan's
+    target, a gain that size is rejected at the race's own sequential level, so "keep" errs on
+    a real target gain at most about alpha."""
     level = race.plan.level(race.look, 1)
     if level <= 0.0:
         return math.inf
-    return gain_interval(racer, race.current, 1.0 - 2.0 * level)[1]
+    both, won, lost, neither = table(racer.outcomes, race.current.outcomes)
+    return float(futility_bound(won, lost, both, neither, level))
 
 
 def stop_reason(race: UnitRace) -> str:
@@ -250,14 +271,17 @@ def pick(confirmed: list[Racer], current: Racer) -> Racer:
     return max(confirmed, key=lambda r: (r.successes, -changes(r, current), -r.rank))
 
 
-def verdict(race: UnitRace, why: str = "") -> Verdict:
+def verdict(race: UnitRace, why: str = "", evidence: bool = True) -> Verdict:
     """The decision of a unit race. A race that did not stop by its own rule (no look, the
-    budget, an interruption, missing rows: ``why``) is undecided, never "keep"."""
+    budget, an interruption, missing rows: ``why``) is undecided, never "keep". ``evidence``
+    False skips the power computations (seeds needed, detectable gain): simulations."""
     current = race.current
     seeds = len(current.outcomes)
     discordance = race.plan.discordance
     ahead = [r for r in race.challengers() if gain(r, current) > 0 and not r.fallback]
-    detectable = race.plan.detectable(race.look, discordance) if race.look else math.inf
+    detectable = (
+        race.plan.detectable(race.look, discordance) if race.look and evidence else math.inf
+    )
     confirmed = [r for r in race.racers[1:] if r.confirmed_at is not None and not r.fallback]
     if confirmed:
         chosen = pick(confirmed, current)
@@ -268,7 +292,7 @@ def verdict(race: UnitRace, why: str = "") -> Verdict:
         return Verdict(KEEP, None, [], seeds, 0, True, detectable, race.stopped)
     cut = "the race did not reach its first look" if race.look == 0 else "the race did not finish"
     reason = race.stopped or why or cut
-    needed, within = seeds_needed(race, ahead)
+    needed, within = seeds_needed(race, ahead) if evidence else (0, True)
     return Verdict(UNDECIDED, None, ahead, seeds, needed, within, detectable, reason)
 
 

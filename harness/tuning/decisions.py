@@ -1,10 +1,11 @@
 """The tune's decisions as tables: one row per unit (``decisions.csv``), one per task file.
 
 Per unit (robot, arm, object) the verdict with its evidence from the race's fresh seeds only:
-the chosen (or current) setting's rate with its exact (Clopper-Pearson) 95% interval, the reference rate beside
-it, the paired gain over the current setting with its interval, the Holm-adjusted p-value of the
-look that confirmed it, and the screening rate for context (never the evidence). Per task file
-the units (its objects) are pooled only when they agree: every object switches to the same
+the chosen (or current) setting's rate with its exact (Clopper-Pearson) 95% interval, the
+reference rate beside it, the paired gain over the current setting with its Newcombe interval,
+the exact p-value and the Holm level of the look that confirmed it, the gain its seeds could
+see at 80% power, and the screening rate for context (never the evidence). Per task file the
+units (its objects) are pooled only when they agree: every object switches to the same
 setting, or every object keeps the current one; otherwise the file keeps its setting and the
 disagreement is said.
 """

@@ -25,10 +25,11 @@ from harness.tuning.decide import (
     Racer,
     UnitRace,
     advance,
+    futility_bound,
     one_sided_mcnemar,
     verdict,
 )
-from harness.tuning.intervals import exact_interval, paired_gain_interval
+from harness.tuning.intervals import exact_interval
 from harness.tuning.sequential import Plan
 
 
@@ -62,7 +63,7 @@ def one_race(
     while not race.stopped:
         start = race.look * block
         advance(race, {k: list(outcomes[k, start : start + block]) for k in range(len(rates))})
-    decided = verdict(race)
+    decided = verdict(race, evidence=False)
     chosen = decided.chosen.rank if decided.chosen else -1
     return decided.verdict, chosen, decided.seeds
 
@@ -158,7 +159,7 @@ def vector_races(
         hi_new = exact_interval(a + b, n)[1]
         floor = ~confirmed & (hi_now < FLOOR) & (dropped | (hi_new < FLOOR))
         ruled = ~confirmed & ~dropped & ~floor
-        ruled &= paired_gain_interval(a, b, c, d, 1.0 - 2.0 * level)[1] < plan.target_gain
+        ruled &= futility_bound(b, c, a, d, level) < plan.target_gain
         end = k == plan.looks
         decided = {
             SWITCH: confirmed,
