@@ -216,7 +216,9 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
     assert json.loads(matched.iloc[0]["settings"])["filter_z_dir"] == ["downward", 140.0]
     # The decision again from the stored episodes; a plain run is refused.
     assert cli_main(["tune", "--analyse", str(tuned.run_dir)]) == 0
-    assert "fr3_pick:" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert printed.count("fr3 left cube: ") == 1  # each decision printed once
+    assert "tuned.yaml" in printed
     assert cli_main(["tune", "--analyse", str(runs["now"])]) == 2
     assert "not a tune directory" in capsys.readouterr().err
 

@@ -163,7 +163,9 @@ def _seen(row: Any) -> str:
     gain = float(row["detectable_gain"])
     if gain != gain or gain == float("inf"):
         return "its seeds could confirm no gain at 80% power"
-    return f"its {row['current_n']} seeds see a gain of {gain:+.0%} or more at 80% power"
+    return (
+        f"its {row['current_n']} seeds see a gain of {gain * 100:+.0f} points or more at 80% power"
+    )
 
 
 def verdict_line(row: Any) -> str:

@@ -373,7 +373,8 @@ def plan_lines(
         how = (
             f"--max-seeds {options.max_seeds}"
             if options.max_seeds
-            else f"80% power for a +{plan.target_gain:.0%} gain, discordance {plan.discordance:.2f}"
+            else f"80% power for a {plan.target_gain * 100:+.0f}-point gain at the screening's "
+            f"rate, discordance {plan.discordance:.2f}"
         )
         line = (
             f"{head}this race needs ~{plan.seeds} seeds per contender ({how}; "
@@ -384,11 +385,16 @@ def plan_lines(
         cap = _seeds_allowed(budget, racers, options.seconds_each)
         if cap is not None and cap < plan.seeds:
             looks = cap // plan.block
-            seen = plan.detectable(looks)
-            line += f"; --budget {options.budget} allows ~{looks * plan.block} seeds: " + (
-                f"it can see a gain of {seen:+.0%} or more at 80% power"
+            seen = plan.detectable(looks) if looks else math.inf
+            line += f"; --budget {options.budget} allows " + (
+                f"{looks} looks ({looks * plan.block} seeds): it can see a gain of "
+                f"{seen * 100:+.0f} points or more at 80% power"
                 if math.isfinite(seen)
-                else "too few to confirm any gain at 80% power"
+                else f"{looks} looks ({looks * plan.block} seeds): too few to confirm any gain "
+                "at 80% power"
+                if looks
+                else f"no look (one look is {plan.block} seeds x {len(unit.race.racers)} "
+                "racers): it decides nothing"
             )
         out.append(line)
     return out
