@@ -240,6 +240,12 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
     p.add_argument(
+        "--directions",
+        choices=["all", "canonical"],
+        help="all (default): a coarse pass over every Pick direction on both axes, then the "
+        "fine grid about the best; canonical: only the fine grid about downward / forward",
+    )
+    p.add_argument(
         "--top",
         type=_bounded_int(1, 20),
         help="screening's best settings raced against the current one (default 3)",

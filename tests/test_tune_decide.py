@@ -5,6 +5,9 @@ is deduplicated by what each filter keeps."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.stats import binomtest
@@ -163,3 +166,53 @@ def test_budget_in_episodes_or_seconds() -> None:
     assert Budget.parse("400").spent(400, 0.0) and not Budget.parse("400").spent(399, 1e9)
     assert Budget.parse("300s") == Budget(seconds=300.0)
     assert Budget.parse("300s").spent(0, 300.0) and not Budget.parse("300s").spent(10**6, 299.0)
+
+
+def test_the_coarse_pass_spans_every_pick_direction_on_both_axes() -> None:
+    """Forward, backward, upward and downward (Pick's four names; left/right are Place's) at a
+    quadrant and a hemisphere, on the approach and the facing axis; every band of every
+    direction follows the reference's order rule (a non-empty range of cosines)."""
+    from harness.config import load_task
+    from harness.tuning.grid import (
+        APPROACH_KEY,
+        DIRECTIONS,
+        FACING_KEY,
+        coarse_values,
+        direction_of,
+        tune_sweep,
+    )
+
+    task = load_task(Path(__file__).resolve().parents[1] / "tasks" / "pick" / "fr3.yaml")
+    sweep = tune_sweep([task], {}, step=15, bands=2, episodes=1, seed=0, coarse=True)
+    for key in (APPROACH_KEY, FACING_KEY):
+        names = {direction_of(json.dumps(v)) for v in sweep.axes[key]}
+        assert names >= set(DIRECTIONS)
+    assert ["backward", 135.0] in coarse_values() and ["upward", 45.0] in coarse_values()
+    for direction in DIRECTIONS:
+        for value in [*approach_values(15, 2, direction), *facing_values(15, 2, direction)]:
+            key = filter_key(value)
+            assert value[0] == direction and (key is None or key[1] < key[2]), value
+    # The refine pass about backward facing holds issue 35's [backward, 40] at step 10 (140).
+    assert ["backward", 40.0] in facing_values(10, 0, "backward")
+
+
+def test_a_second_pass_never_counts_a_seed_twice() -> None:
+    import pandas as pd
+
+    from harness.tuning.analysis import merge_passes
+
+    def frame(settings: list[tuple[str, str]], first_id: int) -> pd.DataFrame:
+        rows = [
+            {"task": "t", "context": "{}", "approach": a, "facing": f, "point_id": first_id + i,
+             "ok": True}
+            for i, (a, f) in enumerate(settings)
+        ]  # fmt: skip
+        return pd.DataFrame(rows)
+
+    first = frame([('["downward", 90.0]', '["forward", 90.0]')], 0)
+    later = frame(
+        [('["downward", 90.0, 180.0]', '["forward", 90.0]'), ('["downward", 120.0]', "null")], 0
+    )
+    merged = merge_passes(first, later)
+    assert len(merged) == 2  # the band keeps what downward 90 keeps: already screened
+    assert list(merged["point_id"]) == [0, 2]

@@ -27,6 +27,7 @@ def _options(args: argparse.Namespace) -> TuneOptions:
         "max_seeds": args.max_seeds,
         "budget": args.budget,
         "engine": args.engine,
+        "coarse": None if args.directions is None else args.directions == "all",
     }
     base = {
         k: v for k, v in asdict(stored).items() if k not in ("sources", "plans", "seconds_each")

@@ -163,7 +163,9 @@ def _claims(race: UnitRace) -> None:
     """Holm's step-down over the hypotheses still open, at this look's nominal levels."""
     pending = [r for r in race.challengers() if r.confirmed_at is None]
     open_hypotheses = sum(r.confirmed_at is None for r in race.racers[1:])
-    p_values = [one_sided_mcnemar(*discordant(r.outcomes, race.current.outcomes)) for r in pending]
+    p_values = [
+        float(one_sided_mcnemar(*discordant(r.outcomes, race.current.outcomes))) for r in pending
+    ]
     for step, index in enumerate(np.argsort(p_values, kind="stable")):
         level = race.plan.level(race.look, open_hypotheses - step)
         racer = pending[int(index)]
@@ -181,7 +183,7 @@ def update(race: UnitRace) -> None:
     _claims(race)
     best = leader(race)
     others = [r for r in race.challengers() if r is not best]
-    beaten = [one_sided_mcnemar(*discordant(best.outcomes, r.outcomes)) for r in others]
+    beaten = [float(one_sided_mcnemar(*discordant(best.outcomes, r.outcomes))) for r in others]
     for racer, rejected in zip(others, holm(beaten, race.plan.level(race.look))[0], strict=True):
         if rejected and racer.confirmed_at is None:
             racer.alive, racer.dropped_at = False, race.look

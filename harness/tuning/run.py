@@ -22,15 +22,15 @@ from typing import Any, cast
 import pandas as pd
 import yaml
 
-from harness.config import TaskConfig
+from harness.config import SweepConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.report.finish import finish_run
-from harness.report.frames import frame_of
+from harness.report.frames import column, frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir
 from harness.runs.sweep import default_workers, run_sweep
-from harness.tuning.analysis import challengers, settings_frame, success_map
+from harness.tuning.analysis import challengers, merge_passes, ranked, settings_frame, success_map
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
 from harness.tuning.decide import NO_SETTING_HELPS, UNDECIDED, Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
@@ -38,8 +38,10 @@ from harness.tuning.grid import (
     APPROACH_KEY,
     FACING_KEY,
     current_setting,
+    direction_of,
     filter_key,
     load_inputs,
+    merged_sweep,
     objective_tasks,
     tune_sweep,
 )
@@ -49,9 +51,10 @@ from harness.tuning.sequential import Plan, correlated_discordance, plan_block, 
 from harness.tuning.write import write_copy
 
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
+REFINE_DIR = "refine"  # the fine pass about the coarse pass's best directions
 TARGET_GAIN = 0.05  # the gain a default race has 80% power to confirm (issue 35)
 OUTCOME_CORRELATION = 0.45  # settings' outcome correlation on a seed, measured (issue 23)
-RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain")
+RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain", "coarse")
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,7 @@ class TuneOptions:
     target_gain: float = TARGET_GAIN  # the gain the power-sized race is planned to see
     seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
     plans: dict[str, dict[str, Any]] = field(default_factory=dict)  # unit key -> its Plan
+    coarse: bool = True  # screen every direction coarsely first, then refine the best
 
     @staticmethod
     def load(path: Path) -> TuneOptions:
@@ -103,20 +107,23 @@ _TYPES: dict[str, tuple[type, ...]] = {
     "target_gain": (float, int),
     "seconds_each": (float, int),
     "plans": (dict,),
+    "coarse": (bool,),
 }
 _PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
 
 
 def _fits(key: str, value: Any) -> bool:
+    if key == "coarse":
+        return isinstance(value, bool)
     if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
         return False
     if key in ("screen_seeds", "top", "block") and value < 1:
         return False
     if key == "max_seeds" and value is not None and value < 1:
         return False
-    if key == "alpha" and not 0 < value < 1:
+    if key == "alpha" and not 0 < float(value or 0) < 1:
         return False
-    if key == "plans":
+    if key == "plans" and isinstance(value, dict):
         return all(
             isinstance(p, dict)
             and all(
@@ -166,51 +173,38 @@ def tune(
     options that would change the test (``RACE_KEYS``) must equal the stored ones."""
     tasks, axes, sweep_seed = load_inputs(paths)
     tasks = objective_tasks(tasks, options.objective)
-    sweep = tune_sweep(
-        tasks,
-        axes,
-        step=step,
-        bands=bands,
-        episodes=options.screen_seeds,
-        seed=seed if seed is not None else (sweep_seed or 0),
-    )
-    out = out or RunDir.default_path(sweep.name)
+    grid = {
+        "step": step,
+        "bands": bands,
+        "episodes": options.screen_seeds,
+        "seed": seed if seed is not None else (sweep_seed or 0),
+    }
+    first = tune_sweep(tasks, axes, **grid, coarse=options.coarse)  # type: ignore[arg-type]
+    out = out or RunDir.default_path(first.name)
     stored = _stored_options(out)
     if stored is not None and stored.plans:
         _check_continuation(out, stored, options)
         options = TuneOptions(**{**asdict(options), "plans": stored.plans})
-    screen = out / SCREEN_DIR
+    run = {"workers": workers, "backend": backend, "progress": progress, "engine": options.engine}
     started = time.perf_counter()
-    if (screen / "sweep.yaml").is_file():
-        outcome = run_sweep(
-            resume_dir=screen,
-            workers=workers,
-            backend=backend,
-            progress=progress,
-            engine=options.engine,
-            max_points=None,
-        )
-    else:
-        with tempfile.TemporaryDirectory(prefix="harness-tune-") as folder:
-            path = Path(folder) / "tune.yaml"
-            path.write_text(yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False))
-            outcome = run_sweep(
-                path,
-                out=screen,
-                workers=workers,
-                backend=backend,
-                progress=progress,
-                engine=options.engine,
-                max_points=None,  # the tune grid is generated and bounded by --step / --bands
+    outcome = _screen(first, out / SCREEN_DIR, run)
+    ran, interrupted = outcome.stats.finished, outcome.stats.interrupted
+    if options.coarse and not interrupted:
+        directions = best_directions(out / SCREEN_DIR, first, tasks, options.objective)
+        if announce:
+            announce(
+                f"coarse pass over every direction: refining approach {directions[0]} x facing "
+                f"{directions[1]}"
             )
+        second = tune_sweep(tasks, axes, **grid, directions=directions, name="tune-refine")  # type: ignore[arg-type]
+        outcome = _screen(second, out / REFINE_DIR, run)
+        ran, interrupted = ran + outcome.stats.finished, outcome.stats.interrupted
     elapsed = time.perf_counter() - started
-    finish_run(outcome.run_dir)
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
-    ran = outcome.stats.finished
     seconds_each = elapsed / ran if ran else (stored.seconds_each if stored else 0.0)
     options = TuneOptions(**{**asdict(options), "sources": sources, "seconds_each": seconds_each})
     (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
-    if outcome.stats.interrupted:
+    if interrupted:
         return TuneResult(out, True, pd.DataFrame())
     return decide(
         out,
@@ -220,6 +214,45 @@ def tune(
         may_run=True,
         write=write,
         announce=announce,
+    )
+
+
+def _screen(sweep: SweepConfig, folder: Path, run: dict[str, Any]) -> Any:
+    """Run (or resume) one screening pass into ``folder`` and build its report."""
+    if (folder / "sweep.yaml").is_file():
+        outcome = run_sweep(resume_dir=folder, max_points=None, **run)
+    else:
+        with tempfile.TemporaryDirectory(prefix="harness-tune-") as temporary:
+            path = Path(temporary) / "tune.yaml"
+            path.write_text(yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False))
+            # the tune grid is generated and bounded by --step / --bands: no max_points
+            outcome = run_sweep(path, out=folder, max_points=None, **run)
+    finish_run(outcome.run_dir)
+    return outcome
+
+
+def best_directions(
+    folder: Path, sweep: SweepConfig, tasks: list[TaskConfig], objective: str
+) -> tuple[str, str]:
+    """The (approach, facing) directions the refine pass searches: per axis, the direction of
+    most units' best coarse setting (ties, and an axis whose best is no filter: the current
+    setting's direction, else downward / forward)."""
+    success = success_map(settings_frame(load_episodes(folder), sweep, objective))
+    votes: list[dict[str, float]] = [{}, {}]
+    defaults = ["downward", "forward"]
+    by_name = {t.name: t for t in tasks}
+    for key, group in success.groupby(["task", "context"], sort=False):
+        task = by_name[str(cast(tuple[str, str], key)[0])]
+        current = _current(task, sweep.axes)
+        best = ranked(frame_of(group), current).iloc[0]
+        for axis, text in enumerate((str(best["approach"]), str(best["facing"]))):
+            now = direction_of(current[axis]) or defaults[axis]
+            chosen = direction_of(text) or now
+            votes[axis][chosen] = votes[axis].get(chosen, 0.0) + 1.0
+            votes[axis][now] = votes[axis].get(now, 0.0) + 0.5  # ties go to the current's
+    return (
+        max(votes[0], key=votes[0].__getitem__) if votes[0] else defaults[0],
+        max(votes[1], key=votes[1].__getitem__) if votes[1] else defaults[1],
     )
 
 
@@ -277,11 +310,11 @@ def screening_discordance(
 ) -> float:
     """Mean share of screening seeds on which a raced challenger and the current setting
     disagree (the screening's settings share each seed): NaN without pairs."""
-    rows = settings[(settings["task"] == unit[0]) & (settings["context"] == unit[1])]
+    rows = frame_of(settings[(settings["task"] == unit[0]) & (settings["context"] == unit[1])])
 
     def outcomes(setting: tuple[str, str]) -> pd.Series:
-        at = rows[(rows["approach"] == setting[0]) & (rows["facing"] == setting[1])]
-        return at.groupby("episode_index")["ok"].first()
+        at = frame_of(rows[(rows["approach"] == setting[0]) & (rows["facing"] == setting[1])])
+        return pd.Series(at.groupby("episode_index")["ok"].first())
 
     base = outcomes(current)
     shares = []
@@ -333,8 +366,8 @@ def _units(
         current = _current(tasks[str(task)], axes)
         chosen = challengers(frame_of(group), current, options.top)
         racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
-        at = group[(group["approach"] == current[0]) & (group["facing"] == current[1])]
-        rate = float(at["rate"].iloc[0]) if len(at) else 0.5
+        at = frame_of(group[(group["approach"] == current[0]) & (group["facing"] == current[1])])
+        rate = float(column(at, "rate").iloc[0]) if len(at) else 0.5
         name = unit_key(str(task), str(context))
         if name in options.plans:
             plan = _plan_of(options.plans[name], options, len(chosen))
@@ -424,13 +457,20 @@ def decide(
     sweep = screen.load_sweep()
     tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
     settings = settings_frame(load_episodes(screen.path), sweep, options.objective)
+    refine = RunDir(out / REFINE_DIR)
+    if refine.sweep_yaml.is_file():  # the fine pass after the coarse one: both screen
+        second = refine.load_sweep()
+        later = settings_frame(load_episodes(refine.path), second, options.objective)
+        settings = merge_passes(settings, later)
+        sweep = merged_sweep(sweep, second)
     success = success_map(settings)
     units, names, plans = _units(success, settings, tasks, sweep.axes, options)
     if may_run:
         options = TuneOptions(**{**asdict(options), "plans": plans})
         (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
-    for line in plan_lines(units, names, options) if announce else []:
-        announce(line)
+    if announce is not None:
+        for line in plan_lines(units, names, options):
+            announce(line)
     runner = RaceRunner(
         out / CONFIRM_DIR,
         sweep,

@@ -27,6 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from scipy.optimize import brentq
@@ -87,15 +88,12 @@ def _crossings(
     for k, t in enumerate(times):
         step = t - previous
         sd = math.sqrt(step)
-        if k == 0:
 
-            def tail(b: float, t: float = t) -> float:
+        def tail(b: float, k=k, t=t, x=x, w=w, f=f, sd=sd, step=step) -> float:
+            """Chance of crossing ``b`` at this look (and not before)."""
+            if k == 0:
                 return float(_sf((b - drift * t) / math.sqrt(t)))
-
-        else:
-
-            def tail(b: float, x=x, w=w, f=f, sd=sd, step=step) -> float:
-                return float(np.dot(w * f, _sf((b - x - drift * step) / sd)))
+            return float(np.dot(w * f, _sf((b - x - drift * step) / sd)))
 
         if bounds is None:
             target = spent(t, alpha) - spent(previous, alpha)
@@ -103,11 +101,16 @@ def _crossings(
                 b = math.inf
             else:
                 low = -SPAN * math.sqrt(t) - 1.0
-                b = brentq(
-                    lambda b, goal=target: tail(b) - goal,
-                    low,
-                    SPAN * math.sqrt(t) + 10.0,
-                    xtol=1e-6,
+                b = float(
+                    cast(
+                        float,
+                        brentq(
+                            lambda b, goal=target: tail(b) - goal,
+                            low,
+                            SPAN * math.sqrt(t) + 10.0,
+                            xtol=1e-6,
+                        ),
+                    )
                 )
             solved.append(b)
         else:
@@ -195,14 +198,10 @@ def detectable_gain(
         return math.inf
     if power(seeds, block, alpha, 1.0, discordance, looks) < target:
         return math.inf
-    return float(
-        brentq(
-            lambda g: power(seeds, block, alpha, g, discordance, looks) - target,
-            1e-4,
-            1.0,
-            xtol=1e-4,
-        )
+    root = brentq(
+        lambda g: power(seeds, block, alpha, g, discordance, looks) - target, 1e-4, 1.0, xtol=1e-4
     )
+    return float(cast(float, root))
 
 
 @functools.lru_cache(maxsize=1024)
