@@ -25,9 +25,9 @@ from harness.report.stats import mcnemar_exact, wilson_interval
 from harness.report.tables import load_episodes
 from harness.robots.facts import max_jaw_opening
 from harness.tuning.audit import audit_run
-from harness.tuning.decide import KEEP, SWITCH
+from harness.tuning.decide import KEEP, SWITCH, UNDECIDED
 from harness.tuning.grid import approach_values, facing_values
-from harness.tuning.run import TuneOptions, tune
+from harness.tuning.run import TuneOptions, analyse, tune
 from harness.tuning.write import merged_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -299,3 +299,52 @@ def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -
     assert switched["p_holm"] <= switched["level"]  # the Holm step's group-sequential level
     screen_seeds = set(load_episodes(result.run_dir / "screen")["seed"])
     assert not screen_seeds & set(load_episodes(result.run_dir / "confirm")["seed"])
+
+
+def test_a_race_with_lost_rows_is_undecided_and_writes_nothing(tuned, tmp_path: Path) -> None:
+    """Issue 35's repro: keep only the first block of confirm/episodes.jsonl. A live race of
+    this plan needs two looks, so --analyse decides "undecided" (not "keep current after one
+    look") and --write writes no task copy."""
+    import shutil
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    jsonl = copy / "confirm" / "episodes.jsonl"
+    lines = jsonl.read_text().splitlines()
+    first = [line for line in lines if json.loads(line)["episode_index"] < OPTIONS.block]
+    assert 0 < len(first) < len(lines)
+    jsonl.write_text("\n".join(first) + "\n")
+    for name in ("episodes.parquet", "episodes.csv"):
+        (copy / "confirm" / name).unlink(missing_ok=True)
+    result = analyse(copy, write=tmp_path / "written")
+    decision = result.decisions.iloc[0]
+    assert decision["verdict"] == UNDECIDED, decision.to_dict()
+    assert decision["reason"].startswith("race rows not stored")
+    assert decision["current_n"] == OPTIONS.block and result.written == []
+    assert not (tmp_path / "written").exists()
+
+
+def test_an_interrupted_race_is_undecided_and_writes_nothing(
+    tuned, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C during the race (the executor reports an interruption): every unit whose race
+    had not stopped is undecided, never "keep", and --write writes no copy."""
+    import shutil
+
+    from harness.runs.executors import RunStats
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    shutil.rmtree(copy / "confirm")
+    monkeypatch.setattr(
+        "harness.tuning.race.executor_for",
+        lambda *_: lambda *_args, **_kw: RunStats(interrupted=True),
+    )
+    result = tune(
+        [FR3], step=90, bands=0, out=copy, options=OPTIONS, backend="serial",
+        write=tmp_path / "written",
+    )  # fmt: skip
+    assert result.interrupted and result.written == []
+    decision = result.decisions.iloc[0]
+    assert decision["verdict"] == UNDECIDED and decision["reason"] == "interrupted"
+    assert decision["current_n"] == 0
