@@ -236,6 +236,11 @@ def test_budget_bounds_the_race_episodes() -> None:
         ('{"top": 0}', "top"),
         ('{"blok": 20}', "blok"),
         ('{"plans": {"u": {"seeds": 10}}}', "plans"),
+        (
+            '{"plans": {"u": {"seeds": 9, "block": 3, "discordance": 0.3, "rate": 0.5, '
+            '"challengers": 7}}}',
+            "plans",
+        ),
     ],
 )
 def test_analyse_refuses_a_garbage_tune_json(tmp_path: Path, text: str, key: str | None) -> None:

@@ -132,6 +132,11 @@ def _fits(key: str, value: Any) -> bool:
             )
             and p["seeds"] >= 1
             and p["block"] >= 1
+            and isinstance(p.get("challengers", []), list)
+            and all(
+                isinstance(c, list) and len(c) == 2 and all(isinstance(v, str) for v in c)
+                for c in p.get("challengers", [])
+            )
             for p in value.values()
         )
     return True
@@ -364,11 +369,15 @@ def _units(
     for key, group in success.groupby(["task", "context"], sort=False):
         task, context = cast(tuple[str, str], key)
         current = _current(tasks[str(task)], axes)
-        chosen = challengers(frame_of(group), current, options.top)
+        name = unit_key(str(task), str(context))
+        stored = options.plans.get(name, {}).get("challengers")
+        if isinstance(stored, list):  # a continued race keeps its racers
+            chosen = [(str(a), str(f)) for a, f in stored]
+        else:
+            chosen = challengers(frame_of(group), current, options.top)
         racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
         at = frame_of(group[(group["approach"] == current[0]) & (group["facing"] == current[1])])
         rate = float(column(at, "rate").iloc[0]) if len(at) else 0.5
-        name = unit_key(str(task), str(context))
         if name in options.plans:
             plan = _plan_of(options.plans[name], options, len(chosen))
         else:
@@ -379,6 +388,7 @@ def _units(
             "block": plan.block,
             "discordance": plan.discordance,
             "rate": rate,
+            "challengers": [list(c) for c in chosen],
         }
         units.append(Unit(str(task), str(context), UnitRace(racers, plan)))
         first = group.iloc[0]
