@@ -348,3 +348,15 @@ def test_an_interrupted_race_is_undecided_and_writes_nothing(
     decision = result.decisions.iloc[0]
     assert decision["verdict"] == UNDECIDED and decision["reason"] == "interrupted"
     assert decision["current_n"] == 0
+
+
+def test_the_refine_pass_follows_the_best_coarse_directions(tuned) -> None:
+    """The refine pass's directions come from the units' best screened settings (here the
+    fixture's grid holds only downward approach and forward facing cones)."""
+    from harness.runs.rundir import RunDir
+    from harness.tuning.run import best_directions
+
+    screen = RunDir(tuned.run_dir / "screen")
+    sweep = screen.load_sweep()
+    task = load_task(FR3)
+    assert best_directions(screen.path, sweep, [task], "valid") == ("downward", "forward")
