@@ -360,3 +360,28 @@ def test_the_refine_pass_follows_the_best_coarse_directions(tuned) -> None:
     sweep = screen.load_sweep()
     task = load_task(FR3)
     assert best_directions(screen.path, sweep, [task], "valid") == ("downward", "forward")
+
+
+def test_a_rerun_may_not_change_the_race_it_continues(tuned, tmp_path: Path) -> None:
+    """The same --out continues the stored sequential test: another --block (or --top, ...) is
+    refused with one line naming the flag and the stored value; a larger --budget is not."""
+    import dataclasses
+    import shutil
+
+    from harness.errors import HarnessError
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    other = dataclasses.replace(OPTIONS, block=4)
+    with pytest.raises(HarnessError, match=r"--block 4: the race in .* planned with 3"):
+        tune([FR3], step=90, bands=0, out=copy, options=other, backend="serial")
+    stored = json.loads((copy / "tune.json").read_text())
+    plan = next(iter(stored["plans"].values()))
+    assert plan["seeds"] == OPTIONS.max_seeds and plan["block"] == OPTIONS.block
+    assert len(plan["challengers"]) == 3
+    again = tune(
+        [FR3], step=90, bands=0, out=copy, backend="serial",
+        options=dataclasses.replace(OPTIONS, budget="1000"),
+    )  # fmt: skip
+    assert again.decisions.iloc[0]["verdict"] == tuned.decisions.iloc[0]["verdict"]
+    assert again.log.episodes == len(load_episodes(copy / "confirm"))  # replayed, none new

@@ -170,13 +170,16 @@ def challengers(
 
 
 def axis_order(values: list[str]) -> list[str]:
-    """Filter JSONs sorted as the heatmap shows them: single angles, bands, then no filter."""
+    """Filter JSONs sorted as the heatmap shows them: per direction (forward, backward, upward,
+    downward), single angles then bands, each ascending; no filter last."""
+    from harness.tuning.grid import DIRECTIONS
 
-    def rank(text: str) -> tuple[int, list[float]]:
+    def rank(text: str) -> tuple[int, int, int, list[float]]:
         value = json.loads(text) if text else None
         if not value:
-            return 2, []
-        return len(value) - 2, sorted(float(a) for a in value[1:])
+            return 1, 0, 0, []
+        order = DIRECTIONS.index(value[0]) if value[0] in DIRECTIONS else len(DIRECTIONS)
+        return 0, order, len(value) - 2, sorted(float(a) for a in value[1:])
 
     return sorted(set(values), key=rank)
 
