@@ -161,17 +161,25 @@ def test_a_race_cut_before_its_first_look_or_mid_race_is_undecided() -> None:
 def test_seeds_needed_follow_the_plan_a_rerun_continues() -> None:
     """Undecided with a gain seen: the seeds needed are a look of this race's plan (a rerun
     continues to it) when the plan has the power, else a new plan's size."""
-    plan = Plan(seeds_for_power(0.15, 0.3, 20, 0.05), 20)
+    plan = Plan(seeds_for_power(0.15, 0.3, 20, 0.05), 20)  # 120 seeds: 6 looks of 20
     rng = np.random.default_rng(4)
     current = list(rng.random(20) < 0.5)
-    better = [True if not c and i % 3 == 0 else c for i, c in enumerate(current)]
+    better = [True if not c and i % 3 == 0 else c for i, c in enumerate(current)]  # 3 won, 0 lost
     race = UnitRace([Racer(("a", "0"), 0), Racer(("a", "1"), 1)], plan)
     advance(race, {0: current, 1: better})
     decided = verdict(race, "budget spent")
-    assert decided.verdict == UNDECIDED
-    if decided.within_plan:
-        assert decided.seeds_needed % plan.block == 0 and decided.seeds_needed <= plan.seeds
-    assert math.isfinite(decided.detectable) or race.look == 0
+    assert decided.verdict == UNDECIDED and decided.within_plan
+    looks = plan.looks_for(3 / 20, 3 / 20)
+    assert looks is not None and decided.seeds_needed == looks * plan.block <= plan.seeds
+    assert decided.detectable == pytest.approx(plan.detectable(1))
+    # A gain the plan cannot reach: 2 won and 1 lost of 20 on a 40-seed plan.
+    small = UnitRace([Racer(("a", "0"), 0), Racer(("a", "1"), 1)], Plan(40, 20))
+    now = [i % 2 == 0 for i in range(20)]
+    new = [True if i in (1, 3) else (False if i == 2 else v) for i, v in enumerate(now)]
+    advance(small, {0: now, 1: new})
+    decided = verdict(small, "budget spent")
+    assert decided.verdict == UNDECIDED and not decided.within_plan
+    assert decided.seeds_needed == seeds_for_power(0.05, 0.15, 20, 0.05) > 40
 
 
 def test_confirmed_ties_stop_and_pick_the_fewest_changes() -> None:
