@@ -14,6 +14,7 @@ thousands of intervals at once.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from scipy.special import ndtri
@@ -21,7 +22,9 @@ from scipy.special import ndtri
 ArrayOrFloat = np.ndarray | float
 
 
-def wilson(successes: ArrayOrFloat, n: ArrayOrFloat, confidence: float = 0.95):
+def wilson(
+    successes: ArrayOrFloat, n: ArrayOrFloat, confidence: float = 0.95
+) -> tuple[np.ndarray, np.ndarray]:
     """Wilson score interval (lo, hi) of successes / n; (0, 1) where n is 0."""
     z = float(ndtri(0.5 + 0.5 * confidence))
     k, m = np.asarray(successes, float), np.asarray(n, float)
@@ -40,7 +43,7 @@ def paired_gain_interval(
     current_only: ArrayOrFloat,
     neither: ArrayOrFloat,
     confidence: float = 0.95,
-):
+) -> tuple[np.ndarray, np.ndarray]:
     """Newcombe's method 10 interval (lo, hi) of p_new - p_current from the paired 2x2 table:
     ``both`` seeds where both succeed, ``new_only``, ``current_only``, ``neither``."""
     a, b, c, d = (np.asarray(v, float) for v in (both, new_only, current_only, neither))
@@ -88,7 +91,9 @@ def paired_gain_bounds(
     return low, high
 
 
-def exact_interval(successes: ArrayOrFloat, n: ArrayOrFloat, confidence: float = 0.95):
+def exact_interval(
+    successes: ArrayOrFloat, n: ArrayOrFloat, confidence: float = 0.95
+) -> tuple[Any, Any]:
     """Clopper-Pearson interval (lo, hi) of successes / n (``binomtest(...).proportion_ci``
     method "exact"); (0, 1) where n is 0. The decisions quote it for the race's rates: a race
     stops at a look chosen by its data, and the exact interval keeps its coverage there

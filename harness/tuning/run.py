@@ -1,11 +1,14 @@
 """``tune``: screen the grid, race the best on fresh seeds, decide, write ``<out>/tune/``.
 
-``<out>/screen`` is the grid sweep (an ordinary run directory: resume, replay, compare, audit),
-``<out>/confirm`` the race's run directory (fresh seeds, ``harness.tuning.race``),
-``<out>/tune.json`` the tune's options, and ``<out>/tune/``: ``decisions.csv`` (one row per
-robot, arm and object), ``race.csv`` (every racer), ``success_map.csv`` (the screening),
-``heatmaps/``, ``tuned.yaml`` (the keys to merge per task file) and ``tuned.md``. A tune run
-again with the same ``--out`` reuses every stored episode; ``--analyse`` only reads them.
+``<out>/screen`` is the screening sweep (an ordinary run directory: resume, replay, compare,
+audit): the coarse pass over every direction, followed by ``<out>/refine``, the fine grid about
+the best directions (or, with ``coarse`` off, the fine grid alone); ``<out>/confirm`` the race's
+run directory (fresh seeds, ``harness.tuning.race``), ``<out>/tune.json`` the tune's options
+with each unit's race plan and racers (a rerun continues that race), and ``<out>/tune/``:
+``decisions.csv`` (one row per robot, arm and object), ``race.csv`` (every racer),
+``success_map.csv`` (the screening), ``heatmaps/``, ``tuned.yaml`` (the keys to merge per task
+file) and ``tuned.md``. A tune run again with the same ``--out`` reuses every stored episode;
+``--analyse`` only reads them.
 """
 
 from __future__ import annotations
