@@ -14,11 +14,10 @@ file) and ``tuned.md``. A tune run again with the same ``--out`` reuses every st
 from __future__ import annotations
 
 import json
-import math
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
@@ -49,100 +48,20 @@ from harness.tuning.grid import (
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
+from harness.tuning.options import (
+    OPTIONS_FILE,
+    RACE_KEYS,
+    TuneOptions,
+    check_continuation,
+    stored_options,
+)
+from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
-from harness.tuning.sequential import Plan, correlated_discordance, plan_block, seeds_for_power
 from harness.tuning.write import write_copy
 
-SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
+SCREEN_DIR, CONFIRM_DIR, TUNE_DIR = "screen", "confirm", "tune"
+DEFAULT_OPTIONS = TuneOptions()
 REFINE_DIR = "refine"  # the fine pass about the coarse pass's best directions
-TARGET_GAIN = 0.05  # the gain a default race has 80% power to confirm (issue 35)
-OUTCOME_CORRELATION = 0.45  # settings' outcome correlation on a seed, measured (issue 23)
-RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain", "coarse")
-
-
-@dataclass(frozen=True)
-class TuneOptions:
-    """How a tune decides (``docs/tune.md``): screening seeds, racers, race blocks, budget."""
-
-    objective: str = "valid"
-    screen_seeds: int = 10
-    top: int = 3  # challengers raced against the current setting, per unit
-    block: int = 20  # fresh seeds per race round
-    max_seeds: int | None = None  # fresh seeds per unit at most; None: sized by power
-    budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
-    alpha: float = 0.05
-    engine: str = "mujoco"  # the execution engine of every screening and race episode
-    sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
-    target_gain: float = TARGET_GAIN  # the gain the power-sized race is planned to see
-    seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
-    plans: dict[str, dict[str, Any]] = field(default_factory=dict)  # unit key -> its Plan
-    coarse: bool = True  # screen every direction coarsely first, then refine the best
-
-    @staticmethod
-    def load(path: Path) -> TuneOptions:
-        """``tune.json``, checked: a garbage or mistyped file is one line naming it and the key."""
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise HarnessError(f"{path}: not a tune's options file ({error})") from None
-        if not isinstance(data, dict):
-            raise HarnessError(f"{path}: expected a JSON object of tune options")
-        known = {f.name: f for f in fields(TuneOptions)}
-        for key, value in data.items():
-            if key not in known:
-                raise HarnessError(f"{path}: key {key!r}: not a tune option")
-            if not _fits(key, value):
-                raise HarnessError(f"{path}: key {key!r}: {value!r} is not a valid value")
-        return TuneOptions(**data)
-
-
-# The types each tune.json key may hold (JSON numbers: int or float).
-_TYPES: dict[str, tuple[type, ...]] = {
-    "objective": (str,),
-    "screen_seeds": (int,),
-    "top": (int,),
-    "block": (int,),
-    "max_seeds": (int, type(None)),
-    "budget": (str, type(None)),
-    "alpha": (float, int),
-    "engine": (str,),
-    "sources": (dict,),
-    "target_gain": (float, int),
-    "seconds_each": (float, int),
-    "plans": (dict,),
-    "coarse": (bool,),
-}
-_PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
-
-
-def _fits(key: str, value: Any) -> bool:
-    if key == "coarse":
-        return isinstance(value, bool)
-    if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
-        return False
-    if key in ("screen_seeds", "top", "block") and value < 1:
-        return False
-    if key == "max_seeds" and value is not None and value < 1:
-        return False
-    if key == "alpha" and not 0 < float(value or 0) < 1:
-        return False
-    if key == "plans" and isinstance(value, dict):
-        return all(
-            isinstance(p, dict)
-            and all(
-                isinstance(p.get(k), t) and not isinstance(p.get(k), bool)
-                for k, t in _PLAN_KEYS.items()
-            )
-            and p["seeds"] >= 1
-            and p["block"] >= 1
-            and isinstance(p.get("challengers", []), list)
-            and all(
-                isinstance(c, list) and len(c) == 2 and all(isinstance(v, str) for v in c)
-                for c in p.get("challengers", [])
-            )
-            for p in value.values()
-        )
-    return True
 
 
 @dataclass(frozen=True)
@@ -167,7 +86,7 @@ def tune(
     bands: int = 3,
     out: Path | None = None,
     seed: int | None = None,
-    options: TuneOptions = TuneOptions(),
+    options: TuneOptions = DEFAULT_OPTIONS,
     workers: int | None = None,
     backend: str = "process",
     progress: bool = False,
@@ -189,9 +108,9 @@ def tune(
     }
     first = tune_sweep(tasks, axes, **grid, coarse=options.coarse)  # type: ignore[arg-type]
     out = out or RunDir.default_path(first.name)
-    stored = _stored_options(out)
+    stored = stored_options(out)
     if stored is not None and stored.plans:
-        _check_continuation(out, stored, options)
+        check_continuation(out, stored, options)
         options = TuneOptions(**{**asdict(options), "plans": stored.plans})
     run = {"workers": workers, "backend": backend, "progress": progress, "engine": options.engine}
     started = time.perf_counter()
@@ -264,24 +183,6 @@ def best_directions(
     )
 
 
-def _stored_options(out: Path) -> TuneOptions | None:
-    path = out / OPTIONS_FILE
-    return TuneOptions.load(path) if path.is_file() else None
-
-
-def _check_continuation(out: Path, stored: TuneOptions, given: TuneOptions) -> None:
-    """Refuse options that would make a continued race a different test."""
-    for key in RACE_KEYS:
-        before, now = getattr(stored, key), getattr(given, key)
-        if before != now:
-            flag = "--" + key.replace("_", "-")
-            raise HarnessError(
-                f"{flag} {now}: the race in {out} was planned with {before} ({OPTIONS_FILE} key "
-                f"{key!r}); a rerun continues that sequential test: give the same value, or a new "
-                "--out (and --seed) for a new test"
-            )
-
-
 def analyse(out: Path, objective: str | None = None, write: Path | None = None) -> TuneResult:
     """Decide again from the stored episodes only (a missing race block: "undecided")."""
     path = out / OPTIONS_FILE
@@ -305,62 +206,6 @@ def _current(task: TaskConfig, axes: dict[str, list[object]]) -> tuple[str, str]
     return found[0], found[1]
 
 
-def unit_key(task: str, context: str) -> str:
-    """A unit's key in ``tune.json``'s plans."""
-    return f"{task}\t{context}"
-
-
-def screening_discordance(
-    settings: pd.DataFrame,
-    unit: tuple[str, str],
-    current: tuple[str, str],
-    others: list[tuple[str, str]],
-) -> float:
-    """Mean share of screening seeds on which a raced challenger and the current setting
-    disagree (the screening's settings share each seed): NaN without pairs."""
-    rows = frame_of(settings[(settings["task"] == unit[0]) & (settings["context"] == unit[1])])
-
-    def outcomes(setting: tuple[str, str]) -> pd.Series:
-        at = frame_of(rows[(rows["approach"] == setting[0]) & (rows["facing"] == setting[1])])
-        return pd.Series(at.groupby("episode_index")["ok"].first())
-
-    base = outcomes(current)
-    shares = []
-    for other in others:
-        pair = pd.concat([base, outcomes(other)], axis=1, join="inner")
-        if len(pair):
-            shares.append(float((pair.iloc[:, 0] != pair.iloc[:, 1]).mean()))
-    return float(sum(shares) / len(shares)) if shares else math.nan
-
-
-def make_plan(rate: float, discordance: float, options: TuneOptions, challengers: int) -> Plan:
-    """A unit's race plan: ``max_seeds`` when given, else the seeds that give 80% power to
-    confirm a ``target_gain`` gain over the current setting's screening ``rate`` (clipped to
-    0.05-0.95), at the larger of the screening's discordance and the one outcome correlation
-    0.45 implies (issue 23's measurement), Holm's first step over the challengers."""
-    base = min(max(rate, 0.05), 0.95)
-    gain = options.target_gain
-    psi = correlated_discordance(base, gain, OUTCOME_CORRELATION)
-    if not math.isnan(discordance):
-        psi = max(psi, discordance)
-    psi = round(psi, 2)
-    share = options.alpha / max(1, challengers)
-    seeds = options.max_seeds or seeds_for_power(gain, psi, options.block, share)
-    block = plan_block(seeds, options.block)
-    return Plan(seeds, block, options.alpha, max(1, challengers), gain, psi)
-
-
-def _plan_of(stored: dict[str, Any], options: TuneOptions, challengers: int) -> Plan:
-    return Plan(
-        int(stored["seeds"]),
-        int(stored["block"]),
-        options.alpha,
-        max(1, challengers),
-        options.target_gain,
-        float(stored["discordance"]),
-    )
-
-
 def _units(
     success: pd.DataFrame,
     settings: pd.DataFrame,
@@ -382,7 +227,7 @@ def _units(
         at = frame_of(group[(group["approach"] == current[0]) & (group["facing"] == current[1])])
         rate = float(column(at, "rate").iloc[0]) if len(at) else 0.5
         if name in options.plans:
-            plan = _plan_of(options.plans[name], options, len(chosen))
+            plan = plan_of(options.plans[name], options, len(chosen))
         else:
             psi = screening_discordance(settings, (str(task), str(context)), current, chosen)
             plan = make_plan(rate, psi, options, len(chosen))
@@ -401,58 +246,6 @@ def _units(
             "object": object_name(str(context), str(first["object"])),
         }
     return units, names, plans
-
-
-def plan_lines(
-    units: list[Unit], names: dict[tuple[str, str], dict[str, str]], options: TuneOptions
-) -> list[str]:
-    """Up front, per unit: the seeds its race needs, the minutes that costs on this engine
-    (the screening's measured seconds per episode), and what a ``--budget`` lets it see."""
-    budget = Budget.parse(options.budget)
-    racers = sum(len(u.race.racers) for u in units)
-    out = []
-    for unit in units:
-        plan, label = unit.race.plan, names[(unit.task, unit.context)]
-        head = f"{label['robot']} {label['arm']} {label['object']}: "
-        episodes = plan.seeds * len(unit.race.racers)
-        minutes = episodes * options.seconds_each / 60.0
-        how = (
-            f"--max-seeds {options.max_seeds}"
-            if options.max_seeds
-            else f"80% power for a {plan.target_gain * 100:+.0f}-point gain at the screening's "
-            f"rate, discordance {plan.discordance:.2f}"
-        )
-        line = (
-            f"{head}this race needs ~{plan.seeds} seeds per contender ({how}; "
-            f"{plan.looks} looks of {plan.block}): ~{minutes:.0f} minutes on this engine "
-            f"({len(unit.race.racers)} racers, {options.seconds_each:.2f} s per screening "
-            "episode; less where racers share a seed's execution)"
-        )
-        cap = _seeds_allowed(budget, racers, options.seconds_each)
-        if cap is not None and cap < plan.seeds:
-            looks = cap // plan.block
-            seen = plan.detectable(looks) if looks else math.inf
-            line += f"; --budget {options.budget} allows " + (
-                f"{looks} looks ({looks * plan.block} seeds): it can see a gain of "
-                f"{seen * 100:+.0f} points or more at 80% power"
-                if math.isfinite(seen)
-                else f"{looks} looks ({looks * plan.block} seeds): too few to confirm any gain "
-                "at 80% power"
-                if looks
-                else f"no look (one look is {plan.block} seeds x {len(unit.race.racers)} "
-                "racers): it decides nothing"
-            )
-        out.append(line)
-    return out
-
-
-def _seeds_allowed(budget: Budget, racers: int, seconds_each: float) -> int | None:
-    """Seeds per contender the budget allows when every unit's racers share it evenly."""
-    if budget.episodes is not None:
-        return budget.episodes // max(1, racers)
-    if budget.seconds is not None and seconds_each > 0:
-        return int(budget.seconds / seconds_each) // max(1, racers)
-    return None
 
 
 def decide(
@@ -585,4 +378,4 @@ def _write(
     return written
 
 
-__all__ = ["TuneOptions", "TuneResult", "analyse", "lines", "tune"]
+__all__ = ["OPTIONS_FILE", "RACE_KEYS", "TuneOptions", "TuneResult", "analyse", "lines", "tune"]
