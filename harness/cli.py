@@ -240,27 +240,31 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
     p.add_argument(
+        "--directions",
+        choices=["all", "canonical"],
+        help="all (default): a coarse pass over every Pick direction on both axes, then the "
+        "fine grid about the best; canonical: only the fine grid about downward / forward",
+    )
+    p.add_argument(
         "--top",
         type=_bounded_int(1, 20),
-        default=3,
         help="screening's best settings raced against the current one (default 3)",
     )
     p.add_argument(
         "--block",
         type=_bounded_int(1, 1000),
-        default=20,
-        help="fresh seeds per race round (default 20)",
+        help="fresh seeds per race look (default 20; a rerun keeps the race's)",
     )
     p.add_argument(
         "--max-seeds",
         type=_bounded_int(1, 100_000),
-        default=100,
-        help="fresh seeds per robot, arm and object at most (default 100)",
+        help="fresh seeds per robot, arm and object at most (default: sized for 80%% power "
+        "at a 5-point gain)",
     )
     p.add_argument(
         "--budget",
         metavar="N|Ns",
-        help="stop the race after N episodes or N CPU seconds (e.g. 300s)",
+        help="race episodes (N) or episode-seconds (Ns, e.g. 300s) the race may use at most",
     )
     p.add_argument("--seed", type=SEED, help="screening sweep seed (default: the sweep's, else 0)")
     p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
@@ -273,7 +277,6 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument(
         "--objective",
         choices=["valid", "reference"],
-        default="valid",
         help="decide by the validity verdict (default) or the reference success",
     )
     _add_engine(p)

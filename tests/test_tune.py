@@ -26,16 +26,16 @@ from harness.report.stats import mcnemar_exact, wilson_interval
 from harness.report.tables import load_episodes
 from harness.robots.facts import max_jaw_opening
 from harness.tuning.audit import audit_run
-from harness.tuning.decide import KEEP, SWITCH
+from harness.tuning.decide import KEEP, SWITCH, UNDECIDED
 from harness.tuning.grid import approach_values, facing_values
-from harness.tuning.run import TuneOptions, tune
+from harness.tuning.run import TuneOptions, analyse, tune
 from harness.tuning.write import merged_text
 
 ROOT = Path(__file__).resolve().parents[1]
 FR3 = ROOT / "tasks" / "pick" / "fr3.yaml"
 INTERNDATA = INTERNDATA_EXAMPLES
 EPISODES = 3
-OPTIONS = TuneOptions(screen_seeds=EPISODES, block=3, max_seeds=6)
+OPTIONS = TuneOptions(screen_seeds=EPISODES, block=3, max_seeds=6, coarse=False)
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +217,9 @@ def test_compare_pairs_a_tuned_file_with_the_current_by_arm(tuned, tmp_path: Pat
     assert json.loads(matched.iloc[0]["settings"])["filter_z_dir"] == ["downward", 140.0]
     # The decision again from the stored episodes; a plain run is refused.
     assert cli_main(["tune", "--analyse", str(tuned.run_dir)]) == 0
-    assert "fr3_pick:" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert printed.count("fr3 left cube: ") == 1  # each decision printed once
+    assert "tuned.yaml" in printed
     assert cli_main(["tune", "--analyse", str(runs["now"])]) == 2
     assert "not a tune directory" in capsys.readouterr().err
 
@@ -285,7 +287,7 @@ def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -
     bad = tmp_path / "fr3_facing20.yaml"
     text = FR3.read_text().replace("name: fr3_pick", "name: fr3_pick_facing20")
     bad.write_text(merged_text(text, {"filter_x_dir": ["forward", 20]}, FR3))
-    options = TuneOptions(screen_seeds=3, top=1, block=10, max_seeds=30)
+    options = TuneOptions(screen_seeds=3, top=1, block=10, max_seeds=30, coarse=False)
     result = tune(
         [FR3, bad], step=90, bands=0, out=tmp_path / "tune", options=options, backend="serial"
     )
@@ -295,6 +297,92 @@ def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -
     assert switched["verdict"] == SWITCH, switched.to_dict()
     assert switched["facing"] != '["forward", 20.0]'
     assert switched["gain_lo"] > 0 and switched["rate"] > switched["current_rate"]
-    assert switched["p_holm"] <= options.alpha / (options.max_seeds // options.block)
+    assert switched["p_holm"] <= switched["level"]  # the Holm step's group-sequential level
     screen_seeds = set(load_episodes(result.run_dir / "screen")["seed"])
     assert not screen_seeds & set(load_episodes(result.run_dir / "confirm")["seed"])
+
+
+def test_a_race_with_lost_rows_is_undecided_and_writes_nothing(tuned, tmp_path: Path) -> None:
+    """Issue 35's repro: keep only the first block of confirm/episodes.jsonl. A live race of
+    this plan needs two looks, so --analyse decides "undecided" (not "keep current after one
+    look") and --write writes no task copy."""
+    import shutil
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    jsonl = copy / "confirm" / "episodes.jsonl"
+    lines = jsonl.read_text().splitlines()
+    first = [line for line in lines if json.loads(line)["episode_index"] < OPTIONS.block]
+    assert 0 < len(first) < len(lines)
+    jsonl.write_text("\n".join(first) + "\n")
+    for name in ("episodes.parquet", "episodes.csv"):
+        (copy / "confirm" / name).unlink(missing_ok=True)
+    result = analyse(copy, write=tmp_path / "written")
+    decision = result.decisions.iloc[0]
+    assert decision["verdict"] == UNDECIDED, decision.to_dict()
+    assert decision["reason"].startswith("race rows not stored")
+    assert decision["current_n"] == OPTIONS.block and result.written == []
+    assert not (tmp_path / "written").exists()
+
+
+def test_an_interrupted_race_is_undecided_and_writes_nothing(
+    tuned, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C during the race (the executor reports an interruption): every unit whose race
+    had not stopped is undecided, never "keep", and --write writes no copy."""
+    import shutil
+
+    from harness.runs.executors import RunStats
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    shutil.rmtree(copy / "confirm")
+    monkeypatch.setattr(
+        "harness.tuning.race.executor_for",
+        lambda *_: lambda *_args, **_kw: RunStats(interrupted=True),
+    )
+    result = tune(
+        [FR3], step=90, bands=0, out=copy, options=OPTIONS, backend="serial",
+        write=tmp_path / "written",
+    )  # fmt: skip
+    assert result.interrupted and result.written == []
+    decision = result.decisions.iloc[0]
+    assert decision["verdict"] == UNDECIDED and decision["reason"] == "interrupted"
+    assert decision["current_n"] == 0
+
+
+def test_the_refine_pass_follows_the_best_coarse_directions(tuned) -> None:
+    """The refine pass's directions come from the units' best screened settings (here the
+    fixture's grid holds only downward approach and forward facing cones)."""
+    from harness.runs.rundir import RunDir
+    from harness.tuning.run import best_directions
+
+    screen = RunDir(tuned.run_dir / "screen")
+    sweep = screen.load_sweep()
+    task = load_task(FR3)
+    assert best_directions(screen.path, sweep, [task], "valid") == ("downward", "forward")
+
+
+def test_a_rerun_may_not_change_the_race_it_continues(tuned, tmp_path: Path) -> None:
+    """The same --out continues the stored sequential test: another --block (or --top, ...) is
+    refused with one line naming the flag and the stored value; a larger --budget is not."""
+    import dataclasses
+    import shutil
+
+    from harness.errors import HarnessError
+
+    copy = tmp_path / "tune"
+    shutil.copytree(tuned.run_dir, copy)
+    other = dataclasses.replace(OPTIONS, block=4)
+    with pytest.raises(HarnessError, match=r"--block 4: the race in .* planned with 3"):
+        tune([FR3], step=90, bands=0, out=copy, options=other, backend="serial")
+    stored = json.loads((copy / "tune.json").read_text())
+    plan = next(iter(stored["plans"].values()))
+    assert plan["seeds"] == OPTIONS.max_seeds and plan["block"] == OPTIONS.block
+    assert len(plan["challengers"]) == 3
+    again = tune(
+        [FR3], step=90, bands=0, out=copy, backend="serial",
+        options=dataclasses.replace(OPTIONS, budget="1000"),
+    )  # fmt: skip
+    assert again.decisions.iloc[0]["verdict"] == tuned.decisions.iloc[0]["verdict"]
+    assert again.log.episodes == len(load_episodes(copy / "confirm"))  # replayed, none new

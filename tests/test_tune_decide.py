@@ -5,12 +5,16 @@ is deduplicated by what each filter keeps."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.stats import binomtest
 
 from harness.tuning.decide import (
     KEEP,
+    STOP_PLAN,
     SWITCH,
     UNDECIDED,
     Racer,
@@ -21,6 +25,7 @@ from harness.tuning.decide import (
     verdict,
 )
 from harness.tuning.grid import approach_values, axis_values, facing_values, filter_key
+from harness.tuning.sequential import Plan
 
 BLOCK = 10
 
@@ -28,7 +33,7 @@ BLOCK = 10
 def race_on(outcomes: list[list[bool]], looks: int, fallback: int | None = None) -> UnitRace:
     """Race settings whose outcomes per seed are given (row 0: the current setting)."""
     racers = [Racer(("a", str(k)), k, fallback=k == fallback) for k in range(len(outcomes))]
-    race = UnitRace(racers, looks=looks)
+    race = UnitRace(racers, Plan(looks * BLOCK, BLOCK, challengers=len(outcomes) - 1))
     while not race.stopped:
         start = race.look * BLOCK
         advance(race, {k: row[start : start + BLOCK] for k, row in enumerate(outcomes)})
@@ -41,8 +46,10 @@ def test_ties_keep_the_current_setting() -> None:
     race = race_on([same, same, same, same], looks=4)
     decided = verdict(race)
     assert decided.verdict == KEEP and decided.chosen is None
-    assert race.look == race.min_looks == 2  # no challenger ahead after two looks: stop early
-    assert decided.seeds == 2 * BLOCK
+    # Identical outcomes: no discordant seed, so no gain is seen and none is rejected (too few
+    # discordant seeds for Newcombe's bound): the race runs its plan, and the tie keeps.
+    assert race.stopped == STOP_PLAN and race.look == 4
+    assert decided.seeds == race.look * BLOCK
 
 
 def test_a_clear_gain_switches_with_its_confirming_look() -> None:
@@ -159,3 +166,53 @@ def test_budget_in_episodes_or_seconds() -> None:
     assert Budget.parse("400").spent(400, 0.0) and not Budget.parse("400").spent(399, 1e9)
     assert Budget.parse("300s") == Budget(seconds=300.0)
     assert Budget.parse("300s").spent(0, 300.0) and not Budget.parse("300s").spent(10**6, 299.0)
+
+
+def test_the_coarse_pass_spans_every_pick_direction_on_both_axes() -> None:
+    """Forward, backward, upward and downward (Pick's four names; left/right are Place's) at a
+    quadrant and a hemisphere, on the approach and the facing axis; every band of every
+    direction follows the reference's order rule (a non-empty range of cosines)."""
+    from harness.config import load_task
+    from harness.tuning.grid import (
+        APPROACH_KEY,
+        DIRECTIONS,
+        FACING_KEY,
+        coarse_values,
+        direction_of,
+        tune_sweep,
+    )
+
+    task = load_task(Path(__file__).resolve().parents[1] / "tasks" / "pick" / "fr3.yaml")
+    sweep = tune_sweep([task], {}, step=15, bands=2, episodes=1, seed=0, coarse=True)
+    for key in (APPROACH_KEY, FACING_KEY):
+        names = {direction_of(json.dumps(v)) for v in sweep.axes[key]}
+        assert names >= set(DIRECTIONS)
+    assert ["backward", 135.0] in coarse_values() and ["upward", 45.0] in coarse_values()
+    for direction in DIRECTIONS:
+        for value in [*approach_values(15, 2, direction), *facing_values(15, 2, direction)]:
+            key = filter_key(value)
+            assert value[0] == direction and (key is None or key[1] < key[2]), value
+    # The refine pass about backward facing holds issue 35's [backward, 40] at step 10 (140).
+    assert ["backward", 40.0] in facing_values(10, 0, "backward")
+
+
+def test_a_second_pass_never_counts_a_seed_twice() -> None:
+    import pandas as pd
+
+    from harness.tuning.analysis import merge_passes
+
+    def frame(settings: list[tuple[str, str]], first_id: int) -> pd.DataFrame:
+        rows = [
+            {"task": "t", "context": "{}", "approach": a, "facing": f, "point_id": first_id + i,
+             "ok": True}
+            for i, (a, f) in enumerate(settings)
+        ]  # fmt: skip
+        return pd.DataFrame(rows)
+
+    first = frame([('["downward", 90.0]', '["forward", 90.0]')], 0)
+    later = frame(
+        [('["downward", 90.0, 180.0]', '["forward", 90.0]'), ('["downward", 120.0]', "null")], 0
+    )
+    merged = merge_passes(first, later)
+    assert len(merged) == 2  # the band keeps what downward 90 keeps: already screened
+    assert list(merged["point_id"]) == [0, 2]

@@ -3,21 +3,43 @@
 from __future__ import annotations
 
 import argparse
-import re
+from dataclasses import asdict
 from pathlib import Path
 
 from harness.commands.console import make_console
 from harness.errors import HarnessError
-from harness.tuning.run import TuneOptions, analyse, lines, tune
+from harness.tuning.race import Budget
+from harness.tuning.run import OPTIONS_FILE, TuneOptions, analyse, lines, tune
 
-BUDGET = re.compile(r"^\d+(\.\d+)?s$|^\d+$")
+
+def _options(args: argparse.Namespace) -> TuneOptions:
+    """The tune's options: the flags given, else those stored in ``--out``'s tune.json (a
+    rerun continues its race), else the defaults."""
+    stored = TuneOptions()
+    path = Path(args.out) / OPTIONS_FILE if args.out else None
+    if path is not None and path.is_file():
+        stored = TuneOptions.load(path)
+    given = {
+        "objective": args.objective,
+        "screen_seeds": args.episodes,
+        "top": args.top,
+        "block": args.block,
+        "max_seeds": args.max_seeds,
+        "budget": args.budget,
+        "engine": args.engine,
+        "coarse": None if args.directions is None else args.directions == "all",
+    }
+    base = {
+        k: v for k, v in asdict(stored).items() if k not in ("sources", "plans", "seconds_each")
+    }
+    base["budget"] = None  # a budget is this invocation's, never carried over
+    return TuneOptions(**{**base, **{k: v for k, v in given.items() if v is not None}})
 
 
 def main(args: argparse.Namespace) -> int:
     console = make_console()
     write = Path(args.write) if args.write else None
-    if args.budget and not BUDGET.match(args.budget):
-        raise HarnessError(f"--budget {args.budget!r}: expected episodes (400) or seconds (300s)")
+    Budget.parse(args.budget)  # one line for a garbage, zero or negative --budget
     if args.analyse:
         result = analyse(Path(args.analyse), args.objective, write)
     elif not args.files:
@@ -25,16 +47,8 @@ def main(args: argparse.Namespace) -> int:
     else:
         from harness.runs.engine_check import check_engine
 
-        check_engine(args.engine)  # one line before the screen's run directory is made
-        options = TuneOptions(
-            objective=args.objective,
-            screen_seeds=args.episodes or TuneOptions.screen_seeds,
-            top=args.top,
-            block=args.block,
-            max_seeds=args.max_seeds,
-            budget=args.budget,
-            engine=args.engine,
-        )
+        options = _options(args)
+        check_engine(options.engine)  # one line before the screen's run directory is made
         result = tune(
             [Path(f) for f in args.files],
             step=args.step,
@@ -45,6 +59,9 @@ def main(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=True,
             write=write,
+            announce=lambda line: console.print(
+                line, highlight=False, markup=False, soft_wrap=True
+            ),
         )
     if result.interrupted and result.decisions.empty:
         console.print(
@@ -52,7 +69,6 @@ def main(args: argparse.Namespace) -> int:
             f"command with --out {result.run_dir} to continue"
         )
         return 130
-    console.print(result.yaml_text, highlight=False, markup=False, soft_wrap=True)
     for line in lines(result.decisions):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     rows = [("tuned", result.tuned_yaml), ("report", result.tuned_md), ("run", result.run_dir)]

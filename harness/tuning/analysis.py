@@ -96,6 +96,31 @@ def settings_frame(frame: pd.DataFrame, sweep: SweepConfig, objective: str) -> p
     )
 
 
+def merge_passes(first: pd.DataFrame, later: pd.DataFrame) -> pd.DataFrame:
+    """The settings frames of two screening passes as one: ``later``'s rows of a setting the
+    first pass already screened (the same filters by what they keep, on the same seeds) are
+    dropped, so no seed counts twice; its grid order follows the first pass's."""
+    from harness.tuning.grid import filter_key
+
+    def keys(frame: pd.DataFrame) -> pd.Series:
+        return pd.Series(
+            [
+                json.dumps([t, c, filter_key(json.loads(a)), filter_key(json.loads(f))])
+                for t, c, a, f in zip(
+                    frame["task"], frame["context"], frame["approach"], frame["facing"], strict=True
+                )
+            ],
+            index=frame.index,
+            dtype=object,
+        )
+
+    seen = set(keys(first))
+    fresh = frame_of(later[~keys(later).isin(seen)]).copy()
+    offset = int(column(first, "point_id").to_numpy().max()) + 1 if len(first) else 0
+    fresh["point_id"] = column(fresh, "point_id") + offset
+    return frame_of(pd.concat([first, fresh], ignore_index=True))
+
+
 def success_map(settings: pd.DataFrame) -> pd.DataFrame:
     """Per unit and setting: n, successes, rate, Wilson bounds, the reference rate beside it,
     fallback episodes and the grid order."""
@@ -145,13 +170,16 @@ def challengers(
 
 
 def axis_order(values: list[str]) -> list[str]:
-    """Filter JSONs sorted as the heatmap shows them: single angles, bands, then no filter."""
+    """Filter JSONs sorted as the heatmap shows them: per direction (forward, backward, upward,
+    downward), single angles then bands, each ascending; no filter last."""
+    from harness.tuning.grid import DIRECTIONS
 
-    def rank(text: str) -> tuple[int, list[float]]:
+    def rank(text: str) -> tuple[int, int, int, list[float]]:
         value = json.loads(text) if text else None
         if not value:
-            return 2, []
-        return len(value) - 2, sorted(float(a) for a in value[1:])
+            return 1, 0, 0, []
+        order = DIRECTIONS.index(value[0]) if value[0] in DIRECTIONS else len(DIRECTIONS)
+        return 0, order, len(value) - 2, sorted(float(a) for a in value[1:])
 
     return sorted(set(values), key=rank)
 

@@ -13,6 +13,7 @@ block (``--write DIR`` does the merge, :mod:`harness.tuning.write`). A key whose
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -84,6 +85,11 @@ def tuned_yaml(
     return "\n".join(text) + "\n"
 
 
+def _seen(row: Any) -> str:
+    gain = float(row["detectable_gain"])
+    return f"{gain * 100:+.0f} points" if math.isfinite(gain) else "none"
+
+
 def tuned_markdown(
     decisions: pd.DataFrame,
     yaml_text: str,
@@ -106,6 +112,7 @@ def tuned_markdown(
                 f"{row['current_reference_rate']:.0%}",
                 f"{row['gain']:+.0%} ({row['gain_lo']:+.2f} to {row['gain_hi']:+.2f})",
                 f"{row['screen_rate']:.0%}",
+                _seen(row),
                 "yes" if row["isolated"] else "",
                 f"[png]({image.parent.name}/{image.name})" if image else "",
             ]
@@ -120,6 +127,7 @@ def tuned_markdown(
         "current reference rate",
         "paired gain (95% CI)",
         "screening rate",
+        "gain its seeds see (80% power)",
         "isolated",
         "map",
     ]

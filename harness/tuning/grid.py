@@ -26,6 +26,7 @@ is the class's first value when it has one); with ``--step 15 --bands 1`` 8 x 7 
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -46,18 +47,57 @@ def _bands(low: float, high: float, count: int) -> list[tuple[float, float]]:
     return [(low + i * width, low + (i + 1) * width) for i in range(count)]
 
 
-def approach_values(step: int, bands: int) -> list[list[Any]]:
-    """``[downward, a]`` for a in [90, 180) by ``step``, then ``bands`` bands over 90-180."""
-    singles: list[list[Any]] = [["downward", float(a)] for a in range(90, 180, step)]
-    return singles + [["downward", lo, hi] for lo, hi in _bands(90.0, 180.0, bands)]
+# Pick's only direction names (docs/reference-pick-skill.md section 4.2: "Pick knows only these
+# four names"; leftward / rightward are Place's): every cone the filter syntax can state is one
+# of these about base X (forward / backward) or base Z (upward / downward).
+DIRECTIONS = ("forward", "backward", "upward", "downward")
+COARSE_HALF_ANGLES = (45.0, 90.0)  # the coarse pass's cone half-angles (chosen: a quadrant and
+# a hemisphere about each direction)
 
 
-def facing_values(step: int, bands: int) -> list[list[Any]]:
-    """``[forward, b]`` for b = 2 step ... 180, then ``bands`` bands over 0-180 (larger first)."""
-    singles: list[list[Any]] = [["forward", float(b)] for b in range(2 * step, 181, 2 * step)]
-    if not singles or singles[-1][1] != 180.0:
-        singles.append(["forward", 180.0])
-    return singles + [["forward", hi, lo] for lo, hi in _bands(0.0, 180.0, bands)]
+def cone(direction: str, half: float) -> list[Any]:
+    """``[direction, angle]`` keeping axes within ``half`` degrees of the named direction (the
+    angle is measured from base +X / +Z, so backward and downward take 180 - half)."""
+    _, sign = DIRECTION_ROW_SIGN[direction]
+    return [direction, float(half if sign > 0 else 180.0 - half)]
+
+
+def band(direction: str, low: float, high: float) -> list[Any]:
+    """``[direction, a1, a2]`` keeping axes between ``low`` and ``high`` degrees from base +X /
+    +Z, in the reference's order (forward/upward: larger first; backward/downward: smaller)."""
+    _, sign = DIRECTION_ROW_SIGN[direction]
+    return [direction, high, low] if sign > 0 else [direction, low, high]
+
+
+def approach_values(step: int, bands: int, direction: str = "downward") -> list[list[Any]]:
+    """Cones of half-angle 90, 90 - step, ... > 0 about ``direction``, then ``bands`` bands over
+    its hemisphere (downward: ``[downward, a]`` for a in [90, 180), bands over 90-180)."""
+    halves = [90.0 - i * step for i in range(math.ceil(90 / step)) if 90.0 - i * step > 0]
+    singles: list[list[Any]] = [cone(direction, h) for h in halves]
+    _, sign = DIRECTION_ROW_SIGN[direction]
+    low, high = (0.0, 90.0) if sign > 0 else (90.0, 180.0)
+    return singles + [band(direction, lo, hi) for lo, hi in _bands(low, high, bands)]
+
+
+def facing_values(step: int, bands: int, direction: str = "forward") -> list[list[Any]]:
+    """Cones of half-angle 2 step, 4 step, ... 180 about ``direction``, then ``bands`` bands
+    over 0-180 (forward: ``[forward, b]``, bands ``[forward, hi, lo]``)."""
+    halves = [float(b) for b in range(2 * step, 181, 2 * step)]
+    if not halves or halves[-1] != 180.0:
+        halves.append(180.0)
+    singles: list[list[Any]] = [cone(direction, h) for h in halves]
+    return singles + [band(direction, lo, hi) for lo, hi in _bands(0.0, 180.0, bands)]
+
+
+def coarse_values() -> list[list[Any]]:
+    """The coarse pass on either axis: a quadrant and a hemisphere about each Pick direction."""
+    return [cone(d, h) for d in DIRECTIONS for h in COARSE_HALF_ANGLES]
+
+
+def direction_of(text: str) -> str | None:
+    """The direction name of a filter's JSON (None: no filter)."""
+    value = json.loads(text) if text else None
+    return str(value[0]) if value else None
 
 
 def filter_key(value: list[Any] | None) -> tuple[int, float, float] | None:
@@ -168,13 +208,24 @@ def tune_sweep(
     episodes: int,
     seed: int,
     name: str = "tune",
+    directions: tuple[str, str] = ("downward", "forward"),
+    coarse: bool = False,
 ) -> SweepConfig:
-    """The tune sweep: tasks x (approach cones x facing cones x other axes) x seeds."""
+    """The tune sweep: tasks x (approach cones x facing cones x other axes) x seeds. ``coarse``:
+    the coarse pass over every direction (:func:`coarse_values` on both axes); else the fine
+    grid about ``directions`` (approach, facing)."""
     if not 1 <= step <= 90:
         raise ConfigError(f"--step {step}: expected 1 to 90 degrees")
+    if bands < 0:
+        raise ConfigError(f"--bands {bands}: expected 0 or more")
     currents = [current_setting(task) for task in tasks]
-    approach = axis_values(approach_values(step, bands), [c[APPROACH_KEY] for c in currents])
-    facing = axis_values(facing_values(step, bands), [c[FACING_KEY] for c in currents])
+    if coarse:
+        grid_a, grid_f = coarse_values(), coarse_values()
+    else:
+        grid_a = approach_values(step, bands, directions[0])
+        grid_f = facing_values(step, bands, directions[1])
+    approach = axis_values(grid_a, [c[APPROACH_KEY] for c in currents])
+    facing = axis_values(grid_f, [c[FACING_KEY] for c in currents])
     data = {
         "name": name,
         "tasks": [
@@ -185,4 +236,13 @@ def tune_sweep(
         "seed": seed,
         "record": "none",
     }
+    return SweepConfig.model_validate(data)
+
+
+def merged_sweep(first: SweepConfig, second: SweepConfig) -> SweepConfig:
+    """``first`` with ``second``'s filter values added to its two axes (deduplicated by what
+    they keep): a sweep holding every setting of both passes, for the race's seeds."""
+    data = first.model_dump(mode="json")
+    for key in (APPROACH_KEY, FACING_KEY):
+        data["axes"][key] = dedupe([*first.axes[key], *second.axes[key]])  # type: ignore[list-item]
     return SweepConfig.model_validate(data)

@@ -1,15 +1,14 @@
 """Tune heatmaps: the success map of one robot, arm and object over approach x facing cones.
 
 Oriented as the screening's report.html heatmap: columns are approach settings (x), rows facing
-settings (y, the first at the bottom), each sorted (single angles ascending, then bands, then no
-filter); the colour is the objective's screening rate, each cell says k/n when the grid is small
-enough to read. The chosen setting is outlined in black, the current one in white dashes. The
-title is wrapped to the figure's width, never clipped.
+settings (y, the first at the bottom), each sorted per direction (single angles ascending, then
+bands; no filter last); the colour is the objective's screening rate, each cell says k/n when the
+grid is small enough to read. The chosen setting is outlined in black, the current one in white
+dashes. The title is wrapped to the figure's width, never clipped.
 """
 
 from __future__ import annotations
 
-import json
 import textwrap
 from pathlib import Path
 
@@ -24,22 +23,16 @@ from matplotlib.patches import Rectangle
 
 from harness.files import safe_child
 from harness.report.frames import column, frame_of, series_rows
-from harness.tuning.analysis import filter_label
+from harness.tuning.analysis import axis_order, filter_label
 from harness.writes import output_dir, write_through
 
 ANNOTATE_MAX_CELLS = 400
 
 
 def _order(table: pd.DataFrame, key: str) -> list[str]:
-    """Settings of ``key`` sorted: single angles ascending, then bands, then no filter."""
-
-    def rank(text: str) -> tuple[int, list[float]]:
-        value = json.loads(text) if text else None
-        if not value:
-            return 2, []
-        return len(value) - 2, sorted(float(a) for a in value[1:])
-
-    return sorted({str(v) for v in table[key]}, key=rank)
+    """Settings of ``key`` as the map shows them (:func:`harness.tuning.analysis.axis_order`:
+    per direction, single angles then bands, no filter last)."""
+    return axis_order([str(v) for v in table[key]])
 
 
 def grid(

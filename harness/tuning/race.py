@@ -11,6 +11,7 @@ evaluations) and a rerun of the tune skips what the directory already holds.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from typing import Any
 from harness.config import SweepConfig, TaskConfig, apply_overrides
 from harness.episode.ids import episode_seed
 from harness.episode.spec import EpisodeSpec
+from harness.errors import HarnessError
 from harness.runs.executors import executor_for
 from harness.runs.expansion import point_overrides, sweep_points
 from harness.runs.progress import SweepProgress
@@ -39,17 +41,35 @@ class Budget:
 
     @staticmethod
     def parse(text: str | None) -> Budget:
-        """``"400"`` (episodes) or ``"300s"`` (CPU seconds)."""
-        if not text:
+        """``"400"`` (episodes) or ``"300s"`` (CPU seconds); anything else, zero or negative is
+        refused with one line naming ``--budget``."""
+        if text is None:
             return Budget()
-        if text.endswith("s"):
-            return Budget(seconds=float(text[:-1]))
-        return Budget(episodes=int(text))
+        value = str(text).strip()
+        try:
+            number = float(value[:-1]) if value.endswith("s") else int(value)
+        except ValueError:
+            number = math.nan
+        if not number > 0 or math.isinf(number):
+            raise HarnessError(
+                f"--budget {text!r}: expected a positive number of race episodes (400) or "
+                "episode-seconds (300s)"
+            )
+        if value.endswith("s"):
+            return Budget(seconds=float(number))
+        return Budget(episodes=int(number))
 
     def spent(self, episodes: int, seconds: float) -> bool:
         return (self.episodes is not None and episodes >= self.episodes) or (
             self.seconds is not None and seconds >= self.seconds
         )
+
+    def allows(self, episodes: int, seconds: float, more: int, seconds_each: float) -> bool:
+        """Whether a round of ``more`` episodes (``seconds_each`` each, estimated) fits in what
+        is left after ``episodes`` / ``seconds``: the budget bounds the race's episodes."""
+        if self.episodes is not None and episodes + more > self.episodes:
+            return False
+        return self.seconds is None or seconds + more * seconds_each <= self.seconds
 
 
 @dataclass
@@ -59,6 +79,7 @@ class Unit:
     task: str
     context: str  # JSON of the point's other axes
     race: UnitRace
+    rows: list[dict[str, Any]] = field(default_factory=list)  # its race rows, every racer
 
 
 @dataclass
@@ -70,6 +91,7 @@ class RaceLog:
     rounds: int = 0
     budget_spent: bool = False
     interrupted: bool = False
+    missing: bool = False  # --analyse: a block the race needs is not stored
     rows: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -101,6 +123,7 @@ class RaceRunner:
         workers: int,
         may_run: bool,
         progress: bool = False,
+        seconds_each: float = 0.0,
     ) -> None:
         """``progress``: each round's episodes as the sweep shows them (``SweepProgress``)."""
         self.sweep = confirm_sweep(screen, max_seeds)
@@ -117,6 +140,7 @@ class RaceRunner:
         )
         self.engine = engine
         self.progress = progress
+        self.seconds_each = seconds_each
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -154,23 +178,30 @@ class RaceRunner:
             engine=self.engine,
         )
 
-    def round(self, units: list[Unit], block: int, log: RaceLog) -> bool:
-        """Run one block for every running unit and apply the look; False if cut short."""
-        wanted: list[tuple[Any, list[EpisodeSpec]]] = []
+    def round(self, units: list[Unit], budget: Budget, log: RaceLog) -> bool:
+        """Run the next block of every running unit and apply the look; False if cut short
+        (the budget would be overrun, a row is missing or the run was interrupted)."""
+        wanted: list[tuple[Any, Unit, list[EpisodeSpec]]] = []
         for unit in units:
             others = json.loads(unit.context)
-            start = unit.race.look * block
+            start = unit.race.seeds_of(unit.race.look)
+            stop = unit.race.seeds_of(unit.race.look + 1)
             for racer in unit.race.alive():
                 point = {
                     APPROACH_KEY: json.loads(racer.setting[0]),
                     FACING_KEY: json.loads(racer.setting[1]),
                     **others,
                 }
-                specs = [self._spec(unit.task, point, i) for i in range(start, start + block)]
-                wanted.append((racer, specs))
-        todo = [s for _, specs in wanted for s in specs if s.resolved_id not in self.stored]
+                specs = [self._spec(unit.task, point, i) for i in range(start, stop)]
+                wanted.append((racer, unit, specs))
+        size = sum(len(specs) for _, _, specs in wanted)
+        each = log.seconds / log.episodes if log.episodes else self.seconds_each
+        if not budget.allows(log.episodes, log.seconds, size, each):
+            log.budget_spent = True
+            return False
+        todo = [s for _, _, specs in wanted for s in specs if s.resolved_id not in self.stored]
         if todo and not self.may_run:
-            log.interrupted = True
+            log.missing = True
             return False
         if todo:
             label = f"race round {log.rounds + 1}"
@@ -187,8 +218,9 @@ class RaceRunner:
                 log.interrupted = True
                 return False
         verdict = "valid" if self.objective == "valid" else "success"
-        for racer, specs in wanted:
+        for racer, unit, specs in wanted:
             rows = [self.stored[s.resolved_id] for s in specs]
+            unit.rows.extend(rows)
             racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
             racer.reference.extend(bool(r.get("success")) for r in rows)
             racer.fallback = racer.fallback or any(
@@ -207,16 +239,13 @@ class RaceRunner:
         self.stored[str(row["episode_id"])] = row
 
 
-def run_race(units: list[Unit], runner: RaceRunner, block: int, budget: Budget) -> RaceLog:
+def run_race(units: list[Unit], runner: RaceRunner, budget: Budget) -> RaceLog:
     """Rounds until every unit's race stopped, the budget is spent or the run is cut short."""
     log = RaceLog()
     runner.open()
     try:
         while running := [u for u in units if not u.race.stopped]:
-            if budget.spent(log.episodes, log.seconds):
-                log.budget_spent = True
-                break
-            if not runner.round(running, block, log):
+            if not runner.round(running, budget, log):
                 break
     finally:
         runner.close()

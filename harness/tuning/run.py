@@ -1,69 +1,70 @@
 """``tune``: screen the grid, race the best on fresh seeds, decide, write ``<out>/tune/``.
 
-``<out>/screen`` is the grid sweep (an ordinary run directory: resume, replay, compare, audit),
-``<out>/confirm`` the race's run directory (fresh seeds, ``harness.tuning.race``),
-``<out>/tune.json`` the tune's options, and ``<out>/tune/``: ``decisions.csv`` (one row per
-robot, arm and object), ``race.csv`` (every racer), ``success_map.csv`` (the screening),
-``heatmaps/``, ``tuned.yaml`` (the keys to merge per task file) and ``tuned.md``; the report of
-``<out>/screen`` (``report.html``) is the tune's page, its decisions first. A tune run
-again with the same ``--out`` reuses every stored episode; ``--analyse`` only reads them.
+``<out>/screen`` is the screening sweep (an ordinary run directory: resume, replay, compare,
+audit): the coarse pass over every direction, followed by ``<out>/refine``, the fine grid about
+the best directions (or, with ``coarse`` off, the fine grid alone); ``<out>/confirm`` the race's
+run directory (fresh seeds, ``harness.tuning.race``), ``<out>/tune.json`` the tune's options
+with each unit's race plan and racers (a rerun continues that race), and ``<out>/tune/``:
+``decisions.csv`` (one row per robot, arm and object), ``race.csv`` (every racer),
+``success_map.csv`` (the screening), ``heatmaps/``, ``tuned.yaml`` (the keys to merge per task
+file) and ``tuned.md``. A tune run again with the same ``--out`` reuses every stored episode;
+``--analyse`` only reads them. The report of ``<out>/screen`` (``report.html``) is the
+tune's page, its decisions first.
 """
 
 from __future__ import annotations
 
 import json
+import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import pandas as pd
 import yaml
 
-from harness.config import TaskConfig
+from harness.config import SweepConfig, TaskConfig
 from harness.errors import HarnessError
 from harness.report.build import build_report
 from harness.report.finish import finish_run
-from harness.report.frames import frame_of
+from harness.report.frames import column, frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir, claim_new_dir
 from harness.runs.sweep import default_workers, run_sweep
-from harness.tuning.analysis import challengers, settings_frame, success_map
+from harness.tuning.analysis import challengers, merge_passes, ranked, settings_frame, success_map
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
-from harness.tuning.decide import Racer, UnitRace
+from harness.tuning.decide import NO_SETTING_HELPS, UNDECIDED, Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
 from harness.tuning.grid import (
     APPROACH_KEY,
     FACING_KEY,
     current_setting,
+    direction_of,
     filter_key,
     load_inputs,
+    merged_sweep,
     objective_tasks,
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
+from harness.tuning.options import (
+    OPTIONS_FILE,
+    RACE_KEYS,
+    TuneOptions,
+    check_continuation,
+    stored_options,
+)
+from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
 from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
-SCREEN_DIR, CONFIRM_DIR, TUNE_DIR, OPTIONS_FILE = "screen", "confirm", "tune", "tune.json"
-SCREEN_SWEEP = ".screen-sweep.yaml"  # the generated grid, until its run directory holds it
+SCREEN_DIR, CONFIRM_DIR, TUNE_DIR = "screen", "confirm", "tune"
+DEFAULT_OPTIONS = TuneOptions()
+REFINE_DIR = "refine"  # the fine pass about the coarse pass's best directions
 TUNE_OUTPUTS = ("success_map.csv", "decisions.csv", "race.csv", "tuned.yaml", "tuned.md")
-
-
-@dataclass(frozen=True)
-class TuneOptions:
-    """How a tune decides (``docs/tune.md``): screening seeds, racers, race blocks, budget."""
-
-    objective: str = "valid"
-    screen_seeds: int = 10
-    top: int = 3  # challengers raced against the current setting, per unit
-    block: int = 20  # fresh seeds per race round
-    max_seeds: int = 100  # fresh seeds per unit at most (max_seeds / block looks)
-    budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
-    alpha: float = 0.05
-    engine: str = "mujoco"  # the execution engine of every screening and race episode
-    sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
 
 
 @dataclass(frozen=True)
@@ -88,60 +89,53 @@ def tune(
     bands: int = 3,
     out: Path | None = None,
     seed: int | None = None,
-    options: TuneOptions = TuneOptions(),
+    options: TuneOptions = DEFAULT_OPTIONS,
     workers: int | None = None,
     backend: str = "process",
     progress: bool = False,
     write: Path | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> TuneResult:
-    """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide."""
+    """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide.
+
+    On an ``out`` that holds a started race (``tune.json`` with plans) the tune continues that
+    race: the same sequential test, its looks replayed from the stored rows at the same levels;
+    options that would change the test (``RACE_KEYS``) must equal the stored ones."""
     tasks, axes, sweep_seed = load_inputs(paths)
     tasks = objective_tasks(tasks, options.objective)
-    sweep = tune_sweep(
-        tasks,
-        axes,
-        step=step,
-        bands=bands,
-        episodes=options.screen_seeds,
-        seed=seed if seed is not None else (sweep_seed or 0),
-    )
-    out = out or claim_new_dir(RunDir.default_path(sweep.name))
+    grid = {
+        "step": step,
+        "bands": bands,
+        "episodes": options.screen_seeds,
+        "seed": seed if seed is not None else (sweep_seed or 0),
+    }
+    first = tune_sweep(tasks, axes, **grid, coarse=options.coarse)  # type: ignore[arg-type]
+    out = out or claim_new_dir(RunDir.default_path(first.name))
     check_tune_dir(out)
-    screen = out / SCREEN_DIR
-    if (screen / "sweep.yaml").is_file():
-        outcome = run_sweep(
-            resume_dir=screen,
-            workers=workers,
-            backend=backend,
-            progress="tune screen" if progress else False,
-            engine=options.engine,
-            max_points=None,
-        )
-    else:
-        # The generated sweep lives in the tune directory while the screening starts (no temp
-        # folder that a killed tune would leave in /tmp); the run keeps its own sweep.yaml.
-        path = write_file(
-            out / SCREEN_SWEEP,
-            yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False),
-            root=out,
-        )
-        try:
-            outcome = run_sweep(
-                path,
-                out=screen,
-                workers=workers,
-                backend=backend,
-                progress="tune screen" if progress else False,
-                engine=options.engine,
-                max_points=None,  # the tune grid is generated and bounded by --step / --bands
+    stored = stored_options(out)
+    if stored is not None and stored.plans:
+        check_continuation(out, stored, options)
+        options = TuneOptions(**{**asdict(options), "plans": stored.plans})
+    run = {"workers": workers, "backend": backend, "progress": progress, "engine": options.engine}
+    started = time.perf_counter()
+    outcome = _screen(first, out, SCREEN_DIR, run, options.objective)
+    ran, interrupted = outcome.stats.finished, outcome.stats.interrupted
+    if options.coarse and not interrupted:
+        directions = best_directions(out / SCREEN_DIR, first, tasks, options.objective)
+        if announce:
+            announce(
+                f"coarse pass over every direction: refining approach {directions[0]} x facing "
+                f"{directions[1]}"
             )
-        finally:
-            path.unlink(missing_ok=True)
-    finish_run(outcome.run_dir, options.objective)
+        second = tune_sweep(tasks, axes, **grid, directions=directions, name="tune-refine")  # type: ignore[arg-type]
+        outcome = _screen(second, out, REFINE_DIR, run, options.objective)
+        ran, interrupted = ran + outcome.stats.finished, outcome.stats.interrupted
+    elapsed = time.perf_counter() - started
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
-    options = TuneOptions(**{**asdict(options), "sources": sources})
+    seconds_each = elapsed / ran if ran else (stored.seconds_each if stored else 0.0)
+    options = TuneOptions(**{**asdict(options), "sources": sources, "seconds_each": seconds_each})
     write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
-    if outcome.stats.interrupted:
+    if interrupted:
         return TuneResult(out, True, pd.DataFrame())
     return decide(
         out,
@@ -150,11 +144,16 @@ def tune(
         workers=workers,
         may_run=True,
         write=write,
+        announce=announce,
         progress=progress,
     )
 
 
-TUNE_FILES = (OPTIONS_FILE, SCREEN_SWEEP, *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS))
+TUNE_FILES = (
+    OPTIONS_FILE,
+    *(f".{name}-sweep.yaml" for name in (SCREEN_DIR, REFINE_DIR)),
+    *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS),
+)
 
 
 def check_tune_dir(out: Path) -> None:
@@ -164,13 +163,60 @@ def check_tune_dir(out: Path) -> None:
         check_outputs(out, TUNE_FILES, (TUNE_DIR, f"{TUNE_DIR}/heatmaps"))
 
 
+def _screen(sweep: SweepConfig, out: Path, name: str, run: dict[str, Any], objective: str) -> Any:
+    """Run (or resume) the screening pass ``out/name`` and build its report. The generated sweep
+    lives in the tune directory while the pass starts (no temp folder that a killed tune would
+    leave in /tmp); the run keeps its own sweep.yaml."""
+    folder = out / name
+    label = f"tune {name}" if run["progress"] else False
+    if (folder / "sweep.yaml").is_file():
+        outcome = run_sweep(resume_dir=folder, max_points=None, **{**run, "progress": label})
+    else:
+        path = write_file(
+            out / f".{name}-sweep.yaml",
+            yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False),
+            root=out,
+        )
+        try:  # the tune grid is generated and bounded by --step / --bands: no max_points
+            outcome = run_sweep(path, out=folder, max_points=None, **{**run, "progress": label})
+        finally:
+            path.unlink(missing_ok=True)
+    finish_run(outcome.run_dir, objective)
+    return outcome
+
+
+def best_directions(
+    folder: Path, sweep: SweepConfig, tasks: list[TaskConfig], objective: str
+) -> tuple[str, str]:
+    """The (approach, facing) directions the refine pass searches: per axis, the direction of
+    most units' best coarse setting (ties, and an axis whose best is no filter: the current
+    setting's direction, else downward / forward)."""
+    success = success_map(settings_frame(load_episodes(folder), sweep, objective))
+    votes: list[dict[str, float]] = [{}, {}]
+    defaults = ["downward", "forward"]
+    by_name = {t.name: t for t in tasks}
+    for key, group in success.groupby(["task", "context"], sort=False):
+        task = by_name[str(cast(tuple[str, str], key)[0])]
+        current = _current(task, sweep.axes)
+        best = ranked(frame_of(group), current).iloc[0]
+        for axis, text in enumerate((str(best["approach"]), str(best["facing"]))):
+            now = direction_of(current[axis]) or defaults[axis]
+            chosen = direction_of(text) or now
+            votes[axis][chosen] = votes[axis].get(chosen, 0.0) + 1.0
+            votes[axis][now] = votes[axis].get(now, 0.0) + 0.5  # ties go to the current's
+    return (
+        max(votes[0], key=votes[0].__getitem__) if votes[0] else defaults[0],
+        max(votes[1], key=votes[1].__getitem__) if votes[1] else defaults[1],
+    )
+
+
 def analyse(out: Path, objective: str | None = None, write: Path | None = None) -> TuneResult:
     """Decide again from the stored episodes only (a missing race block: "undecided")."""
     path = out / OPTIONS_FILE
     if not path.is_file():
         raise HarnessError(f"{out}: not a tune directory (no {OPTIONS_FILE})")
     check_tune_dir(out)
-    options = TuneOptions(**json.loads(path.read_text(encoding="utf-8")))
+    options = TuneOptions.load(path)
     if objective:
         options = TuneOptions(**{**asdict(options), "objective": objective})
     return decide(out, options, backend="serial", workers=1, may_run=False, write=write)
@@ -190,25 +236,44 @@ def _current(task: TaskConfig, axes: dict[str, list[object]]) -> tuple[str, str]
 
 def _units(
     success: pd.DataFrame,
+    settings: pd.DataFrame,
     tasks: dict[str, TaskConfig],
     axes: dict[str, list[object]],
     options: TuneOptions,
-) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]]]:
-    units, names = [], {}
-    looks = max(1, options.max_seeds // options.block)
+) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]], dict[str, dict[str, Any]]]:
+    units, names, plans = [], {}, {}
     for key, group in success.groupby(["task", "context"], sort=False):
         task, context = cast(tuple[str, str], key)
         current = _current(tasks[str(task)], axes)
-        chosen = challengers(frame_of(group), current, options.top)
+        name = unit_key(str(task), str(context))
+        stored = options.plans.get(name, {}).get("challengers")
+        if isinstance(stored, list):  # a continued race keeps its racers
+            chosen = [(str(a), str(f)) for a, f in stored]
+        else:
+            chosen = challengers(frame_of(group), current, options.top)
         racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
-        units.append(Unit(str(task), str(context), UnitRace(racers, looks, options.alpha)))
+        at = frame_of(group[(group["approach"] == current[0]) & (group["facing"] == current[1])])
+        rate = float(column(at, "rate").iloc[0]) if len(at) else 0.5
+        if name in options.plans:
+            plan = plan_of(options.plans[name], options, len(chosen))
+        else:
+            psi = screening_discordance(settings, (str(task), str(context)), current, chosen)
+            plan = make_plan(rate, psi, options, len(chosen))
+        plans[name] = {
+            "seeds": plan.seeds,
+            "block": plan.block,
+            "discordance": plan.discordance,
+            "rate": rate,
+            "challengers": [list(c) for c in chosen],
+        }
+        units.append(Unit(str(task), str(context), UnitRace(racers, plan)))
         first = group.iloc[0]
         names[(str(task), str(context))] = {
             "robot": str(first["robot"]),
             "arm": str(first["arm"]),
             "object": object_name(str(context), str(first["object"])),
         }
-    return units, names
+    return units, names, plans
 
 
 def decide(
@@ -220,6 +285,7 @@ def decide(
     may_run: bool,
     write: Path | None,
     progress: bool = False,
+    announce: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Race the screening's best against the current setting per unit and write the outputs;
     ``progress`` shows each race round's episodes."""
@@ -227,26 +293,50 @@ def decide(
     sweep = screen.load_sweep()
     tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
     settings = settings_frame(load_episodes(screen.path), sweep, options.objective)
+    refine = RunDir(out / REFINE_DIR)
+    if refine.sweep_yaml.is_file():  # the fine pass after the coarse one: both screen
+        second = refine.load_sweep()
+        later = settings_frame(load_episodes(refine.path), second, options.objective)
+        settings = merge_passes(settings, later)
+        sweep = merged_sweep(sweep, second)
     success = success_map(settings)
-    units, names = _units(success, tasks, sweep.axes, options)
+    units, names, plans = _units(success, settings, tasks, sweep.axes, options)
+    if may_run:
+        options = TuneOptions(**{**asdict(options), "plans": plans})
+        (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
+    if announce is not None:
+        for line in plan_lines(units, names, options):
+            announce(line)
     runner = RaceRunner(
         out / CONFIRM_DIR,
         sweep,
         list(tasks.values()),
-        options.max_seeds,
+        max(u.race.plan.seeds for u in units),
         objective=options.objective,
         engine=options.engine,
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
         progress=progress,
+        seconds_each=options.seconds_each,
     )
-    log = run_race(units, runner, options.block, Budget.parse(options.budget))
+    log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
         finish_run(out / CONFIRM_DIR, options.objective)
-    why = "budget spent" if log.budget_spent else ("interrupted" if log.interrupted else "")
+    why = (
+        f"budget {options.budget} spent"
+        if log.budget_spent
+        else "interrupted"
+        if log.interrupted
+        else "race rows not stored (--analyse runs nothing)"
+        if log.missing
+        else ""
+    )
     decisions = pd.DataFrame(
-        [unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why) for u in units]
+        [
+            unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why, options.objective)
+            for u in units
+        ]
     )
     folder = out / TUNE_DIR
     for name, table in (
@@ -287,9 +377,14 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
     return [
         f"harness tune {out}: objective {options.objective}; screening {options.screen_seeds} "
         f"seeds (sweep seed {seed}); race of the current + {options.top} best on fresh seeds "
-        f"(sweep seed {seed + 100_000}), blocks of {options.block} up to {options.max_seeds}; "
-        f"exact one-sided McNemar, Holm over the racers, alpha {options.alpha} split over "
-        f"{max(1, options.max_seeds // options.block)} looks"
+        f"(sweep seed {seed + 100_000}), per unit a group-sequential plan "
+        + (
+            f"of {options.max_seeds} seeds"
+            if options.max_seeds
+            else f"sized for 80% power at a +{options.target_gain:.0%} gain"
+        )
+        + f" in looks of {options.block} or more; exact one-sided McNemar at Lan-DeMets "
+        f"Pocock-type levels (one-sided alpha {options.alpha}), Holm over the challengers"
         + (
             "; the validity phase is not run under reference semantics (nothing this objective"
             " reads needs it: the rows' validity columns are empty, as with validity: off)."
@@ -298,16 +393,21 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
         ),
         f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode-seconds"
         + ("; budget spent" if log.budget_spent else "")
-        + ("; interrupted (run the tune again with the same --out)" if log.interrupted else ""),
+        + ("; interrupted (run the tune again with the same --out)" if log.interrupted else "")
+        + ("; race rows missing (run the tune to continue the race)" if log.missing else ""),
     ]
 
 
 def _write(
     decisions: pd.DataFrame, tasks: dict[str, TaskConfig], options: TuneOptions, folder: Path
 ) -> list[Path]:
-    """Per task with a file: the merged copy and its diff under ``folder``."""
+    """Per task with a file: the merged copy and its diff under ``folder``. A task whose race
+    decided nothing (undecided: cut short, no look, rows missing) or found no setting that
+    helps gets no copy: there is nothing to merge."""
     written: list[Path] = []
     for name, decided, _ in task_decisions(decisions):
+        if decided["verdict"] in (UNDECIDED, NO_SETTING_HELPS):
+            continue
         source = options.sources.get(name)
         if source is None or not Path(source).is_file():
             continue  # an inline or InternDataEngine task: no task file of ours to copy
@@ -316,4 +416,4 @@ def _write(
     return written
 
 
-__all__ = ["TuneOptions", "TuneResult", "analyse", "lines", "tune"]
+__all__ = ["OPTIONS_FILE", "RACE_KEYS", "TuneOptions", "TuneResult", "analyse", "lines", "tune"]

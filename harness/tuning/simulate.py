@@ -11,11 +11,26 @@ when one challenger is better by each gain.
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import norm
 
-from harness.tuning.decide import SWITCH, Racer, UnitRace, advance, verdict
+from harness.tuning.decide import (
+    FLOOR,
+    KEEP,
+    NO_SETTING_HELPS,
+    SWITCH,
+    UNDECIDED,
+    Racer,
+    UnitRace,
+    advance,
+    futility_bound,
+    one_sided_mcnemar,
+    verdict,
+)
+from harness.tuning.intervals import exact_interval
+from harness.tuning.sequential import Plan
 
 
 def draw(rates: list[float], seeds: int, latent: float, rng: np.random.Generator) -> np.ndarray:
@@ -43,11 +58,12 @@ def one_race(
     """(verdict, chosen rank or -1, seeds used) of one race; rates[0] is the current setting."""
     outcomes = draw(rates, max_seeds, latent, rng)
     racers = [Racer(("a", str(k)), k) for k in range(len(rates))]
-    race = UnitRace(racers, looks=max_seeds // block, alpha=alpha)
+    plan = Plan(max_seeds, block, alpha, challengers=len(rates) - 1)
+    race = UnitRace(racers, plan)
     while not race.stopped:
         start = race.look * block
         advance(race, {k: list(outcomes[k, start : start + block]) for k in range(len(rates))})
-    decided = verdict(race)
+    decided = verdict(race, evidence=False)
     chosen = decided.chosen.rank if decided.chosen else -1
     return decided.verdict, chosen, decided.seeds
 
@@ -95,3 +111,65 @@ def main(argv: list[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+
+
+@dataclass(frozen=True)
+class VectorRaces:
+    """Many one-challenger races at once (``vector_races``): per race the look it stopped at,
+    its verdict and the paired table (both, new only, current only, neither) at that look."""
+
+    look: np.ndarray
+    verdict: np.ndarray  # of VERDICTS' strings
+    table: np.ndarray  # (runs, 4)
+
+
+def vector_races(
+    current_rate: float,
+    new_rate: float,
+    plan: Plan,
+    runs: int,
+    latent: float,
+    rng: np.random.Generator,
+    outcomes: np.ndarray | None = None,
+) -> VectorRaces:
+    """The race of the current setting and one challenger (``harness.tuning.decide``'s rules
+    with one challenger: claim, elimination by the current, the floor, the ruled-out gain, the
+    plan's end), on ``runs`` copula-drawn races at once with the race's own functions
+    (``Plan.level``, ``one_sided_mcnemar``, ``paired_gain_interval``, ``exact_interval``).
+    ``outcomes`` (runs, 2, seeds) replaces the draw (tests compare with the scalar race)."""
+    if outcomes is None:
+        outcomes = np.stack(
+            [draw([current_rate, new_rate], plan.seeds, latent, rng) for _ in range(runs)]
+        )
+    now, new = outcomes[:, 0, :], outcomes[:, 1, :]
+    running = np.ones(runs, bool)
+    look = np.zeros(runs, int)
+    verdicts = np.full(runs, UNDECIDED, dtype=object)
+    final = np.zeros((runs, 4), int)
+    for k in range(1, plan.looks + 1):
+        n = min(k * plan.block, plan.seeds)
+        a = (new[:, :n] & now[:, :n]).sum(1)
+        b = (new[:, :n] & ~now[:, :n]).sum(1)
+        c = (~new[:, :n] & now[:, :n]).sum(1)
+        d = n - a - b - c
+        level = plan.level(k, 1)
+        confirmed = one_sided_mcnemar(b, c) <= level
+        dropped = ~confirmed & (a + c >= a + b) & (one_sided_mcnemar(c, b) <= level)
+        hi_now = exact_interval(a + c, n)[1]
+        hi_new = exact_interval(a + b, n)[1]
+        floor = ~confirmed & (hi_now < FLOOR) & (dropped | (hi_new < FLOOR))
+        ruled = ~confirmed & ~dropped & ~floor
+        ruled &= futility_bound(b, c, a, d, level) < plan.target_gain
+        end = k == plan.looks
+        decided = {
+            SWITCH: confirmed,
+            NO_SETTING_HELPS: floor,
+            KEEP: (dropped & ~floor) | ruled | (end & ~confirmed & ~floor & ~dropped & (b <= c)),
+            UNDECIDED: end & ~confirmed & ~floor & ~dropped & ~ruled & (b > c),
+        }
+        for name, mask in decided.items():
+            stop = running & mask
+            verdicts[stop], look[stop] = name, k
+            final[stop] = np.stack([a, b, c, d], 1)[stop]
+            running &= ~stop
+    return VectorRaces(look, verdicts, final)
