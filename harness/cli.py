@@ -481,9 +481,11 @@ def _fail(line: str) -> int:
 def _stderr(line: str) -> None:
     """One line on stderr; a stdout that cannot be written (a full disk) is silenced so the
     interpreter's exit flush does not print a second, traceback-like message."""
+    from harness.commands.console import visible  # names in the line: controls shown
+
     _silence_stdout()
     with contextlib.suppress(OSError):
-        print(line, file=sys.stderr, flush=True)
+        print(visible(line), file=sys.stderr, flush=True)
 
 
 def _silence_stdout() -> None:

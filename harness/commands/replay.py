@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.viz.render import use_offscreen_gl
 
 
@@ -33,7 +33,9 @@ def main(args: argparse.Namespace) -> int:
     differences = row_differences(stored, result.row)
     outcome = headline(result.row)
     if differences:
-        console.print(f"[red]the replay differs from the stored row[/] ({outcome}):")
+        console.print(
+            styled("[red]the replay differs from the stored row[/] ({outcome}):", outcome=outcome)
+        )
         for line in differences:
             console.print(f"  {line}", highlight=False, markup=False)
     else:

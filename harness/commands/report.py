@@ -9,8 +9,9 @@ from typing import Any
 
 import pandas as pd
 from rich.table import Table
+from rich.text import Text
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.report import (
     FAIL_PREFIX,
     build_report,
@@ -48,10 +49,13 @@ def main(args: argparse.Namespace) -> int:
             else ""
         )
         console.print(
-            f"best for [bold]{row['robot']} {row['arm']} {row['object']}[/]: "
-            f"{point_label(row, params)} — {row['successes']}/{row['n']} ({row['rate']:.0%}, "
-            f"95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}{valid}; ranked by "
-            f"{args.objective})",
+            styled(
+                "best for [bold]{name}[/]: {rest}",
+                name=f"{row['robot']} {row['arm']} {row['object']}",
+                rest=f"{point_label(row, params)} — {row['successes']}/{row['n']} "
+                f"({row['rate']:.0%}, 95% CI {row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}"
+                f"{valid}; ranked by {args.objective})",
+            ),
             soft_wrap=True,
         )
     for label, path in (
@@ -136,8 +140,8 @@ def compare(args: argparse.Namespace) -> int:
             p_value = row["p_value"]
             p_text = f"{p_value:.3g}" if not math.isnan(p_value) else ""
             if not math.isnan(p_value) and p_value < SIGNIFICANCE:
-                difference = f"[bold]{difference}[/]"
-                p_text = f"[bold]{p_text}[/]"
+                difference = Text(difference, style="bold")
+                p_text = Text(p_text, style="bold")
         else:
             difference, p_text = row["present"], ""
         table.add_row(

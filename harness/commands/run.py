@@ -23,8 +23,9 @@ from typing import TYPE_CHECKING, Any
 
 from rich.live import Live
 from rich.table import Table
+from rich.text import Text
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.commands.validate import print_warnings
 from harness.config import (
     ConfigError,
@@ -102,7 +103,7 @@ def _table(rows: list[dict[str, Any]], total: int) -> Table:
             str(row.get("episode_index", "")),
             str(row.get("task", "")),
             str(row.get("seed", "")),  # in full: a cut seed reproduces nothing
-            "[green]success[/]" if ok else "[red]fail[/]",
+            Text("success", style="green") if ok else Text("fail", style="red"),
             str(row.get("failure_reason", "")),
             _fmt(lift, 1e3, "{:.0f}"),
             f"{_fmt(left, 1, '{:.1f}')}/{_fmt(right, 1, '{:.1f}')}",
@@ -170,7 +171,7 @@ def main(args: argparse.Namespace) -> int:
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
     except KeyboardInterrupt:
-        console.print("[yellow]interrupted[/]: finished episodes are kept")
+        console.print(styled("[yellow]interrupted[/]: finished episodes are kept"))
     console.print()
     run.finalize()
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
@@ -229,8 +230,11 @@ def _print_outcome(
     fallback = sum(row.get("filter_outcome") == "fallback" for row in rows)
     if fallback:
         console.print(
-            f"[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
-            "candidate and poses 0..19 of the unfiltered file were tried instead",
+            styled(
+                "[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
+                "candidate and poses 0..19 of the unfiltered file were tried instead",
+                fallback=fallback,
+            ),
             soft_wrap=True,
         )
     extra = ", skipped.txt" if interndata else ""

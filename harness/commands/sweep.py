@@ -9,7 +9,7 @@ from typing import Any
 
 from rich.console import Console
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
@@ -88,8 +88,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"error: {line}" if failing else line, file=sys.stderr)
     if stats.interrupted:
         console.print(
-            f"[yellow]interrupted[/]: finished episodes are kept; continue with "
-            f"harness sweep --resume {outcome.run_dir}"
+            styled(
+                "[yellow]interrupted[/]: finished episodes are kept; continue with "
+                "harness sweep --resume {run_dir}",
+                run_dir=outcome.run_dir,
+            )
         )
         return 130
     return 1 if failing else 0
@@ -156,8 +159,12 @@ def print_summary(run_dir: Path, console: Console) -> None:
         counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
         if sum(counts):
             console.print(
-                f"[yellow]reference fallback[/] at {sum(c > 0 for c in counts)} point(s) "
-                f"({sum(counts)} episodes): the filter kept no candidate (report.html: ⚑)",
+                styled(
+                    "[yellow]reference fallback[/] at {points} point(s) ({episodes} episodes): "
+                    "the filter kept no candidate (report.html: ⚑)",
+                    points=sum(c > 0 for c in counts),
+                    episodes=sum(counts),
+                ),
                 soft_wrap=True,
             )
     for name in ("summary.csv", "episodes.csv", "report.md", "report.html", "recording.rrd"):

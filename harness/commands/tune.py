@@ -6,7 +6,7 @@ import argparse
 import re
 from pathlib import Path
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.errors import HarnessError
 from harness.tuning.run import TuneOptions, analyse, lines, tune
 
@@ -45,8 +45,11 @@ def main(args: argparse.Namespace) -> int:
         )
     if result.interrupted and result.decisions.empty:
         console.print(
-            f"[yellow]interrupted[/]: finished episodes are kept; run the same harness tune "
-            f"command with --out {result.run_dir} to continue"
+            styled(
+                "[yellow]interrupted[/]: finished episodes are kept; run the same harness tune "
+                "command with --out {run_dir} to continue",
+                run_dir=result.run_dir,
+            )
         )
         return 130
     console.print(result.yaml_text, highlight=False, markup=False, soft_wrap=True)

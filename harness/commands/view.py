@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from harness.commands.console import say
 from harness.errors import HarnessError
 
 
@@ -48,8 +49,8 @@ def main(args: argparse.Namespace) -> int:
     if has_display() and viewer:
         # Loopback only: the viewer's server must not listen on every interface.
         return subprocess.call([viewer, "--bind", "127.0.0.1", str(path)])
-    print(f"no display here; to look at {path}:")
-    print(f"  - on a machine with a display: pip install rerun-sdk==0.41.* && rerun {path.name}")
-    print(f"  - or serve it to a browser:     rerun --bind 127.0.0.1 --web-viewer {path}")
-    print("  - or drag the file onto https://rerun.io/viewer (version 0.41)")
+    say(f"no display here; to look at {path}:")
+    say(f"  - on a machine with a display: pip install rerun-sdk==0.41.* && rerun {path.name}")
+    say(f"  - or serve it to a browser:     rerun --bind 127.0.0.1 --web-viewer {path}")
+    say("  - or drag the file onto https://rerun.io/viewer (version 0.41)")
     return 0
