@@ -50,9 +50,11 @@ def _bounded_int(low: int, high: int) -> Callable[[str], int]:
 
 def _record_policy(text: str) -> str:
     """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
-    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:\d+", text):
+    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:[1-9]\d*", text):
         return text
-    raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, invalid, all or sample:N")
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected none, failures, invalid, all or sample:N with N >= 1"
+    )
 
 
 RECORD_HELP = "none|failures|invalid|all|sample:N"

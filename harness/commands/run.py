@@ -52,7 +52,10 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
-        out[key.strip()] = parse_set_value(value)
+        try:
+            out[key.strip()] = parse_set_value(value)
+        except ValueError as exc:
+            raise ConfigError(f"--set {key.strip()}: {exc}") from None
     return out
 
 
@@ -83,6 +86,10 @@ def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
         raise HarnessError("give a task YAML (harness run TASK.yaml) or --interndata FILE")
     if args.object:
         raise HarnessError("--object substitutes InternDataEngine assets; use it with --interndata")
+    if args.asset_root:
+        raise HarnessError(
+            "--asset-root resolves InternDataEngine asset paths; use it with --interndata"
+        )
     return [absolute_paths(load_task(args.task))]
 
 
