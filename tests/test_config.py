@@ -670,12 +670,14 @@ def test_record_pattern_accepted(record: str) -> None:
     assert check(SweepConfig, sweep(record=record)).record == record
 
 
-@pytest.mark.parametrize("record", ["sample:", "sample:x", "some", "ALL", "failures ", ""])
+@pytest.mark.parametrize(
+    "record", ["sample:", "sample:x", "sample:0", "sample:01", "some", "ALL", "failures ", ""]
+)
 def test_record_pattern_rejected(record: str) -> None:
     err = error(SweepConfig, sweep(record=record))
     assert err.key == "record"
     assert err.message.startswith(
-        "String should match pattern '^(none|failures|invalid|all|sample:\\d+)$'"
+        "String should match pattern '^(none|failures|invalid|all|sample:[1-9][0-9]*)$'"
     )
 
 
