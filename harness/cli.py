@@ -52,9 +52,7 @@ def _record_policy(text: str) -> str:
     """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
     if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:[1-9]\d*", text):
         return text
-    raise argparse.ArgumentTypeError(
-        f"{text!r}: expected none, failures, invalid, all or sample:N with N >= 1"
-    )
+    raise argparse.ArgumentTypeError(f"{text!r}: expected {RECORD_HELP} with N >= 1")
 
 
 RECORD_HELP = "none|failures|invalid|all|sample:N"
@@ -454,18 +452,13 @@ def _terminate_like_ctrl_c() -> None:
     workers, keeps what finished and exits 130 (it used to die at once and leave orphaned
     workers writing BrokenPipe tracebacks)."""
     import signal
+    import threading
 
     def on_term(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
-    if threading_main():
+    if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, on_term)
-
-
-def threading_main() -> bool:
-    import threading
-
-    return threading.current_thread() is threading.main_thread()
 
 
 def _os_error_line(exc: OSError) -> str:

@@ -19,6 +19,7 @@ from harness.commands.console import say
 from harness.commands.graspgen import summary
 from harness.errors import HarnessError, InputFileError
 from harness.files import safe_file_name
+from harness.grasps.grasp_set import read_grasp_array
 from harness.objects.assets import (
     ObjectAsset,
     default_objects_dir,
@@ -89,7 +90,7 @@ def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
     if asset.grasp_path is None:
         lines.append("grasps      none found (harness grasps generate MESH --out FILE)")
     else:
-        grasps = np.load(asset.grasp_path)
+        grasps = read_grasp_array(asset.grasp_path)
         shape = "x".join(str(s) for s in grasps.shape)
         lines.append(f"grasps      {asset.grasp_path} ({shape})")
         if grasps.ndim == 2 and grasps.shape[1] == 17:
