@@ -32,6 +32,10 @@ def check_flags(args: argparse.Namespace) -> None:
         raise HarnessError("--out does not apply with --resume (the run stays in RUN_DIR)")
     if args.address and args.backend != "ray":
         raise HarnessError(f"--address needs --backend ray (the backend is {args.backend})")
+    if args.address:
+        from harness.runs.ray_address import check_ray_address
+
+        check_ray_address(args.address)  # before the run: one line, not 240 s of Ray retries
 
 
 def main(args: argparse.Namespace) -> int:
