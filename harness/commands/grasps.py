@@ -29,6 +29,7 @@ from harness.grasps import (
 from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
+from harness.viz.formats import PLOT_SUFFIXES, check_suffix
 
 if TYPE_CHECKING:  # matplotlib is imported only when a plot is asked for
     from mpl_toolkits.mplot3d.axes3d import Axes3D
@@ -233,6 +234,8 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
 
 def inspect(args: argparse.Namespace) -> int:
     """Entry point of ``harness grasps inspect``."""
+    if args.plot:
+        check_suffix(args.plot, PLOT_SUFFIXES, "--plot")
     convention = robot_convention(args.robot, args.arm)
     pick = pick_from_args(args)
     grasps = load_grasp_file(args.file)

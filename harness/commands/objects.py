@@ -37,6 +37,7 @@ from harness.objects.shapes import (
 )
 from harness.robots import available_robots
 from harness.robots.facts import max_jaw_opening
+from harness.viz.formats import IMAGE_SUFFIXES, check_suffix
 from harness.viz.object_render import render_object
 
 # --------------------------------------------------------------------------------------------
@@ -102,6 +103,8 @@ def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
 
 
 def show(args: argparse.Namespace) -> int:
+    if args.render:
+        check_suffix(args.render, IMAGE_SUFFIXES, "--render")
     asset, info = _load_for_show(args.name)
     say("\n".join(describe(asset, info)))
     if args.render:

@@ -8,10 +8,15 @@ import argparse
 from pathlib import Path
 
 from harness.commands.console import make_console, styled
+from harness.viz.formats import RECORDING_SUFFIXES, VIDEO_SUFFIXES, check_suffix
 from harness.viz.render import use_offscreen_gl
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.record:
+        check_suffix(args.record, RECORDING_SUFFIXES, "--record")
+    if args.video:
+        check_suffix(args.video, VIDEO_SUFFIXES, "--video")
     use_offscreen_gl()  # before mujoco is first imported
     from harness.episode import run_episode
     from harness.runs.replay import find_episode, row_differences

@@ -18,6 +18,7 @@ import numpy as np
 
 from harness.commands.console import say
 from harness.robots import RobotModel, available_robots
+from harness.viz.formats import IMAGE_SUFFIXES, check_suffix
 from harness.viz.robot_render import placed_model, render_robot
 
 
@@ -138,6 +139,7 @@ def describe(robot: RobotModel) -> list[str]:
 
 def show(args: argparse.Namespace) -> int:
     if getattr(args, "render", None):
+        check_suffix(args.render, IMAGE_SUFFIXES, "--render")
         # MuJoCo picks its GL backend when first imported, which describe() does.
         os.environ.setdefault("MUJOCO_GL", "egl")
     robot = RobotModel.load(args.name)
