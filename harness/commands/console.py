@@ -63,6 +63,20 @@ def say(line: str = "", file: TextIO | None = None) -> None:
     print(visible(line), file=file if file is not None else sys.stdout)
 
 
+def videos_possible(wanted: bool) -> bool:
+    """``--videos`` as it can be honoured: the GL backend is chosen and tried (in a child
+    process) before anything imports mujoco; where no offscreen context can be made, one line
+    says so and the run goes on without videos (its rows and report are still written)."""
+    if not wanted:
+        return False
+    from harness.viz.render import offscreen_gl_problem
+
+    problem = offscreen_gl_problem()
+    if problem is not None:
+        say(f"warning: videos skipped: {problem}", file=sys.stderr)
+    return problem is None
+
+
 def make_console() -> Console:
     console = SafeConsole(markup=False, emoji=False)
     if not console.is_terminal:

@@ -11,7 +11,7 @@ import pandas as pd
 from rich.table import Table
 from rich.text import Text
 
-from harness.commands.console import make_console, styled
+from harness.commands.console import make_console, styled, videos_possible
 from harness.report import (
     FAIL_PREFIX,
     build_report,
@@ -30,6 +30,7 @@ SIGNIFICANCE = 0.05
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
+    args.videos = videos_possible(args.videos)  # before mujoco is imported
     console = make_console()
     if args.videos:
         console.print("replaying one success and one failure per robot arm for the videos ...")

@@ -9,7 +9,7 @@ from typing import Any
 
 from rich.console import Console
 
-from harness.commands.console import make_console, styled
+from harness.commands.console import make_console, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
@@ -40,6 +40,7 @@ def check_flags(args: argparse.Namespace) -> None:
 
 def main(args: argparse.Namespace) -> int:
     check_flags(args)
+    args.videos = videos_possible(args.videos)  # before mujoco is imported
     console = make_console()
     if args.sweep:
         from harness.commands.validate import print_warnings, sweep_warning_lines
