@@ -25,7 +25,7 @@ GL_PROBE_TIMEOUT_S = 60.0
 # GLContext(); only the renderer's mjr_makeContext tells.
 _PROBE = (
     "import mujoco\n"
-    "m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom size=\"1\"/></worldbody>"
+    'm = mujoco.MjModel.from_xml_string(\'<mujoco><worldbody><geom size="1"/></worldbody>'
     "</mujoco>')\n"
     "with mujoco.Renderer(m, 16, 16) as r:\n"
     "    r.update_scene(mujoco.MjData(m))\n"
