@@ -170,6 +170,74 @@ def out_is(target: str) -> Callable[[Path], list[str]]:
     return build
 
 
+# -- issue 37: reads, parses, flags (each builder fails early: no episode runs) ---------------
+
+
+def obj_including_fifo(include: str, command: str) -> Callable[[Path], list[str]]:
+    """An OBJ whose ``mtllib`` (``include="mtl"``) or whose MTL's ``map_Kd`` (``"texture"``)
+    names a FIFO: trimesh opened it and waited forever for a writer."""
+
+    def build(work: Path) -> list[str]:
+        mesh = work / "m.obj"
+        if include == "mtl":
+            os.mkfifo(work / "f.mtl")
+            head = "mtllib f.mtl\n"
+        else:
+            os.mkfifo(work / "tex.png")
+            (work / "a.mtl").write_text("newmtl m\nmap_Kd tex.png\n", encoding="utf-8")
+            head = "mtllib a.mtl\nusemtl m\n"
+        mesh.write_text(head + CUBE_OBJ.read_text(encoding="utf-8"), encoding="utf-8")
+        if command == "validate":
+            return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+        if command == "generate":
+            return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
+        return ["objects", "show", str(mesh)]
+
+    return build
+
+
+def usd_symlink_loop(work: Path) -> list[str]:
+    (work / "loop1.usda").symlink_to("loop2.usda")
+    (work / "loop2.usda").symlink_to("loop1.usda")
+    mesh = usd_file(work, "3,3,3,3", TETRA_FACES, TETRA, "loop1.usda")
+    return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
+
+
+def garbage_parquet_run(work: Path) -> list[str]:
+    (work / "run").mkdir()
+    (work / "run" / "episodes.parquet").write_bytes(b"PAR1 this is no parquet file")
+    return ["report", str(work / "run"), "--no-videos"]
+
+
+def garbage_npz(work: Path) -> list[str]:
+    (work / "g.npz").write_bytes(b"PK\x03\x04 no zip archive")
+    return ["grasps", "inspect", str(work / "g.npz"), "--robot", "fr3"]
+
+
+def garbage_csv_runs(work: Path) -> list[str]:
+    for name in ("a", "b"):
+        (work / name).mkdir()
+        (work / name / "episodes.csv").write_text("episode_id,foo\nx,1\n", encoding="utf-8")
+    return ["compare", str(work / "a"), str(work / "b")]
+
+
+def closed_port(work: Path) -> list[str]:
+    import socket
+
+    with socket.socket() as probe:  # a port that was free a moment ago: nothing listens
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    sweep = write_yaml(work / "s.yaml", sweep_data())
+    return ["sweep", str(sweep), "--backend", "ray", "--address", f"127.0.0.1:{port}"]
+
+
+SPELLED_TWICE = {
+    "friction 1 and 1.0": {"object.friction": [1, 1.0]},
+    "lift_th number and string": {"pick.lift_th": [0.02, "0.02"]},
+    "validity on and true": {"pick.validity": ["on", True]},
+}
+
+
 @dataclass(frozen=True)
 class Case:
     name: str
@@ -264,6 +332,80 @@ CASES = [
         "replay --record into a missing folder",
         flags("replay", "WORK/norun", "x", "--record", "WORK/missing/dir/x.rrd"),
         "does not exist",
+    ),
+    # issue 37: the read rule (regular files only, loops refused, parse errors are input errors)
+    Case("obj mtllib fifo: validate", obj_including_fifo("mtl", "validate"), "f.mtl is a FIFO"),
+    Case("obj mtllib fifo: generate", obj_including_fifo("mtl", "generate"), "f.mtl is a FIFO"),
+    Case("obj mtllib fifo: show", obj_including_fifo("mtl", "show"), "f.mtl is a FIFO"),
+    Case("mtl map_Kd fifo: validate", obj_including_fifo("texture", "validate"), "tex.png is a"),
+    Case("mtl map_Kd fifo: show", obj_including_fifo("texture", "show"), "tex.png is a FIFO"),
+    Case("usd sublayer symlink loop", usd_symlink_loop, "is a symlink loop"),
+    Case("report: garbage parquet", garbage_parquet_run, "cannot read episode table"),
+    Case("grasps inspect: garbage npz", garbage_npz, "cannot read as a .npy array"),
+    Case("compare: garbage csv", garbage_csv_runs, "not an episode table"),
+    # issue 37: flags checked before any work
+    Case(
+        "--set nested 3000 deep",
+        flags("run", str(FR3), "--set", "pick.lift_th=" + "[" * 3000 + "]" * 3000),
+        "nests more than 32 levels",
+        False,
+    ),
+    Case(
+        "--address not-a-host:xx",
+        flags("sweep", "SWEEP", "--backend", "ray", "--address", "not-a-host:xx"),
+        "port 'xx' is not a number",
+        False,
+    ),
+    Case("--address closed port", closed_port, "connection refused", False),
+    Case(
+        "replay --video without extension",
+        flags("replay", "WORK/norun", "x", "--video", "WORK/clip"),
+        "unknown extension '(none)'; use .mp4",
+    ),
+    Case(
+        "inspect --plot p.txt",
+        flags("grasps", "inspect", str(CUBE_GRASPS), "--robot", "fr3", "--plot", "WORK/p.txt"),
+        "unknown extension '.txt'; use .png or .pdf or .svg",
+    ),
+    Case(
+        "objects show --render img",
+        flags("objects", "show", "cube", "--render", "WORK/img"),
+        "unknown extension '(none)'; use .png or .jpg or .jpeg",
+    ),
+    # issue 37: broken input that exited 0
+    *[
+        Case(f"sweep points: {name}", sweep_with(axes=axes), "spelled another way")
+        for name, axes in SPELLED_TWICE.items()
+    ],
+    Case(
+        "one key spelled two ways",
+        sweep_with(axes={"object.friction": [0.5], "objects.0.friction": [1.0]}),
+        "name the same key",
+    ),
+    Case("sweep named ..", sweep_with(name=".."), "not a plain file name"),
+    Case(
+        "axis objects.-1.mass",
+        sweep_with(axes={"objects.-1.mass": [0.1]}),
+        "negative list index -1",
+    ),
+    Case(
+        "--set objects.-1.mass",
+        flags("run", str(FR3), "--set", "objects.-1.mass=0.1"),
+        "negative list index -1",
+        False,
+    ),
+    Case("--record sample:0", flags("run", str(FR3), "--record", "sample:0"), "N >= 1", False),
+    Case(
+        "--asset-root without --interndata",
+        flags("run", str(FR3), "--asset-root", "WORK"),
+        "use it with --interndata",
+        False,
+    ),
+    Case(
+        "generate -n 0",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "-n", "0"),
+        "0 is outside",
+        False,
     ),
 ]
 
