@@ -788,3 +788,163 @@ def test_sigterm_stops_a_sweep_like_ctrl_c(tmp_path: Path) -> None:
     assert "Traceback" not in err and "BrokenPipe" not in err, err
     time.sleep(1.0)  # an orphaned worker would write its traceback now
     assert 1 <= len(_jsonl(run_dir)) < 200
+
+
+# -- issue 37: names reach the terminal as text ------------------------------------------------
+
+MARKUP_NAME = "t[/x]\x1b]0;pwned\x07\x1b[31mred"  # rich markup, an OSC title, an SGR colour
+
+
+def test_the_console_shows_markup_and_control_characters_as_text() -> None:
+    """One rule for every string rich prints (``SafeConsole.render_str``): a ``[/x]`` in a path
+    crashed rich (MarkupError); an escape in a task name reached the terminal."""
+    import io
+
+    from rich.table import Table
+
+    from harness.commands.console import SafeConsole, styled, visible
+
+    out = io.StringIO()
+    console = SafeConsole(file=out, force_terminal=True, width=200, markup=False)
+    table = Table(title=f"run {MARKUP_NAME}")
+    table.add_column("task")
+    table.add_row(MARKUP_NAME)
+    console.print(f"run directory: {MARKUP_NAME} :smile:")
+    console.print(table)
+    console.print(styled("[bold]{name}[/]: ok", name=MARKUP_NAME))
+    text = re.sub("\x1b\\[[0-9;]*m", "", out.getvalue())  # rich's own styling (a terminal)
+    shown = "t[/x]\\x1b]0;pwned\\x07\\x1b[31mred"
+    assert text.count(shown) == 4 and ":smile:" in text
+    assert "\x1b" not in text and "\x07" not in text
+    assert visible("a\u202eb\tc\n") == "a\\u202eb\tc\n"
+
+
+@pytest.fixture(scope="module")
+def markup_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """``harness run`` of a task named ``t[/x]<OSC><SGR>red`` whose object is ``o[/y]``, into
+    ``--out .../r[/x]``; its stdout."""
+    import io
+
+    folder = tmp_path_factory.mktemp("markup")
+    data = task_data(name="o[/y]")
+    data["name"] = MARKUP_NAME
+    task = write_yaml(folder / "t.yaml", data)
+    run_dir = folder / "r[" / "x]"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = cli.main(
+            ["run", str(task), "--episodes", "1", "--record", "none", "--out", str(run_dir)]
+        )
+    assert code == 0
+    return run_dir, out.getvalue()
+
+
+def test_run_prints_markup_names_and_paths_as_text(markup_run: tuple[Path, str]) -> None:
+    run_dir, text = markup_run
+    assert f"run directory: {run_dir}" in text
+    assert "t[/x]\\x1b]0;pwned\\x07\\x1b[31mred" in text
+    assert "\x1b" not in text and "\x07" not in text  # not a terminal: no escapes at all
+
+
+def test_report_and_validate_print_markup_names_as_text(
+    markup_run: tuple[Path, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    run_dir, _ = markup_run
+    assert cli.main(["report", str(run_dir), "--no-videos"]) == 0
+    out = capsys.readouterr().out
+    assert f"success per point ({run_dir})" in out and f"{run_dir}/report.html" in out
+    assert cli.main(["validate", str(run_dir.parent.parent / "t.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "\\x1b]0;pwned\\x07" in out and "\x1b" not in out
+
+
+def test_an_error_line_shows_control_characters(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    missing = tmp_path / "a\x1b]0;pwned\x07.yaml"
+    code, err = run_cli(["validate", str(missing)], capsys)
+    assert code == 1 and "\x1b" not in err and "a\\x1b]0;pwned\\x07.yaml" in err, err
+
+
+# -- issue 37: offscreen GL and the viewer's display --------------------------------------------
+
+
+def test_no_offscreen_gl_is_one_warning_and_no_videos(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``sweep --videos`` with MUJOCO_GL unset and no display aborted natively (GLFW, libc++
+    "recursive initialization") after the rows and before the report. The backend is now tried
+    in a child process first; here GLFW without a display cannot render, so: one warning line,
+    no videos, and the command goes on."""
+    from harness.commands.console import videos_possible
+    from harness.viz.render import offscreen_gl_problem
+
+    monkeypatch.setenv("MUJOCO_GL", "glfw")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    offscreen_gl_problem.cache_clear()
+    try:
+        assert videos_possible(True) is False
+    finally:
+        offscreen_gl_problem.cache_clear()
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: videos skipped: MUJOCO_GL=glfw")
+    assert videos_possible(False) is False
+
+
+def fake_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ``rerun`` on PATH that fails as the real one does without a display (multi-line)."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    viewer = bin_dir / "rerun"
+    viewer.write_text(
+        "#!/bin/sh\necho 'INFO telemetry' >&2\necho 'WARN docker' >&2\n"
+        "echo 'Error: winit EventLoopError: Failed to open connection to X server' >&2\nexit 1\n",
+        encoding="utf-8",
+    )
+    viewer.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+
+
+@pytest.mark.parametrize(
+    "variable, value",
+    [("DISPLAY", ":97"), ("DISPLAY", "nohost.invalid:0"), ("WAYLAND_DISPLAY", "w-9")],
+)
+def test_view_on_a_dead_display_is_one_line_with_the_web_hint(
+    variable: str,
+    value: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    if variable == "DISPLAY" and Path("/tmp/.X11-unix/X97").exists():
+        pytest.skip("an X server :97 runs here")
+    fake_viewer(tmp_path, monkeypatch)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    monkeypatch.setenv(variable, value)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"RRF2")
+    code, err = run_cli(["view", str(recording)], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert f"{variable}={value}: no display server answers" in lines[0]
+    assert f"rerun --bind 127.0.0.1 --web-viewer {recording}" in lines[0]
+
+
+def test_a_failing_viewer_is_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from harness.commands import view
+
+    fake_viewer(tmp_path, monkeypatch)
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setattr(view, "dead_display", lambda: None)  # as if a server answered
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"RRF2")
+    code, err = run_cli(["view", str(recording)], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert "the Rerun viewer failed (Error: winit EventLoopError" in lines[0]
+    assert "--web-viewer" in lines[0]
