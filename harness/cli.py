@@ -52,7 +52,9 @@ def _record_policy(text: str) -> str:
     """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
     if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:[1-9]\d*", text):
         return text
-    raise argparse.ArgumentTypeError(f"{text!r}: expected {RECORD_HELP} with N >= 1")
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected none, failures, invalid, all or sample:N with N >= 1"
+    )
 
 
 RECORD_HELP = "none|failures|invalid|all|sample:N"
