@@ -948,3 +948,25 @@ def test_a_failing_viewer_is_one_line(
     assert code == 2 and len(lines) == 1, err
     assert "the Rerun viewer failed (Error: winit EventLoopError" in lines[0]
     assert "--web-viewer" in lines[0]
+
+
+@pytest.mark.slow
+def test_sweep_videos_without_offscreen_gl_keeps_rows_and_report(tmp_path: Path) -> None:
+    """Issue 37: ``sweep --videos`` where MuJoCo falls back to GLFW without a display aborted
+    natively in libc++ after the rows, and no report was written."""
+    sweep = write_yaml(tmp_path / "s.yaml", sweep_data())
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    argv = ["sweep", str(sweep), "--videos", "--out", str(tmp_path / "run"), "--workers", "1"]
+    result = subprocess.run(
+        [sys.executable, "-m", "harness.cli", *argv, "--no-progress"],
+        env={**env, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "glfw"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning: videos skipped: MUJOCO_GL=glfw" in result.stderr
+    assert "Traceback" not in result.stderr and "libc++abi" not in result.stderr
+    assert (tmp_path / "run" / "report.html").is_file()
+    assert len(_jsonl(tmp_path / "run")) == 1
