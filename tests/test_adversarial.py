@@ -203,6 +203,12 @@ def usd_symlink_loop(work: Path) -> list[str]:
     return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
 
 
+def mesh_symlink_loop(work: Path) -> list[str]:
+    (work / "a.obj").symlink_to("b.obj")
+    (work / "b.obj").symlink_to("a.obj")
+    return ["objects", "show", str(work / "a.obj")]
+
+
 def garbage_parquet_run(work: Path) -> list[str]:
     (work / "run").mkdir()
     (work / "run" / "episodes.parquet").write_bytes(b"PAR1 this is no parquet file")
@@ -340,6 +346,7 @@ CASES = [
     Case("mtl map_Kd fifo: validate", obj_including_fifo("texture", "validate"), "tex.png is a"),
     Case("mtl map_Kd fifo: show", obj_including_fifo("texture", "show"), "tex.png is a FIFO"),
     Case("usd sublayer symlink loop", usd_symlink_loop, "is a symlink loop"),
+    Case("mesh symlink loop", mesh_symlink_loop, "a symlink loop"),
     Case("report: garbage parquet", garbage_parquet_run, "cannot read episode table"),
     Case("grasps inspect: garbage npz", garbage_npz, "cannot read as a .npy array"),
     Case("compare: garbage csv", garbage_csv_runs, "not an episode table"),

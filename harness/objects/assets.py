@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -35,7 +36,7 @@ from harness.objects.decomposition import (
 from harness.objects.mass import mass_properties
 from harness.objects.meshes import load_mesh
 from harness.objects.usd_physics import read_usd_physics
-from harness.reading import load_npy
+from harness.reading import check_input, load_npy
 
 DEFAULT_NPY_NAME = "Aligned_grasp_sparse.npy"
 DEFAULT_MASS = 0.1  # kg, chosen (no public source) for meshes that author none
@@ -120,6 +121,8 @@ def resolve_mesh(mesh: str, base_dir: Path) -> Path:
         if not mesh_file.is_file():
             raise InputFileError(mesh_file, f"default object {mesh!r} has no mesh file", "mesh")
         return mesh_file
+    if os.path.lexists(candidate):  # there, but no regular file: say what it is (a FIFO, a loop)
+        check_input(candidate, None, "mesh file")
     raise InputFileError(
         candidate,
         f"mesh file not found, and {mesh!r} is not a default object "
