@@ -25,7 +25,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
-from harness.commands.console import make_console, styled
+from harness.commands.console import make_console, say, styled
 from harness.commands.validate import print_warnings
 from harness.config import (
     ConfigError,
@@ -247,7 +247,7 @@ def _print_outcome(
     extra = ", skipped.txt" if interndata else ""
     console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
     if (line := error_rows_line(errors, len(rows), run_dir)) is not None:
-        print(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
+        say(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
     if len(rows) != planned:
         return 130
     return 1 if too_many_errors(errors, len(rows)) else 0

@@ -9,7 +9,7 @@ from typing import Any
 
 from rich.console import Console
 
-from harness.commands.console import make_console, styled, videos_possible
+from harness.commands.console import make_console, say, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
@@ -90,7 +90,7 @@ def main(args: argparse.Namespace) -> int:
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
     failing = too_many_errors(outcome.errors, outcome.rows)
     if line is not None:
-        print(f"error: {line}" if failing else line, file=sys.stderr)
+        say(f"error: {line}" if failing else line, file=sys.stderr)
     if stats.interrupted:
         console.print(
             styled(
