@@ -203,6 +203,16 @@ def usd_symlink_loop(work: Path) -> list[str]:
     return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
 
 
+def gltf_fifo_buffer(work: Path) -> list[str]:
+    import trimesh
+
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(work / "b.gltf")
+    buffers = sorted(work.glob("*.bin"))
+    buffers[-1].unlink()
+    os.mkfifo(buffers[-1])
+    return ["objects", "show", str(work / "b.gltf")]
+
+
 def mesh_symlink_loop(work: Path) -> list[str]:
     (work / "a.obj").symlink_to("b.obj")
     (work / "b.obj").symlink_to("a.obj")
@@ -347,6 +357,7 @@ CASES = [
     Case("mtl map_Kd fifo: show", obj_including_fifo("texture", "show"), "tex.png is a FIFO"),
     Case("usd sublayer symlink loop", usd_symlink_loop, "is a symlink loop"),
     Case("mesh symlink loop", mesh_symlink_loop, "a symlink loop"),
+    Case("gltf buffer fifo", gltf_fifo_buffer, ".bin is a FIFO"),
     Case("report: garbage parquet", garbage_parquet_run, "cannot read episode table"),
     Case("grasps inspect: garbage npz", garbage_npz, "cannot read as a .npy array"),
     Case("compare: garbage csv", garbage_csv_runs, "not an episode table"),
