@@ -245,7 +245,7 @@ def inspect(args: argparse.Namespace) -> int:
     selection = select_candidates(poses, convention, pick, object_pose(args.object_pose), rng, rule)
     info = summary(selection, args)
     if args.json:
-        say(json.dumps(info))
+        print(json.dumps(info))  # JSON escapes controls itself (ensure_ascii); say() would break it
     else:
         say(format_text(selection, info))
     if args.plot:
