@@ -50,9 +50,11 @@ def _bounded_int(low: int, high: int) -> Callable[[str], int]:
 
 def _record_policy(text: str) -> str:
     """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
-    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:\d+", text):
+    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:[1-9]\d*", text):
         return text
-    raise argparse.ArgumentTypeError(f"{text!r}: expected none, failures, invalid, all or sample:N")
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected none, failures, invalid, all or sample:N with N >= 1"
+    )
 
 
 RECORD_HELP = "none|failures|invalid|all|sample:N"
@@ -245,16 +247,8 @@ def _add_tune(sub: Subparsers) -> None:
         help="all (default): a coarse pass over every Pick direction on both axes, then the "
         "fine grid about the best; canonical: only the fine grid about downward / forward",
     )
-    p.add_argument(
-        "--top",
-        type=_bounded_int(1, 20),
-        help="screening's best settings raced against the current one (default 3)",
-    )
-    p.add_argument(
-        "--block",
-        type=_bounded_int(1, 1000),
-        help="fresh seeds per race look (default 20; a rerun keeps the race's)",
-    )
+    p.add_argument("--top", type=_bounded_int(1, 20), help="settings raced against the current (3)")
+    p.add_argument("--block", type=_bounded_int(1, 1000), help="fresh seeds per race look (20)")
     p.add_argument(
         "--max-seeds",
         type=_bounded_int(1, 100_000),
@@ -269,11 +263,7 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--seed", type=SEED, help="screening sweep seed (default: the sweep's, else 0)")
     p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
-    p.add_argument(
-        "--write",
-        metavar="DIR",
-        help="write each tuned task file with its filter keys merged, and a diff",
-    )
+    p.add_argument("--write", metavar="DIR", help="write tuned task files (keys merged) and diffs")
     p.add_argument(
         "--objective",
         choices=["valid", "reference"],
@@ -456,18 +446,13 @@ def _terminate_like_ctrl_c() -> None:
     workers, keeps what finished and exits 130 (it used to die at once and leave orphaned
     workers writing BrokenPipe tracebacks)."""
     import signal
+    import threading
 
     def on_term(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
-    if threading_main():
+    if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, on_term)
-
-
-def threading_main() -> bool:
-    import threading
-
-    return threading.current_thread() is threading.main_thread()
 
 
 def _os_error_line(exc: OSError) -> str:
@@ -485,9 +470,11 @@ def _fail(line: str) -> int:
 def _stderr(line: str) -> None:
     """One line on stderr; a stdout that cannot be written (a full disk) is silenced so the
     interpreter's exit flush does not print a second, traceback-like message."""
+    from harness.commands.console import visible  # names in the line: controls shown
+
     _silence_stdout()
     with contextlib.suppress(OSError):
-        print(line, file=sys.stderr, flush=True)
+        print(visible(line), file=sys.stderr, flush=True)
 
 
 def _silence_stdout() -> None:

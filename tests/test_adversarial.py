@@ -172,6 +172,90 @@ def out_is(target: str) -> Callable[[Path], list[str]]:
     return build
 
 
+# -- issue 37: reads, parses, flags (each builder fails early: no episode runs) ---------------
+
+
+def obj_including_fifo(include: str, command: str) -> Callable[[Path], list[str]]:
+    """An OBJ whose ``mtllib`` (``include="mtl"``) or whose MTL's ``map_Kd`` (``"texture"``)
+    names a FIFO: trimesh opened it and waited forever for a writer."""
+
+    def build(work: Path) -> list[str]:
+        mesh = work / "m.obj"
+        if include == "mtl":
+            os.mkfifo(work / "f.mtl")
+            head = "mtllib f.mtl\n"
+        else:
+            os.mkfifo(work / "tex.png")
+            (work / "a.mtl").write_text("newmtl m\nmap_Kd tex.png\n", encoding="utf-8")
+            head = "mtllib a.mtl\nusemtl m\n"
+        mesh.write_text(head + CUBE_OBJ.read_text(encoding="utf-8"), encoding="utf-8")
+        if command == "validate":
+            return ["validate", str(write_yaml(work / "t.yaml", task_data(mesh=str(mesh))))]
+        if command == "generate":
+            return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
+        return ["objects", "show", str(mesh)]
+
+    return build
+
+
+def usd_symlink_loop(work: Path) -> list[str]:
+    (work / "loop1.usda").symlink_to("loop2.usda")
+    (work / "loop2.usda").symlink_to("loop1.usda")
+    mesh = usd_file(work, "3,3,3,3", TETRA_FACES, TETRA, "loop1.usda")
+    return ["grasps", "generate", str(mesh), "--out", str(work / "g.npy"), "-n", "10"]
+
+
+def gltf_fifo_buffer(work: Path) -> list[str]:
+    import trimesh
+
+    trimesh.creation.box((0.05, 0.05, 0.05)).export(work / "b.gltf")
+    buffers = sorted(work.glob("*.bin"))
+    buffers[-1].unlink()
+    os.mkfifo(buffers[-1])
+    return ["objects", "show", str(work / "b.gltf")]
+
+
+def mesh_symlink_loop(work: Path) -> list[str]:
+    (work / "a.obj").symlink_to("b.obj")
+    (work / "b.obj").symlink_to("a.obj")
+    return ["objects", "show", str(work / "a.obj")]
+
+
+def garbage_parquet_run(work: Path) -> list[str]:
+    (work / "run").mkdir()
+    (work / "run" / "episodes.parquet").write_bytes(b"PAR1 this is no parquet file")
+    return ["report", str(work / "run"), "--no-videos"]
+
+
+def garbage_npz(work: Path) -> list[str]:
+    (work / "g.npz").write_bytes(b"PK\x03\x04 no zip archive")
+    return ["grasps", "inspect", str(work / "g.npz"), "--robot", "fr3"]
+
+
+def garbage_csv_runs(work: Path) -> list[str]:
+    for name in ("a", "b"):
+        (work / name).mkdir()
+        (work / name / "episodes.csv").write_text("episode_id,foo\nx,1\n", encoding="utf-8")
+    return ["compare", str(work / "a"), str(work / "b")]
+
+
+def closed_port(work: Path) -> list[str]:
+    import socket
+
+    with socket.socket() as probe:  # a port that was free a moment ago: nothing listens
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    sweep = write_yaml(work / "s.yaml", sweep_data())
+    return ["sweep", str(sweep), "--backend", "ray", "--address", f"127.0.0.1:{port}"]
+
+
+SPELLED_TWICE = {
+    "friction 1 and 1.0": {"object.friction": [1, 1.0]},
+    "lift_th number and string": {"pick.lift_th": [0.02, "0.02"]},
+    "validity on and true": {"pick.validity": ["on", True]},
+}
+
+
 @dataclass(frozen=True)
 class Case:
     name: str
@@ -266,6 +350,82 @@ CASES = [
         "replay --record into a missing folder, no such episode",
         flags("replay", "WORK/norun", "x", "--record", "WORK/missing/dir/x.rrd"),
         "no episode 'x' in this run",
+    ),
+    # issue 37: the read rule (regular files only, loops refused, parse errors are input errors)
+    Case("obj mtllib fifo: validate", obj_including_fifo("mtl", "validate"), "f.mtl is a FIFO"),
+    Case("obj mtllib fifo: generate", obj_including_fifo("mtl", "generate"), "f.mtl is a FIFO"),
+    Case("obj mtllib fifo: show", obj_including_fifo("mtl", "show"), "f.mtl is a FIFO"),
+    Case("mtl map_Kd fifo: validate", obj_including_fifo("texture", "validate"), "tex.png is a"),
+    Case("mtl map_Kd fifo: show", obj_including_fifo("texture", "show"), "tex.png is a FIFO"),
+    Case("usd sublayer symlink loop", usd_symlink_loop, "is a symlink loop"),
+    Case("mesh symlink loop", mesh_symlink_loop, "a symlink loop"),
+    Case("gltf buffer fifo", gltf_fifo_buffer, ".bin is a FIFO"),
+    Case("report: garbage parquet", garbage_parquet_run, "cannot read episode table"),
+    Case("grasps inspect: garbage npz", garbage_npz, "cannot read as a .npy array"),
+    Case("compare: garbage csv", garbage_csv_runs, "not an episode table"),
+    # issue 37: flags checked before any work
+    Case(
+        "--set nested 3000 deep",
+        flags("run", str(FR3), "--set", "pick.lift_th=" + "[" * 3000 + "]" * 3000),
+        "nests more than 32 levels",
+        False,
+    ),
+    Case(
+        "--address not-a-host:xx",
+        flags("sweep", "SWEEP", "--backend", "ray", "--address", "not-a-host:xx"),
+        "port 'xx' is not a number",
+        False,
+    ),
+    Case("--address closed port", closed_port, "connection refused", False),
+    Case(
+        "replay --video without extension",
+        flags("replay", "WORK/norun", "x", "--video", "WORK/clip"),
+        "unknown extension '(none)'; use .mp4",
+    ),
+    Case(
+        "inspect --plot p.txt",
+        flags("grasps", "inspect", str(CUBE_GRASPS), "--robot", "fr3", "--plot", "WORK/p.txt"),
+        "unknown extension '.txt'; use .png or .pdf or .svg",
+    ),
+    Case(
+        "objects show --render img",
+        flags("objects", "show", "cube", "--render", "WORK/img"),
+        "unknown extension '(none)'; use .png or .jpg or .jpeg",
+    ),
+    # issue 37: broken input that exited 0
+    *[
+        Case(f"sweep points: {name}", sweep_with(axes=axes), "spelled another way")
+        for name, axes in SPELLED_TWICE.items()
+    ],
+    Case(
+        "one key spelled two ways",
+        sweep_with(axes={"object.friction": [0.5], "objects.0.friction": [1.0]}),
+        "name the same key",
+    ),
+    Case("sweep named ..", sweep_with(name=".."), "not a plain file name"),
+    Case(
+        "axis objects.-1.mass",
+        sweep_with(axes={"objects.-1.mass": [0.1]}),
+        "negative list index -1",
+    ),
+    Case(
+        "--set objects.-1.mass",
+        flags("run", str(FR3), "--set", "objects.-1.mass=0.1"),
+        "negative list index -1",
+        False,
+    ),
+    Case("--record sample:0", flags("run", str(FR3), "--record", "sample:0"), "N >= 1", False),
+    Case(
+        "--asset-root without --interndata",
+        flags("run", str(FR3), "--asset-root", "WORK"),
+        "use it with --interndata",
+        False,
+    ),
+    Case(
+        "generate -n 0",
+        flags("grasps", "generate", str(CUBE_OBJ), "--out", "WORK/g.npy", "-n", "0"),
+        "0 is outside",
+        False,
     ),
 ]
 
@@ -1098,3 +1258,185 @@ def test_every_file_write_goes_through_the_write_rule() -> None:
             if WRITE_CALL.search(code) and '"""' not in line and "``" not in line:
                 offenders.append(f"{relative}:{number}: {line.strip()}")
     assert not offenders, "writes outside harness/writes.py:\n" + "\n".join(offenders)
+
+
+# -- issue 37: names reach the terminal as text ------------------------------------------------
+
+MARKUP_NAME = "t[/x]\x1b]0;pwned\x07\x1b[31mred"  # rich markup, an OSC title, an SGR colour
+
+
+def test_the_console_shows_markup_and_control_characters_as_text() -> None:
+    """One rule for every string rich prints (``SafeConsole.render_str``): a ``[/x]`` in a path
+    crashed rich (MarkupError); an escape in a task name reached the terminal."""
+    import io
+
+    from rich.table import Table
+
+    from harness.commands.console import SafeConsole, styled, visible
+
+    out = io.StringIO()
+    console = SafeConsole(file=out, force_terminal=True, width=200, markup=False)
+    table = Table(title=f"run {MARKUP_NAME}")
+    table.add_column("task")
+    table.add_row(MARKUP_NAME)
+    console.print(f"run directory: {MARKUP_NAME} :smile:")
+    console.print(table)
+    console.print(styled("[bold]{name}[/]: ok", name=MARKUP_NAME))
+    text = re.sub("\x1b\\[[0-9;]*m", "", out.getvalue())  # rich's own styling (a terminal)
+    shown = "t[/x]\\x1b]0;pwned\\x07\\x1b[31mred"
+    assert text.count(shown) == 4 and ":smile:" in text
+    assert "\x1b" not in text and "\x07" not in text
+    assert visible("a\u202eb\tc\n") == "a\\u202eb\tc\n"
+
+
+@pytest.fixture(scope="module")
+def markup_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """``harness run`` of a task named ``t[/x]<OSC><SGR>red`` whose object is ``o[/y]``, into
+    ``--out .../r[/x]``; its stdout."""
+    import io
+
+    folder = tmp_path_factory.mktemp("markup")
+    data = task_data(name="o[/y]")
+    data["name"] = MARKUP_NAME
+    task = write_yaml(folder / "t.yaml", data)
+    run_dir = folder / "r[" / "x]"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = cli.main(
+            ["run", str(task), "--episodes", "1", "--record", "none", "--out", str(run_dir)]
+        )
+    assert code == 0
+    return run_dir, out.getvalue()
+
+
+def test_run_prints_markup_names_and_paths_as_text(markup_run: tuple[Path, str]) -> None:
+    run_dir, text = markup_run
+    assert f"run directory: {run_dir}" in text
+    assert "t[/x]\\x1b]0;pwned\\x07\\x1b[31mred" in text
+    assert "\x1b" not in text and "\x07" not in text  # not a terminal: no escapes at all
+
+
+def test_report_and_validate_print_markup_names_as_text(
+    markup_run: tuple[Path, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    run_dir, _ = markup_run
+    assert cli.main(["report", str(run_dir), "--no-videos"]) == 0
+    out = capsys.readouterr().out
+    assert f"success per point ({run_dir})" in out and f"{run_dir}/report.html" in out
+    assert cli.main(["validate", str(run_dir.parent.parent / "t.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "\\x1b]0;pwned\\x07" in out and "\x1b" not in out
+
+
+def test_an_error_line_shows_control_characters(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    missing = tmp_path / "a\x1b]0;pwned\x07.yaml"
+    code, err = run_cli(["validate", str(missing)], capsys)
+    assert code == 1 and "\x1b" not in err and "a\\x1b]0;pwned\\x07.yaml" in err, err
+
+
+# -- issue 37: offscreen GL and the viewer's display --------------------------------------------
+
+
+def test_no_offscreen_gl_is_one_warning_and_no_videos(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``sweep --videos`` with MUJOCO_GL unset and no display aborted natively (GLFW, libc++
+    "recursive initialization") after the rows and before the report. The backend is now tried
+    in a child process first; here GLFW without a display cannot render, so: one warning line,
+    no videos, and the command goes on."""
+    from harness.commands.console import videos_possible
+    from harness.viz.render import offscreen_gl_problem
+
+    monkeypatch.setenv("MUJOCO_GL", "glfw")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    offscreen_gl_problem.cache_clear()
+    try:
+        assert videos_possible(True) is False
+    finally:
+        offscreen_gl_problem.cache_clear()
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: videos skipped: MUJOCO_GL=glfw")
+    assert videos_possible(False) is False
+
+
+def fake_viewer(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ``rerun`` on PATH that fails as the real one does without a display (multi-line)."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    viewer = bin_dir / "rerun"
+    viewer.write_text(
+        "#!/bin/sh\necho 'INFO telemetry' >&2\necho 'WARN docker' >&2\n"
+        "echo 'Error: winit EventLoopError: Failed to open connection to X server' >&2\nexit 1\n",
+        encoding="utf-8",
+    )
+    viewer.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+
+
+@pytest.mark.parametrize(
+    "variable, value",
+    [("DISPLAY", ":97"), ("DISPLAY", "nohost.invalid:0"), ("WAYLAND_DISPLAY", "w-9")],
+)
+def test_view_on_a_dead_display_is_one_line_with_the_web_hint(
+    variable: str,
+    value: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    if variable == "DISPLAY" and Path("/tmp/.X11-unix/X97").exists():
+        pytest.skip("an X server :97 runs here")
+    fake_viewer(tmp_path, monkeypatch)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    monkeypatch.setenv(variable, value)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"RRF2")
+    code, err = run_cli(["view", str(recording)], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert f"{variable}={value}: no display server answers" in lines[0]
+    assert f"rerun --bind 127.0.0.1 --web-viewer {recording}" in lines[0]
+
+
+def test_a_failing_viewer_is_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from harness.commands import view
+
+    fake_viewer(tmp_path, monkeypatch)
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setattr(view, "dead_display", lambda: None)  # as if a server answered
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"RRF2")
+    code, err = run_cli(["view", str(recording)], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert "the Rerun viewer failed (Error: winit EventLoopError" in lines[0]
+    assert "--web-viewer" in lines[0]
+
+
+@pytest.mark.slow
+def test_sweep_videos_without_offscreen_gl_keeps_rows_and_report(tmp_path: Path) -> None:
+    """Issue 37: ``sweep --videos`` where MuJoCo falls back to GLFW without a display aborted
+    natively in libc++ after the rows, and no report was written."""
+    sweep = write_yaml(tmp_path / "s.yaml", sweep_data())
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    argv = ["sweep", str(sweep), "--videos", "--out", str(tmp_path / "run"), "--workers", "1"]
+    result = subprocess.run(
+        [sys.executable, "-m", "harness.cli", *argv, "--no-progress"],
+        env={**env, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "glfw"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning: videos skipped: MUJOCO_GL=glfw" in result.stderr
+    assert "Traceback" not in result.stderr and "libc++abi" not in result.stderr
+    assert (tmp_path / "run" / "report.html").is_file()
+    assert len(_jsonl(tmp_path / "run")) == 1

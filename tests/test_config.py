@@ -670,12 +670,14 @@ def test_record_pattern_accepted(record: str) -> None:
     assert check(SweepConfig, sweep(record=record)).record == record
 
 
-@pytest.mark.parametrize("record", ["sample:", "sample:x", "some", "ALL", "failures ", ""])
+@pytest.mark.parametrize(
+    "record", ["sample:", "sample:x", "sample:0", "sample:01", "some", "ALL", "failures ", ""]
+)
 def test_record_pattern_rejected(record: str) -> None:
     err = error(SweepConfig, sweep(record=record))
     assert err.key == "record"
     assert err.message.startswith(
-        "String should match pattern '^(none|failures|invalid|all|sample:\\d+)$'"
+        "String should match pattern '^(none|failures|invalid|all|sample:[1-9][0-9]*)$'"
     )
 
 
@@ -858,6 +860,39 @@ def test_apply_overrides() -> None:
     assert (changed.objects[0].friction, changed.objects[0].mass) == (0.5, 0.3)
     assert changed.physics.impratio == 20
     assert config.pick.filter_z_dir.angles == (140,)  # the original is untouched
+
+
+def test_a_nested_override_keeps_the_siblings_of_its_key() -> None:
+    """Issue 33 item 9: ``--set robot_placement.pos_range=...`` alone reset the robot's yaw to
+    [-180, 180] (the robot then faced a random way). A nested key merges into what the task
+    runs with: its own placement, else the one robot.yaml gives it."""
+    pos = [[0.0, -0.5, 0.0], [0.0, -0.48, 0.0]]
+    own = {"pos_range": [[0, -0.45, 0], [0, -0.45, 0]], "yaw_range": [80.0, 85.0]}
+    config = check(TaskConfig, task(robot_placement=own))
+    changed = apply_overrides(config, {"robot_placement.pos_range": pos})
+    assert changed.robot_placement is not None
+    assert changed.robot_placement.yaw_range == (80.0, 85.0)  # the task file's
+    assert changed.robot_placement.pos_range == ((0.0, -0.5, 0.0), (0.0, -0.48, 0.0))
+    inherited = check(TaskConfig, task())  # no robot_placement: robot.yaml's (fr3: yaw 90)
+    assert inherited.robot_placement is None
+    changed = apply_overrides(inherited, {"robot_placement.pos_range": pos})
+    assert changed.robot_placement is not None and changed.robot_placement.yaw_range == (90, 90)
+    region = {"pos_range": [[0.1, 0.0, 0.0], [0.2, 0.1, 0.0]], "yaw_range": [10.0, 20.0]}
+    config = check(TaskConfig, task(objects=[{"name": "a", "mesh": "b", "placement": region}]))
+    changed = apply_overrides(config, {"object.placement.pos_range": [[0, 0, 0], [0, 0, 0]]})
+    assert changed.objects[0].placement is not None
+    assert changed.objects[0].placement.yaw_range == (10.0, 20.0)
+
+
+def test_override_values_nested_too_deep_are_refused() -> None:
+    config = check(TaskConfig, task())
+    with pytest.raises(ConfigError, match="nests more than 32 levels"):
+        apply_overrides(
+            config,
+            {"pick.lift_th": [[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[0]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]},
+        )
+    with pytest.raises(ValueError, match="nests more than 32 levels"):
+        parse_set_value("[" * 5000 + "]" * 5000)
 
 
 def test_apply_overrides_errors_name_the_key() -> None:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.commands.console import say
 from harness.errors import HarnessError
 from harness.objects.assets import resolve_mesh
 from harness.objects.graspgen import GraspGenParams, generate_grasps
@@ -39,13 +40,13 @@ def generate(args: argparse.Namespace) -> int:
     )
     out = result.save(args.out)
     stats = result.stats
-    print(
+    say(
         f"wrote {out}: {len(result.grasps)} grasps for {mesh_path} "
         f"({len(mesh.vertices)} vertices, scale {args.scale:g}) in {stats['seconds']:.1f} s; "
         f"{summary(result.grasps)}"
     )
     if len(result.grasps) < args.num:
-        print(
+        say(
             f"warning: only {len(result.grasps)} of {args.num} grasps found "
             f"({stats['pairs_valid']} valid contact pairs, {stats['checked']} gripper checks)"
         )

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from harness.commands.console import say
 from harness.config import PickConfig, validate_model
 from harness.errors import HarnessError
 from harness.grasps import (
@@ -28,6 +29,7 @@ from harness.grasps import (
 from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import matrix_to_quat, pose_to_T
+from harness.viz.formats import PLOT_SUFFIXES, check_suffix
 from harness.writes import write_through
 
 if TYPE_CHECKING:  # matplotlib is imported only when a plot is asked for
@@ -234,6 +236,8 @@ def plot_directions(selection: CandidateSelection, path: str | Path, title: str)
 
 def inspect(args: argparse.Namespace) -> int:
     """Entry point of ``harness grasps inspect``."""
+    if args.plot:
+        check_suffix(args.plot, PLOT_SUFFIXES, "--plot")
     convention = robot_convention(args.robot, args.arm)
     pick = pick_from_args(args)
     grasps = load_grasp_file(args.file)
@@ -243,9 +247,9 @@ def inspect(args: argparse.Namespace) -> int:
     selection = select_candidates(poses, convention, pick, object_pose(args.object_pose), rng, rule)
     info = summary(selection, args)
     if args.json:
-        print(json.dumps(info))
+        print(json.dumps(info))  # JSON escapes controls itself (ensure_ascii); say() would break it
     else:
-        print(format_text(selection, info))
+        say(format_text(selection, info))
     if args.plot:
         result = selection.filter_result
         title = (
@@ -254,13 +258,13 @@ def inspect(args: argparse.Namespace) -> int:
         )
         plot_directions(selection, args.plot, title)
         if not args.json:
-            print(f"\nwrote {args.plot}")
+            say(f"\nwrote {args.plot}")
     return 0
 
 
 def audit(args: argparse.Namespace) -> int:
     """``harness grasps audit RUN_DIR``: executed grasps, never-succeeding ones, cleaned files."""
-    from harness.commands.console import make_console
+    from harness.commands.console import make_console, styled
     from harness.tuning.audit import audit_run, flagged_rows
 
     run_dir = Path(args.run_dir)
@@ -277,10 +281,14 @@ def audit(args: argparse.Namespace) -> int:
     for obj, group in table.groupby("object"):
         never = int((column(group, "successes") == 0).sum())
         console.print(
-            f"[bold]{obj}[/]: {len(group)} annotated grasp(s) executed in "
-            f"{int(column(group, 'trials').sum())} distinct execution(s) "
-            f"({int(column(group, 'rows').sum())} rows); {never} never succeeded, "
-            f"{int(column(group, 'flagged').sum())} flagged (>= {args.min_trials} trials)",
+            styled(
+                "[bold]{obj}[/]: {rest}",
+                obj=obj,
+                rest=f"{len(group)} annotated grasp(s) executed in "
+                f"{int(column(group, 'trials').sum())} distinct execution(s) "
+                f"({int(column(group, 'rows').sum())} rows); {never} never succeeded, "
+                f"{int(column(group, 'flagged').sum())} flagged (>= {args.min_trials} trials)",
+            ),
             soft_wrap=True,
         )
     for row in flagged_rows(table):

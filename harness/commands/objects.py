@@ -15,9 +15,11 @@ from typing import Any
 import numpy as np
 import yaml
 
+from harness.commands.console import say
 from harness.commands.graspgen import summary
 from harness.errors import HarnessError, InputFileError
 from harness.files import safe_file_name
+from harness.grasps.grasp_set import read_grasp_array
 from harness.objects.assets import (
     ObjectAsset,
     default_objects_dir,
@@ -35,6 +37,7 @@ from harness.objects.shapes import (
 )
 from harness.robots import available_robots
 from harness.robots.facts import max_jaw_opening
+from harness.viz.formats import IMAGE_SUFFIXES, check_suffix
 from harness.viz.object_render import render_object
 from harness.writes import write_file
 
@@ -45,14 +48,14 @@ from harness.writes import write_file
 def list_objects(args: argparse.Namespace) -> int:
     names = list_default_objects()
     if not names:
-        print(f"no default objects under {default_objects_dir()} (run `harness objects build`)")
+        say(f"no default objects under {default_objects_dir()} (run `harness objects build`)")
         return 0
-    print(f"{'name':<8} {'category':<8} {'size (cm)':<18} {'verts':>6} {'grasps':>6}  fits")
+    say(f"{'name':<8} {'category':<8} {'size (cm)':<18} {'verts':>6} {'grasps':>6}  fits")
     for name in names:
         info = load_object_info(name)
         size = "x".join(f"{100 * e:.1f}" for e in info.get("extents_m", []))
         fits = ", ".join(info.get("fits", [])) or "-"
-        print(
+        say(
             f"{name:<8} {info.get('category', ''):<8} {size:<18} {info.get('vertices', 0):>6} "
             f"{info.get('grasp_count', 0):>6}  {fits}"
         )
@@ -89,7 +92,7 @@ def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
     if asset.grasp_path is None:
         lines.append("grasps      none found (harness grasps generate MESH --out FILE)")
     else:
-        grasps = np.load(asset.grasp_path)
+        grasps = read_grasp_array(asset.grasp_path)
         shape = "x".join(str(s) for s in grasps.shape)
         lines.append(f"grasps      {asset.grasp_path} ({shape})")
         if grasps.ndim == 2 and grasps.shape[1] == 17:
@@ -101,11 +104,13 @@ def describe(asset: ObjectAsset, info: dict[str, Any] | None) -> list[str]:
 
 
 def show(args: argparse.Namespace) -> int:
+    if args.render:
+        check_suffix(args.render, IMAGE_SUFFIXES, "--render")
     asset, info = _load_for_show(args.name)
-    print("\n".join(describe(asset, info)))
+    say("\n".join(describe(asset, info)))
     if args.render:
         out = render_object(asset, Path(args.render))
-        print(f"wrote {out}")
+        say(f"wrote {out}")
     return 0
 
 
@@ -190,7 +195,7 @@ def build(args: argparse.Namespace) -> int:
             asset = ObjectAsset.load(root / name / info["mesh"], mass=info["mass"])
         except InputFileError as exc:
             raise HarnessError(f"built object {name!r} does not load: {exc}") from exc
-        print(
+        say(
             f"{name:<8} {info['vertices']:>5} vertices, {info['grasp_count']} grasps "
             f"{info['score_counts']}, {len(asset.collision_pieces)} collision piece(s), "
             f"fits {info['fits']} ({time.perf_counter() - start:.1f} s)"

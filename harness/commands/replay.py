@@ -7,12 +7,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
+from harness.viz.formats import RECORDING_SUFFIXES, VIDEO_SUFFIXES, check_suffix
 from harness.viz.render import use_offscreen_gl
 from harness.writes import check_target
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.record:
+        check_suffix(args.record, RECORDING_SUFFIXES, "--record")
+    if args.video:
+        check_suffix(args.video, VIDEO_SUFFIXES, "--video")
     use_offscreen_gl()  # before mujoco is first imported
     from harness.episode import run_episode
     from harness.runs.replay import find_episode, row_differences
@@ -32,7 +37,9 @@ def main(args: argparse.Namespace) -> int:
     differences = row_differences(stored, result.row)
     outcome = headline(result.row)
     if differences:
-        console.print(f"[red]the replay differs from the stored row[/] ({outcome}):")
+        console.print(
+            styled("[red]the replay differs from the stored row[/] ({outcome}):", outcome=outcome)
+        )
         for line in differences:
             console.print(f"  {line}", highlight=False, markup=False)
     else:

@@ -10,8 +10,9 @@ from typing import Any
 
 import pandas as pd
 from rich.table import Table
+from rich.text import Text
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled, videos_possible
 from harness.report import (
     FAIL_PREFIX,
     build_report,
@@ -41,6 +42,7 @@ def run_lock(run_dir: Path) -> contextlib.AbstractContextManager[object]:
 def main(args: argparse.Namespace) -> int:
     """Rebuild summary, plots and report of a run directory; print the summary and the paths."""
     run_dir = Path(args.run_dir)
+    args.videos = videos_possible(args.videos)  # before mujoco is imported
     console = make_console()
     if args.videos:
         console.print("replaying one success and one failure per robot arm for the videos ...")
@@ -65,8 +67,12 @@ def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
     params = setting_params(summary) or varying_params(summary)
     for answer in sweep_answers(summary, objective, params):
         console.print(
-            f"best for [bold]{answer.unit}[/]: {answer.decision} — {answer.setting}: "
-            f"{answer.rate} · {answer.other_rate}; runner-up {answer.runner_up}; {answer.reason}",
+            styled(
+                "best for [bold]{unit}[/]: {rest}",
+                unit=answer.unit,
+                rest=f"{answer.decision} — {answer.setting}: {answer.rate} · {answer.other_rate}; "
+                f"runner-up {answer.runner_up}; {answer.reason}",
+            ),
             soft_wrap=True,
         )
     console.print(
@@ -154,8 +160,8 @@ def compare(args: argparse.Namespace) -> int:
             p_value = row["p_value"]
             p_text = f"{p_value:.3g}" if not math.isnan(p_value) else ""
             if not math.isnan(p_value) and p_value < SIGNIFICANCE:
-                difference = f"[bold]{difference}[/]"
-                p_text = f"[bold]{p_text}[/]"
+                difference = Text(difference, style="bold")
+                p_text = Text(p_text, style="bold")
         else:
             difference, p_text = row["present"], ""
         table.add_row(

@@ -16,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.commands.console import say
 from harness.robots import RobotModel, available_robots
+from harness.viz.formats import IMAGE_SUFFIXES, check_suffix
 from harness.viz.robot_render import placed_model, render_robot
 
 
@@ -29,7 +31,7 @@ def list_robots(args: argparse.Namespace) -> int:
             for arm in robot.arms.values()
         )
         lift = f", lift {robot.lift_joint}" if robot.lift_joint else ""
-        print(f"{name:12s} arms: {arms}{lift}  [{robot.yaml_path}]")
+        say(f"{name:12s} arms: {arms}{lift}  [{robot.yaml_path}]")
     return 0
 
 
@@ -137,12 +139,13 @@ def describe(robot: RobotModel) -> list[str]:
 
 def show(args: argparse.Namespace) -> int:
     if getattr(args, "render", None):
+        check_suffix(args.render, IMAGE_SUFFIXES, "--render")
         # MuJoCo picks its GL backend when first imported, which describe() does.
         os.environ.setdefault("MUJOCO_GL", "egl")
     robot = RobotModel.load(args.name)
     for line in describe(robot):
-        print(line)
+        say(line)
     if getattr(args, "render", None):
         path = render_robot(robot, args.render)
-        print(f"rendered {path}")
+        say(f"rendered {path}")
     return 0

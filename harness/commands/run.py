@@ -23,8 +23,9 @@ from typing import TYPE_CHECKING, Any
 
 from rich.live import Live
 from rich.table import Table
+from rich.text import Text
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, say, styled
 from harness.commands.validate import print_warnings
 from harness.config import (
     ConfigError,
@@ -51,7 +52,10 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
-        out[key.strip()] = parse_set_value(value)
+        try:
+            out[key.strip()] = parse_set_value(value)
+        except ValueError as exc:
+            raise ConfigError(f"--set {key.strip()}: {exc}") from None
     return out
 
 
@@ -82,6 +86,10 @@ def load_run_tasks(args: argparse.Namespace) -> list[TaskConfig]:
         raise HarnessError("give a task YAML (harness run TASK.yaml) or --interndata FILE")
     if args.object:
         raise HarnessError("--object substitutes InternDataEngine assets; use it with --interndata")
+    if args.asset_root:
+        raise HarnessError(
+            "--asset-root resolves InternDataEngine asset paths; use it with --interndata"
+        )
     return [absolute_paths(load_task(args.task))]
 
 
@@ -102,7 +110,7 @@ def _table(rows: list[dict[str, Any]], total: int) -> Table:
             str(row.get("episode_index", "")),
             str(row.get("task", "")),
             str(row.get("seed", "")),  # in full: a cut seed reproduces nothing
-            "[green]success[/]" if ok else "[red]fail[/]",
+            Text("success", style="green") if ok else Text("fail", style="red"),
             str(row.get("failure_reason", "")),
             _fmt(lift, 1e3, "{:.0f}"),
             f"{_fmt(left, 1, '{:.1f}')}/{_fmt(right, 1, '{:.1f}')}",
@@ -249,14 +257,17 @@ def _print_outcome(
     fallback = sum(row.get("filter_outcome") == "fallback" for row in rows)
     if fallback:
         console.print(
-            f"[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
-            "candidate and poses 0..19 of the unfiltered file were tried instead",
+            styled(
+                "[yellow]reference fallback[/] in {fallback} episode(s): the filter kept no "
+                "candidate and poses 0..19 of the unfiltered file were tried instead",
+                fallback=fallback,
+            ),
             soft_wrap=True,
         )
     extra = ", skipped.txt" if interndata else ""
     console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
     if (line := error_rows_line(errors, len(rows), run_dir)) is not None:
-        print(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
+        say(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
     if len(rows) != planned:
         return 130
     return 1 if too_many_errors(errors, len(rows)) else 0

@@ -9,7 +9,7 @@ from typing import Any
 
 from rich.console import Console
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, say, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
 from harness.runs.sweep import run_sweep
 
@@ -32,10 +32,15 @@ def check_flags(args: argparse.Namespace) -> None:
         raise HarnessError("--out does not apply with --resume (the run stays in RUN_DIR)")
     if args.address and args.backend != "ray":
         raise HarnessError(f"--address needs --backend ray (the backend is {args.backend})")
+    if args.address:
+        from harness.runs.ray_address import check_ray_address
+
+        check_ray_address(args.address)  # before the run: one line, not 240 s of Ray retries
 
 
 def main(args: argparse.Namespace) -> int:
     check_flags(args)
+    args.videos = videos_possible(args.videos)  # before mujoco is imported
     console = make_console()
     if args.sweep:
         from harness.commands.validate import print_warnings, sweep_warning_lines
@@ -85,11 +90,14 @@ def main(args: argparse.Namespace) -> int:
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
     failing = too_many_errors(outcome.errors, outcome.rows)
     if line is not None:
-        print(f"error: {line}" if failing else line, file=sys.stderr)
+        say(f"error: {line}" if failing else line, file=sys.stderr)
     if stats.interrupted:
         console.print(
-            f"[yellow]interrupted[/]: finished episodes are kept; continue with "
-            f"harness sweep --resume {outcome.run_dir}"
+            styled(
+                "[yellow]interrupted[/]: finished episodes are kept; continue with "
+                "harness sweep --resume {run_dir}",
+                run_dir=outcome.run_dir,
+            )
         )
         return 130
     return 1 if failing else 0
@@ -161,8 +169,12 @@ def print_summary(run_dir: Path, console: Console) -> None:
         counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
         if sum(counts):
             console.print(
-                f"[yellow]reference fallback[/] at {sum(c > 0 for c in counts)} point(s) "
-                f"({sum(counts)} episodes): the filter kept no candidate (report.html: ⚑)",
+                styled(
+                    "[yellow]reference fallback[/] at {points} point(s) ({episodes} episodes): "
+                    "the filter kept no candidate (report.html: ⚑)",
+                    points=sum(c > 0 for c in counts),
+                    episodes=sum(counts),
+                ),
                 soft_wrap=True,
             )
     for name in ("summary.csv", "episodes.csv", "report.md", "report.html", "recording.rrd"):

@@ -6,7 +6,7 @@ import argparse
 from dataclasses import asdict
 from pathlib import Path
 
-from harness.commands.console import make_console
+from harness.commands.console import make_console, styled
 from harness.errors import HarnessError
 from harness.tuning.race import Budget
 from harness.tuning.run import OPTIONS_FILE, TuneOptions, analyse, lines, tune
@@ -65,8 +65,11 @@ def main(args: argparse.Namespace) -> int:
         )
     if result.interrupted and result.decisions.empty:
         console.print(
-            f"[yellow]interrupted[/]: finished episodes are kept; run the same harness tune "
-            f"command with --out {result.run_dir} to continue"
+            styled(
+                "[yellow]interrupted[/]: finished episodes are kept; run the same harness tune "
+                "command with --out {run_dir} to continue",
+                run_dir=result.run_dir,
+            )
         )
         return 130
     for line in lines(result.decisions):

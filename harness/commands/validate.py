@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from harness.commands.console import say
 from harness.config import (
     ConfigError,
     SweepConfig,
@@ -87,7 +88,7 @@ def sweep_warning_lines(sweep: SweepConfig, path: str) -> list[str]:
 
 def print_warnings(lines: list[str]) -> None:
     for line in lines:
-        print(line, file=sys.stderr)
+        say(line, file=sys.stderr)
 
 
 def _file_warnings(path: str, loaded: object) -> list[str]:
@@ -129,21 +130,21 @@ def main(args: argparse.Namespace) -> int:
                 from harness.interndata import load_interndata_tasks
 
                 picks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
-                print(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")
+                say(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")
                 for pick in picks:
-                    print(f"  {describe_pick(pick)}")
+                    say(f"  {describe_pick(pick)}")
                 for pick in picks:
                     print_warnings(warning_lines(pick.task, path, f"pick {pick.order}"))
                 continue
             deep_check(path, loaded)
         except ConfigError as exc:
-            print(f"error: {exc.one_line()}", file=sys.stderr)
+            say(f"error: {exc.one_line()}", file=sys.stderr)
             failed += 1
             continue
         except HarnessError as exc:  # what the run would load: robot, arm, home, files
-            print(f"error: {exc}", file=sys.stderr)
+            say(f"error: {exc}", file=sys.stderr)
             failed += 1
             continue
-        print(f"ok {path}: {describe(kind, loaded)}")
+        say(f"ok {path}: {describe(kind, loaded)}")
         print_warnings(_file_warnings(path, loaded))
     return 1 if failed else 0

@@ -46,12 +46,9 @@ def resolve_robot_yaml(name_or_path: str | Path) -> Path:
     )
 
 
-def gripper_variant_names(name_or_path: str) -> list[str] | None:
-    """The gripper variants of a robot.yaml (default first), or None if it cannot be read.
-
-    Read without validating the file, so task validation can check a variant name without
-    loading the robot (robot.yaml problems are reported when the robot is loaded).
-    """
+def _raw_robot_yaml(name_or_path: str) -> dict | None:
+    """A robot.yaml as a plain dict, not validated; None if it cannot be read (robot.yaml
+    problems are reported when the robot is loaded)."""
     import yaml
 
     try:
@@ -59,7 +56,34 @@ def gripper_variant_names(name_or_path: str) -> list[str] | None:
         data = yaml.safe_load(text)
     except (HarnessError, OSError, ValueError, yaml.YAMLError):
         return None
-    if not isinstance(data, dict):
+    return data if isinstance(data, dict) else None
+
+
+def placement_defaults(name_or_path: str, arm: str) -> dict[str, dict | None]:
+    """The placements a task inherits from robot.yaml when it sets none: ``robot_placement``
+    (robot.yaml ``placement``) and ``object`` (the arm's ``object_region``); None where the
+    file does not say. A ``--set robot_placement.pos_range=...`` starts from these, so the
+    keys it does not name keep their robot.yaml values (issue 33: the yaw range fell back to
+    [-180, 180] and the robot faced a random way)."""
+    data = _raw_robot_yaml(name_or_path) or {}
+    arms = data.get("arms")
+    arm_data = arms.get(arm) if isinstance(arms, dict) else None
+    region = arm_data.get("object_region") if isinstance(arm_data, dict) else None
+    placement = data.get("placement")
+    return {
+        "robot_placement": placement if isinstance(placement, dict) else None,
+        "object": region if isinstance(region, dict) else None,
+    }
+
+
+def gripper_variant_names(name_or_path: str) -> list[str] | None:
+    """The gripper variants of a robot.yaml (default first), or None if it cannot be read.
+
+    Read without validating the file, so task validation can check a variant name without
+    loading the robot (robot.yaml problems are reported when the robot is loaded).
+    """
+    data = _raw_robot_yaml(name_or_path)
+    if data is None:
         return None
     variants = data.get("gripper_variants") or {}
     return [str(data.get("gripper_variant", "default")), *map(str, variants)]

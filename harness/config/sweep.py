@@ -80,6 +80,13 @@ def check_dotted_key(key: str) -> str:
         raise KeyedValueError(
             (key,), f"axis key {key!r} is not a dotted key like 'pick.filter_z_dir'"
         )
+    negative = next((part for part in parts if part.startswith("-") and part[1:].isdigit()), None)
+    if negative is not None:  # Python would count from the end; a key names one item
+        raise KeyedValueError(
+            (key,),
+            f"axis key {key!r}: negative list index {negative} (give the item's position, "
+            "counted from 0)",
+        )
     head = parts[0]
     if head == "object":  # shorthand for the target object
         parts = ["objects", "0", *parts[1:]]
@@ -138,13 +145,24 @@ class SweepConfig(StrictModel):
     episodes_per_point: int = Field(default=10, ge=1, le=100_000)
     seed: int = Field(default=0, ge=0)
     workers: int | None = Field(default=None, ge=1, le=1024)
-    record: str = Field(default="failures", pattern=r"^(none|failures|invalid|all|sample:\d+)$")
+    record: str = Field(
+        default="failures", pattern=r"^(none|failures|invalid|all|sample:[1-9][0-9]*)$"
+    )
     share: bool = Field(
         default=True,
         description="Points that differ only in selection keys (filters, direction_to_obj) "
         "share each seed's candidate evaluations (harness.episode.candidate_cache); the rows are "
         "the same either way. false evaluates every point on its own.",
     )
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, name: str) -> str:
+        """The name becomes a folder name (``reports/<name>-<time>``): ``.``, ``..`` and a
+        leading ``-`` (read as a flag by shell tools) are refused."""
+        if set(name) == {"."} or name.startswith("-"):
+            raise ValueError(f"{name!r} is not a plain file name (letters, digits, _ . -)")
+        return name
 
     @field_validator("axes")
     @classmethod

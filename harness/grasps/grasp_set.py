@@ -7,15 +7,14 @@ and depth signs and the rotations, and name the offending cell in the ``InputFil
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from harness.errors import InputFileError
-from harness.files import check_regular
 from harness.grasps.arrays import FloatArray, read_only
+from harness.reading import load_npy
 
 GRASP_COLUMNS = 17
 ROTATION_TOLERANCE = 1e-3
@@ -138,40 +137,12 @@ def _check_rotations(path: str, rotations: FloatArray) -> None:
 MAX_GRASP_BYTES = 1 << 30
 
 
-def check_npy_header(path: Path) -> None:
-    """Refuse a ``.npy`` whose header claims more data than the file holds (or than 1 GiB);
-    ``.npz`` archives pass through (``load_grasp_file`` refuses them with their own message)."""
-    size = check_regular(path, MAX_GRASP_BYTES)
-    with open(path, "rb") as handle:
-        if handle.read(6) != b"\x93NUMPY":
-            return
-        handle.seek(0)
-        version = np.lib.format.read_magic(handle)
-        if version == (1, 0):
-            shape, _, dtype = np.lib.format.read_array_header_1_0(handle)
-        else:
-            shape, _, dtype = np.lib.format.read_array_header_2_0(handle)
-        if dtype.hasobject:  # pickled objects: np.load refuses them (allow_pickle=False)
-            return
-        claimed = math.prod(shape) * dtype.itemsize
-        if claimed > size - handle.tell():
-            raise ValueError(
-                f"its header claims shape {shape} ({claimed:,} bytes) but the file holds "
-                f"{size - handle.tell():,} bytes of data"
-            )
-
-
 def read_grasp_array(path: str | Path) -> np.ndarray:
-    """The raw array of a grasp file, checked before reading (regular file, honest header,
-    no pickles); ``InputFileError`` naming the file otherwise. No row validation."""
+    """The raw array of a grasp file, read by the read rule (``harness.reading.load_npy``:
+    regular file, honest header, no pickles); ``InputFileError`` naming the file otherwise.
+    No row validation."""
     path = Path(path)
-    try:
-        check_npy_header(path)
-        array = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise InputFileError(path, "grasp file not found") from None
-    except (OSError, ValueError, EOFError, MemoryError) as exc:
-        raise InputFileError(path, f"cannot read as a .npy array: {exc}") from None
+    array = load_npy(path, MAX_GRASP_BYTES, what="grasp file")
     if not isinstance(array, np.ndarray):  # an .npz archive
         array.close()
         raise InputFileError(path, "is an .npz archive; expected one N x 17 .npy array")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -24,6 +25,7 @@ import yaml
 
 from harness.errors import InputFileError
 from harness.files import MAX_CONFIG_BYTES, read_capped
+from harness.grasps.grasp_set import MAX_GRASP_BYTES
 from harness.objects.decomposition import (
     CoacdParams,
     Piece,
@@ -34,6 +36,7 @@ from harness.objects.decomposition import (
 from harness.objects.mass import mass_properties
 from harness.objects.meshes import load_mesh
 from harness.objects.usd_physics import read_usd_physics
+from harness.reading import check_input, load_npy
 
 DEFAULT_NPY_NAME = "Aligned_grasp_sparse.npy"
 DEFAULT_MASS = 0.1  # kg, chosen (no public source) for meshes that author none
@@ -118,6 +121,8 @@ def resolve_mesh(mesh: str, base_dir: Path) -> Path:
         if not mesh_file.is_file():
             raise InputFileError(mesh_file, f"default object {mesh!r} has no mesh file", "mesh")
         return mesh_file
+    if os.path.lexists(candidate):  # there, but no regular file: say what it is (a FIFO, a loop)
+        check_input(candidate, None, "mesh file")
     raise InputFileError(
         candidate,
         f"mesh file not found, and {mesh!r} is not a default object "
@@ -224,7 +229,7 @@ class ObjectAsset:
         """Rows in the grasp file (read lazily, memory-mapped), or None without a file."""
         if self.grasp_path is None:
             return None
-        try:
-            return int(np.load(self.grasp_path, mmap_mode="r").shape[0])
-        except Exception as exc:
-            raise InputFileError(self.grasp_path, f"cannot read grasp file: {exc}") from exc
+        array = load_npy(self.grasp_path, MAX_GRASP_BYTES, what="grasp file", mmap=True)
+        if not isinstance(array, np.ndarray) or array.ndim == 0:  # an .npz archive, a scalar
+            raise InputFileError(self.grasp_path, "cannot read grasp file: not one N x 17 array")
+        return int(array.shape[0])

@@ -11,13 +11,15 @@ the example assets declare 0.01 yet their points are metres (docs/reference-pick
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 import numpy as np
 import trimesh
+from trimesh.resolvers import FilePathResolver
 
 from harness.errors import InputFileError
-from harness.files import RefusedFileError, check_regular
+from harness.reading import RefusedFileError, check_regular, read_capped, resolve_input
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 TRIMESH_SUFFIXES = (".obj", ".stl", ".glb", ".gltf", ".ply")
@@ -41,7 +43,7 @@ def check_usd_layers(path: Path) -> None:
     from pxr import Sdf
 
     seen: set[str] = set()
-    pending = [(str(path.resolve()), 0)]
+    pending = [(str(resolve_input(path, "mesh file")), 0)]
     while pending:
         layer_path, depth = pending.pop()
         if layer_path in seen:
@@ -68,7 +70,10 @@ def check_usd_layers(path: Path) -> None:
         for asset in layer.GetCompositionAssetDependencies():
             if asset and "://" not in asset and not asset.startswith("@"):
                 child = Path(asset) if Path(asset).is_absolute() else base / asset
-                pending.append((str(child.resolve()), depth + 1))
+                try:
+                    pending.append((str(child.resolve()), depth + 1))
+                except RuntimeError:  # Path.resolve on a symlink loop
+                    raise InputFileError(path, f"USD layer {child} is a symlink loop") from None
 
 
 def _read_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -141,11 +146,44 @@ def triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     return np.column_stack([indices[base], indices[base + k + 1], indices[base + k + 2]])
 
 
+class CheckedResolver(FilePathResolver):
+    """trimesh's file resolver under the read rule (``harness.reading``): every file a mesh
+    pulls in (an OBJ's ``mtllib``, an MTL's ``map_Kd`` texture, a glTF's buffers and images)
+    is read only if it is a regular file within ``MAX_MESH_BYTES``. A FIFO named by ``mtllib``
+    or ``map_Kd`` made ``trimesh.load`` wait forever. trimesh swallows a failed include (it
+    logs and goes on), so each refusal is kept in ``refused`` and raised after the load."""
+
+    def __init__(self, source: str) -> None:
+        super().__init__(source)
+        self.refused: list[str] = []
+
+    def get(self, name: str) -> bytes:
+        try:
+            target = self.absolute(name)
+        except RuntimeError:  # a symlink loop
+            self.refused.append(f"{name}: a symlink loop")
+            raise
+        try:
+            return read_capped(target, MAX_MESH_BYTES)
+        except RefusedFileError as exc:
+            self.refused.append(f"{name} {exc}")
+            raise
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                self.refused.append(f"{name}: a symlink loop")
+            raise
+
+
 def _read_trimesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    resolver = CheckedResolver(str(path))
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
+        loaded = trimesh.load(str(path), force="mesh", process=False, resolver=resolver)
     except Exception as exc:
+        if resolver.refused:
+            raise InputFileError(path, f"file the mesh includes: {resolver.refused[0]}") from None
         raise InputFileError(path, f"cannot read mesh: {str(exc).strip()[:200]}") from exc
+    if resolver.refused:
+        raise InputFileError(path, f"file the mesh includes: {resolver.refused[0]}")
     if not isinstance(loaded, trimesh.Trimesh):  # e.g. an empty scene
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
     return np.asarray(loaded.vertices, dtype=np.float64), np.asarray(loaded.faces, dtype=np.int64)

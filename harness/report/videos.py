@@ -24,6 +24,7 @@ from typing import Any
 import pandas as pd
 
 from harness.files import write_atomic
+from harness.reading import read_json
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import rated
 from harness.runs.safety import safe_file_name
@@ -76,9 +77,9 @@ def load_clips(run_dir: Path) -> list[Clip]:
     """The clips of an earlier report whose files are still there (``--no-videos`` keeps
     them); [] when there is no readable manifest."""
     path = run_dir / VIDEOS_DIR / MANIFEST
-    try:
-        entries = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    try:  # the read rule: a FIFO or a huge file planted here is no manifest
+        entries = read_json(path, what="video manifest")
+    except (OSError, ValueError):  # InputFileError is a ValueError
         return []
     clips = []
     for entry in entries if isinstance(entries, list) else []:

@@ -391,7 +391,12 @@ def run_ray(
     with contextlib.ExitStack() as stack:
         if not ray.is_initialized():
             if address:
-                ray.init(address=address, log_to_driver=False)
+                try:
+                    ray.init(address=address, log_to_driver=False)
+                except ConnectionError as exc:  # the port answers, but no Ray head is there
+                    from harness.errors import HarnessError
+
+                    raise HarnessError(f"--address {address}: {exc}") from None
                 stack.callback(ray.shutdown)
             else:  # on 127.0.0.1 only, and gone with this process (harness.runs.ray_local)
                 from harness.runs.ray_local import local_ray

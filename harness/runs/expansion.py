@@ -240,6 +240,52 @@ def check_filters(task: TaskConfig, conventions: dict[str, Any] | None = None) -
         raise ConfigError(exc.message, key=f"pick.{exc.key}" if exc.key else "pick") from None
 
 
+def refuse_key_spelled_twice(
+    task: TaskConfig, point: dict[str, Any], sweep_path: Path | None
+) -> None:
+    """``ConfigError`` when two axes name one task key (``object.friction`` and
+    ``objects.0.friction``, ``robot.gripper.force_limit`` and ``gripper.force_limit``): one
+    would silently overwrite the other in every point."""
+    from harness.config.overrides import target_index
+    from harness.config.sweep import canonical_key
+
+    target = target_index(task.model_dump(mode="json"))
+    named: dict[str, str] = {}
+    for key in point:
+        first = named.setdefault(canonical_key(key, target), key)
+        if first != key:
+            raise ConfigError(
+                f"axes {first!r} and {key!r} name the same key of task {task.name!r}; keep one",
+                file=sweep_path,
+                key=f"axes.{key}",
+            )
+
+
+def refuse_spelling_duplicate(
+    seen: dict[str, int],
+    configured: TaskConfig,
+    point_id: int,
+    points: list[dict[str, Any]],
+    sweep_path: Path | None,
+) -> None:
+    """``ConfigError`` when point ``point_id`` configures the task exactly as an earlier point.
+
+    Points are compared after the typed config has normalised their values, so one value
+    spelled two ways (friction ``1`` and ``1.0``, ``lift_th: "0.02"`` and ``0.02``,
+    ``validity: on`` and ``true``, ``object.friction`` and ``objects.0.friction``) is one
+    point: run twice it would spend the episodes twice and mix two labels of one setting.
+    """
+    identity = configured.model_dump_json()
+    first = seen.setdefault(identity, point_id)
+    if first != point_id:
+        raise ConfigError(
+            f"point {point_id} {points[point_id]} is point {first} {points[first]} spelled "
+            f"another way (the same task once the values are read); list each setting once",
+            file=sweep_path,
+            key="axes",
+        )
+
+
 def select_samples(episodes: list[EpisodeSpec], count: int) -> set[str]:
     """A deterministic sample of ``count`` episode ids (lowest id hashes)."""
     ranked = sorted(episodes, key=lambda e: hashlib.sha1(e.resolved_id.encode()).hexdigest())
@@ -264,6 +310,8 @@ def expand(
     report = ExpansionProgress(len(tasks) * len(points), enabled=progress)
     conventions: dict[str, Any] = {}
     for task in tasks:
+        refuse_key_spelled_twice(task, points[0], sweep_path)
+        seen: dict[str, int] = {}
         for point_id, point in enumerate(points):
             report.advance()
             try:
@@ -275,6 +323,7 @@ def expand(
                     file=sweep_path,
                     key=f"axes.{exc.key}" if exc.key else "axes",
                 ) from None
+            refuse_spelling_duplicate(seen, configured, point_id, points, sweep_path)
             for index in range(sweep.episodes_per_point):
                 eid = episode_id(task.name, point, index)
                 episodes.append(

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from harness.errors import HarnessError
+from harness.reading import read_csv, read_parquet
 from harness.row import SCHEMA, Column, param_columns
 from harness.writes import named_error, open_append, write_through
 
@@ -263,7 +264,8 @@ class ResultStore:
         if self.path.is_file():
             return self._load_jsonl()
         if (self.run_dir / PARQUET_NAME).is_file():
-            frame = pd.read_parquet(self.run_dir / PARQUET_NAME)
+            frame = read_parquet(self.run_dir / PARQUET_NAME, what="episode table")
+            check_episode_columns(frame, self.run_dir / PARQUET_NAME)
         elif (self.run_dir / CSV_NAME).is_file():
             frame = read_episodes_csv(self.run_dir / CSV_NAME, typed=False)
         else:
@@ -303,6 +305,22 @@ class ResultStore:
         return csv_path, parquet_path
 
 
+# The columns every reader of an episode table needs (the episode, where it ran, its
+# verdict): a table without them is not a run's, however it parses (a CSV of other columns
+# compared as "0 matched" and exited 0).
+REQUIRED_COLUMNS = ("episode_id", "robot", "arm", "object", "success")
+
+
+def check_episode_columns(frame: pd.DataFrame, path: Path) -> None:
+    """``HarnessError`` naming ``path`` when ``frame`` lacks a ``REQUIRED_COLUMNS`` column."""
+    missing = [name for name in REQUIRED_COLUMNS if name not in frame.columns]
+    if missing:
+        raise HarnessError(
+            f"{path}: not an episode table (no {', '.join(repr(m) for m in missing)} "
+            f"column{'s' if len(missing) > 1 else ''})"
+        )
+
+
 def read_episodes_csv(path: str | Path, typed: bool = True) -> pd.DataFrame:
     """Read an ``episodes.csv`` (exported, or hand-made with a subset of the columns).
 
@@ -313,21 +331,27 @@ def read_episodes_csv(path: str | Path, typed: bool = True) -> pd.DataFrame:
     string_columns: dict[Hashable, str] = {
         name: "str" for name, c in SCHEMA.items() if c.dtype == "str"
     }
-    try:
-        frame = pd.read_csv(path, dtype=string_columns, keep_default_na=False, na_values=[""])
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise HarnessError(f"{path}: cannot read the episode table: {exc}") from None
+    frame = read_csv(
+        path,
+        what="the episode table",
+        dtype=string_columns,
+        keep_default_na=False,
+        na_values=[""],
+    )
     if "episode_id" not in frame.columns:
         raise HarnessError(f"{path}: not an episode table (no 'episode_id' column)")
     for name in string_columns:
         if name in frame.columns:
             frame[name] = frame[name].fillna("")
     if not typed:
+        check_episode_columns(frame, path)
         return frame
     try:
-        return typed_frame(frame)
+        typed_rows = typed_frame(frame)
     except ValueError as exc:
         raise HarnessError(f"{path}: {exc}") from None
+    check_episode_columns(frame, path)  # after typing: a bad cell is named first
+    return typed_rows
 
 
 def _atomic_write(path: Path, write: Any) -> None:

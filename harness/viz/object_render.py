@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from harness.grasps.grasp_set import read_grasp_array
 from harness.objects.assets import ObjectAsset
 from harness.objects.graspgen import GripperModel, grasp_boxes
 from harness.viz.render import render_views, use_offscreen_gl
@@ -108,7 +109,7 @@ def _add_grasps(spec: Any, asset: ObjectAsset, n_grasps: int, seed: int) -> int:
     """Up to ``n_grasps`` random grasps of the asset's grasp file as boxes; how many were drawn."""
     shown = 0
     if asset.grasp_path is not None:
-        grasps = np.asarray(np.load(asset.grasp_path), dtype=np.float64)
+        grasps = np.asarray(read_grasp_array(asset.grasp_path), dtype=np.float64)
         if grasps.ndim == 2 and grasps.shape[1] == 17 and len(grasps):
             rng = np.random.default_rng(seed)
             rows = grasps[np.sort(rng.choice(len(grasps), min(n_grasps, len(grasps)), False))]
