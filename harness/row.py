@@ -266,6 +266,17 @@ class EpisodeRow:
     collision_b: str = field(
         default="", metadata=_doc("second body of the colliding pair that failed it, '' if none")
     )
+    limit_joint: str = field(
+        default="",
+        metadata=_doc(
+            "an unreachable target's best IK attempt: the joint at a position limit there, "
+            "as name:lower / name:upper; '' if none (or not a reach failure)"
+        ),
+    )
+    ik_residual_mm: float = field(
+        default=math.nan,
+        metadata=_doc("an unreachable target's best IK position residual (mm); NaN otherwise"),
+    )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))
     # Added by the sweep executors

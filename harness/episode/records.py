@@ -111,6 +111,8 @@ class FailureLocationColumns:
     failure_stage: str
     collision_a: str
     collision_b: str
+    limit_joint: str = ""
+    ik_residual_mm: float | None = None
 
 
 @dataclass(frozen=True)
