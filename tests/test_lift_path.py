@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import PROJECT_ROOT
 
 import harness
 from harness.config import PickConfig
 from harness.pick.semantics import Semantics
 from harness.planning.planner import LIFT_PLAN_ATTEMPTS, LIFT_PLAN_RETRIES, PlannerSettings
-from tests.helpers import PROJECT_ROOT
 
 SPLIT_ALOHA_LEFT = PROJECT_ROOT / "tasks" / "pick" / "split_aloha_left.yaml"
 # The region tasks/pick/split_aloha_left.yaml had when these episodes were found (pinned so a

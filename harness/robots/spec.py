@@ -231,6 +231,35 @@ class RobotFile(_Strict):
         default_factory=dict,
         description="Alternative grippers a task selects with robot.gripper.variant.",
     )
+    sources: dict[str, str] = Field(
+        default_factory=dict,
+        description="Where each physical value comes from: a dotted key of this file "
+        "(arms.*.<key> for every arm) or urdf.<fact> (a value of the generated URDF) -> its "
+        "source and derivation; 'chosen, no public source ...' marks an unknown, and the text "
+        "after ' | ' names the task key that sweeps it.",
+    )
+
+    @model_validator(mode="after")
+    def _source_keys(self) -> RobotFile:
+        """Every ``sources`` key names a value of this file (or a ``urdf.`` fact)."""
+        for key in self.sources:
+            if key.startswith("urdf."):
+                continue
+            arms = list(self.arms) if key.startswith("arms.*.") else [None]
+            for arm in arms:
+                path = key.replace("arms.*.", f"arms.{arm}.") if arm else key
+                if not _has_path(self, path.split(".")):
+                    raise ValueError(f"sources: {key!r} names no value of robot.yaml")
+        return self
+
+    def unsourced(self) -> dict[str, str]:
+        """The ``sources`` entries without a primary source ('chosen ...'), key -> the task key
+        that sweeps it ('' when none is named)."""
+        return {
+            key: text.split(" | ", 1)[1].strip() if " | " in text else ""
+            for key, text in self.sources.items()
+            if "chosen" in text.split(" | ", 1)[0]
+        }
 
     @model_validator(mode="after")
     def _variant_names(self) -> RobotFile:
@@ -244,3 +273,16 @@ class RobotFile(_Strict):
     def variant_names(self) -> list[str]:
         """The default gripper first, then the alternatives."""
         return [self.gripper_variant, *self.gripper_variants]
+
+
+def _has_path(model: object, parts: list[str]) -> bool:
+    """Whether ``model`` (a pydantic model, dicts inside) has the dotted field ``parts``."""
+    node: object = model
+    for part in parts:
+        if isinstance(node, BaseModel) and part in type(node).model_fields:
+            node = getattr(node, part)
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return False
+    return True
