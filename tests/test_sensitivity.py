@@ -1,4 +1,4 @@
-"""The sensitivity section of a sweep over an unsourced physical value (harness.report.sensitivity)."""
+"""The sensitivity section of a sweep over an unsourced value (harness.report.sensitivity)."""
 
 from __future__ import annotations
 

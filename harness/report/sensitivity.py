@@ -45,7 +45,7 @@ def unknown_axes() -> frozenset[str]:
     from harness.config.robot_registry import available_robots
     from harness.robots.facts import robot_file
 
-    axes = set(OBJECT_UNKNOWNS)
+    axes: set[str] = set(OBJECT_UNKNOWNS)
     for name in available_robots():
         axes.update(axis for axis in robot_file(name).unsourced().values() if axis)
     return frozenset(axes)
