@@ -115,6 +115,9 @@ def _add_run(sub: Subparsers) -> None:
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
+    p.add_argument(
+        "--workers", type=WORKERS, default=1, help="worker processes (default 1: this process)"
+    )
     _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 

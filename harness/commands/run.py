@@ -162,13 +162,26 @@ def main(args: argparse.Namespace) -> int:
         )
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
+    workers = getattr(args, "workers", 1) or 1
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
-            for episode in episodes:
-                row = execute(episode, str(run.path), sweep.record)
+
+            def on_result(row: dict[str, Any]) -> None:
                 run.append(row)
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
+
+            if workers > 1:  # a process pool, as harness sweep --workers (rows as they finish)
+                from harness.runs.executors import executor_for
+
+                stats = executor_for("process", workers)(
+                    episodes, run.path, sweep.record, on_result
+                )
+                if stats.interrupted:
+                    raise KeyboardInterrupt
+            else:
+                for episode in episodes:
+                    on_result(execute(episode, str(run.path), sweep.record))
     except KeyboardInterrupt:
         console.print("[yellow]interrupted[/]: finished episodes are kept")
     console.print()
