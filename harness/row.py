@@ -236,6 +236,15 @@ class EpisodeRow:
             "(m, MuJoCo signed distance)"
         ),
     )
+    table_replay: str = field(
+        default="",
+        metadata=_doc(
+            "the same plan executed again with the table physical, where the task makes "
+            "robot-table contact non-physical and a robot geom went below the table top: "
+            "held (valid), the cause it failed with, or '' when no replay ran "
+            "(harness.episode.table_verdict)"
+        ),
+    )
     # Location (harness.episode.location): where the object stood, where the episode failed
     object_x_m: float = field(
         default=math.nan, metadata=_doc("object x at reset in the arm base frame (m, forward)")

@@ -490,7 +490,7 @@ REQUIRED_SOURCES = (
 )
 
 
-@pytest.mark.parametrize("name", ["fr3", "lift2", "split_aloha"])
+@pytest.mark.parametrize("name", ROBOTS)
 def test_every_physical_value_carries_a_source(name: str) -> None:
     from harness.robots.spec import RobotFile
 

@@ -33,8 +33,14 @@ R5A_FINGER_MASS = 0.065
 R5A_FINGER_XYZ = (0.08657, 0.0249, -0.00024)
 R5A_STROKE = 0.044
 R5A_TCP = 0.125  # reference tcp_offset
-R5A_TOOL_HEAD = 0.135  # reference lift2.yaml gripper keypoint tool_head (link6 x)
-R5A_PAD_X = R5A_TOOL_HEAD - R5A_FINGER_XYZ[0] - 0.02  # pad centre on the finger, tip at tool_head
+# Finger collision boxes: MuJoCo Menagerie arx_l5/arx_l5.xml (finger frame = link6 axes):
+# half-sizes (0.015, 0.002, 0.018) at x 0.015 and the fingertip pad (0.02, 0.002, 0.00525),
+# both at y = -+0.023: inner faces on the closing plane y = -+0.0249. The pad ends at the
+# reference's gripper keypoint tool_head, link6 + 0.135 x (InternDataEngine lift2.yaml
+# fl/fr_gripper_keypoints), 10 mm past the TCP: centred at 0.135 - 0.08657 - 0.02 = 0.02843
+# (Menagerie's own pad, at 0.05, reaches 0.15657, 31.6 mm past the TCP: 2 cm deeper).
+R5A_TOOL_HEAD = 0.135
+R5A_PAD_X = R5A_TOOL_HEAD - R5A_FINGER_XYZ[0] - 0.02  # pad centre on the finger
 
 
 def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) -> None:
@@ -93,13 +99,7 @@ def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) 
     fx, fy, fz = R5A_FINGER_XYZ
     for n, sign in ((7, 1.0), (8, -1.0)):
         finger = robot.link(f"{p}link{n}", R5A_FINGER_MASS, "grey")
-        # MuJoCo Menagerie arx_l5/arx_l5.xml finger collision boxes (finger frame = link6
-        # axes): half-sizes (0.015, 0.002, 0.018) at x 0.015 and the fingertip pad
-        # (0.02, 0.002, 0.00525), both at y = -+0.023: inner faces on the closing plane
-        # y = -+0.0249. The pad ends at the reference's gripper keypoint tool_head, link6 +
-        # 0.135 x (InternDataEngine lift2.yaml fl/fr_gripper_keypoints), 10 mm past the TCP:
-        # centred at 0.135 - 0.08657 - 0.02 = 0.02843 (Menagerie's own pad, at 0.05, reaches
-        # 0.15657, 31.6 mm past the TCP: 2 cm deeper into the table than the reference's).
+        # Menagerie arx_l5 finger boxes, the pad ending at tool_head (R5A_PAD_X).
         inner = -sign * 0.023
         finger.shapes = [
             box((0.015, inner, 0.0), (0.03, 0.004, 0.036)),
