@@ -35,7 +35,8 @@ def test_the_unknowns_come_from_the_robot_sources() -> None:
     axes = unknown_axes()
     # Piper grip force and pad friction are "chosen" in robots/split_aloha/robot.yaml sources;
     # the Split ALOHA mounting height is swept through the robot placement.
-    assert {"gripper.force_limit", "gripper.pad_friction", "robot_placement.pos_range"} <= axes
+    assert {"robot.gripper.force_limit", "robot.gripper.pad_friction"} <= axes
+    assert "robot_placement.pos_range" in axes
     assert "pick.approach_filter" not in axes
 
 

@@ -57,8 +57,14 @@ def sensitivity_axes(summary: pd.DataFrame, unknowns: frozenset[str] | None = No
     return [
         column
         for column in param_columns(summary.columns)
-        if column.removeprefix(PARAM_PREFIX) in names and summary[column].nunique() > 1
+        if _unknown(column.removeprefix(PARAM_PREFIX), names) and summary[column].nunique() > 1
     ]
+
+
+def _unknown(key: str, names: frozenset[str]) -> bool:
+    """``key`` sweeps one of ``names`` (a task's gripper keys may be spelt with or without
+    their ``robot.`` prefix)."""
+    return key in names or key.removeprefix("robot.") in names or f"robot.{key}" in names
 
 
 def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
