@@ -29,10 +29,10 @@ from harness.report.sections import Table
 from harness.report.tables import GROUP_KEY, pooled
 from harness.row import PARAM_PREFIX, param_columns
 
-# Task keys that sweep a physical value with no primary source, beyond those the bundled
-# robots' robot.yaml ``sources`` name: the object's contact friction and mass (the reference
-# reads them from its USDs, which a mesh path does not carry).
-OBJECT_UNKNOWNS = ("object.friction", "object.mass")
+# Task keys that sweep a value with no primary source, beyond those the bundled robots'
+# robot.yaml ``sources`` name: the object's contact friction and mass (the reference reads them
+# from its USDs, which a mesh path does not carry) and the validity's chosen rotation bound.
+OBJECT_UNKNOWNS = ("object.friction", "object.mass", "pick.max_slip_rotation")
 FLIP = "best setting flips"
 MOVES = "moves"
 STABLE = "stable"
