@@ -69,3 +69,12 @@ def test_a_rate_that_moves_and_one_that_does_not() -> None:
 def test_no_table_without_an_unknown_axis() -> None:
     frame = summary({(20.0, "a"): (20, 10), (20.0, "b"): (22, 11)})
     assert sensitivity_tables(frame) == []
+
+
+def test_a_whole_placement_block_is_an_unknown_axis() -> None:
+    frame = summary({(20.0, "a"): (20, 10), (20.0, "b"): (22, 11)}).drop(columns=[FORCE])
+    frame["param.robot_placement"] = ['{"pos_range": 1}', '{"pos_range": 2}']
+    frame = frame.drop(columns=[CONE])
+    assert sensitivity_axes(frame) == ["param.robot_placement"]
+    (table,) = sensitivity_tables(frame)
+    assert table.title.startswith("Sensitivity to robot_placement")

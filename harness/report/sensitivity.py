@@ -63,8 +63,10 @@ def sensitivity_axes(summary: pd.DataFrame, unknowns: frozenset[str] | None = No
 
 def _unknown(key: str, names: frozenset[str]) -> bool:
     """``key`` sweeps one of ``names`` (a task's gripper keys may be spelt with or without
-    their ``robot.`` prefix)."""
-    return key in names or key.removeprefix("robot.") in names or f"robot.{key}" in names
+    their ``robot.`` prefix; a whole block such as ``robot_placement`` sweeps its keys)."""
+    if key in names or key.removeprefix("robot.") in names or f"robot.{key}" in names:
+        return True
+    return any(name.startswith(f"{key}.") for name in names)  # a whole block, e.g. placement
 
 
 def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
