@@ -31,7 +31,8 @@ FARTHER_M = 0.02  # reach failures this much farther (median) than successes: a 
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "
-    "(neglect_collision_names: [table] or table_contact off): rank settings by the valid rate "
+    "(neglect_collision_names: [table] or table_contact off), and with the table physical the "
+    "same plan does not hold (table_replay says why): rank settings by the valid rate "
     "(--objective valid) or make the table physical",
     "one_finger": "only one finger holds the object: check the grasp width against the jaw",
     "slipped_in_hold": "the object slips in the hold: check friction and grip force",
