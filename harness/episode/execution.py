@@ -128,7 +128,9 @@ def _execute(
     )
     replay = None
     if state is not None and table_verdict.needs_replay(setup.task, outcome):
+        clock = time.perf_counter()
         replay = table_verdict.replay_on_physical_table(engine, job, state)
+        result.timings["table_replay_s"] = time.perf_counter() - clock
     judged, replayed = table_verdict.physical_verdict(setup.task, outcome.validity, replay)
     validity = validity_columns(execution.validity, outcome.table_penetration_m, judged)
     measured = (execution_columns, TableReplayColumns(replayed))
