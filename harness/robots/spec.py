@@ -63,6 +63,12 @@ class GripperActuator(_Strict):
     pad_friction: Positive = Field(
         default=1.0, description="Sliding friction of the finger collision geoms (pads)."
     )
+    pad_torsion: NonNegative = Field(
+        default=0.01,
+        description="Torsional friction of the pads (m; MuJoCo condim 4): the torque a pad "
+        "resists about its contact normal per newton of normal force. Chosen, no public source; "
+        "it decides how far a held object pivots about the closing axis.",
+    )
     grasp: Literal["force", "position"] = Field(
         default="force",
         description="force: closing drives the fingers until each pad presses with "
@@ -81,7 +87,7 @@ class GripperActuator(_Strict):
 
 
 GRIPPER_FIELDS = ("kp", "kv", "force_limit", "damping", "armature", "frictionloss", "speed",
-                  "pad_friction", "grasp")  # fmt: skip
+                  "pad_friction", "pad_torsion", "grasp")  # fmt: skip
 
 
 class GripperVariant(_Strict):
@@ -98,6 +104,7 @@ class GripperVariant(_Strict):
     frictionloss: NonNegative | None = None
     speed: Positive | None = None
     pad_friction: Positive | None = None
+    pad_torsion: NonNegative | None = None
     grasp: Literal["force", "position"] | None = None
 
 
