@@ -102,9 +102,7 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument("task", nargs="?", metavar="TASK.yaml", help="a task YAML (tasks/pick/*.yaml)")
     p.add_argument("--interndata", metavar="TASK.yaml", help="an InternDataEngine task YAML")
     p.add_argument("--asset-root", metavar="DIR", help="root for InternDataEngine asset paths")
-    p.add_argument(
-        "--object", action="append", default=[], metavar="NAME=PATH", help="substitute an asset"
-    )
+    p.add_argument("--object", action="append", default=[], metavar="NAME=PATH", help="an asset")
     p.add_argument("--episodes", type=EPISODES, default=10, help="episodes to run (seeds)")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the first episode's stream")
     p.add_argument(
@@ -117,6 +115,7 @@ def _add_run(sub: Subparsers) -> None:
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
+    p.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default 1)")
     _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 

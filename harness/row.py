@@ -236,6 +236,15 @@ class EpisodeRow:
             "(m, MuJoCo signed distance)"
         ),
     )
+    table_replay: str = field(
+        default="",
+        metadata=_doc(
+            "the same plan executed again with the table physical, where the task makes "
+            "robot-table contact non-physical and a robot geom went below the table top: "
+            "held (valid), the cause it failed with, or '' when no replay ran "
+            "(harness.episode.table_verdict)"
+        ),
+    )
     # Location (harness.episode.location): where the object stood, where the episode failed
     object_x_m: float = field(
         default=math.nan, metadata=_doc("object x at reset in the arm base frame (m, forward)")
@@ -265,6 +274,17 @@ class EpisodeRow:
     )
     collision_b: str = field(
         default="", metadata=_doc("second body of the colliding pair that failed it, '' if none")
+    )
+    limit_joint: str = field(
+        default="",
+        metadata=_doc(
+            "an unreachable target's best IK attempt: the joint at a position limit there, "
+            "as name:lower / name:upper; '' if none (or not a reach failure)"
+        ),
+    )
+    ik_residual_mm: float = field(
+        default=math.nan,
+        metadata=_doc("an unreachable target's best IK position residual (mm); NaN otherwise"),
     )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))

@@ -148,10 +148,10 @@ FINGERTIP_M = {
     # Franka Hand rubber tip: pad centre 0.1037 past the hand, 18.5 mm tall (Menagerie
     # franka_emika_panda/panda.xml fingertip pads; finger roots at 0.0584).
     "fr3": 0.1037 + 0.0185 / 2,
-    # Menagerie arx_l5/arx_l5.xml: fingers at link6 x 0.08657, pad box to x 0.05 + 0.02.
-    "lift2": 0.08657 + 0.05 + 0.02,
-    # Menagerie agilex_piper/piper.xml: pads end at the finger origin, link6 z 0.13503.
-    "split_aloha": 0.13503,
+    # The reference's gripper keypoint tool_head (InternDataEngine lift2.yaml: link6 x 0.135;
+    # split_aloha.yaml: link6 z 0.12). Menagerie's pads would reach 0.15657 and 0.13503.
+    "lift2": 0.135,
+    "split_aloha": 0.12,
 }
 
 # The reference's cuRobo planner files per robot: the pre-grasp backs off along EE column 0

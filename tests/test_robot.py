@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 import placo
 import pytest
+import yaml
 from helpers import AVAILABLE_ROBOTS_TEXT, ROBOTS, canonical_filters
 from reference_robots import (
     APPROACH_AT_HOME,
@@ -151,9 +152,12 @@ def test_reference_homes_and_widths() -> None:
     widths = {name: RobotModel.load(name).arms["left"].open_width for name in OPEN_WIDTHS}
     # The reference's jaws; the Split ALOHA default is its piper100 (the SDK's 0.07: sdk070).
     assert widths == OPEN_WIDTHS
-    # Known typos fixed: Piper and R5a J1 upper 2.168 -> 2.618.
+    # Known typo fixed: Piper J1 upper 2.168 -> 2.618.
     assert aloha.joint_limits("left_joint1") == (-2.618, 2.618)
-    assert lift2.joint_limits("right_joint1") == (-2.618, 2.618)
+    # Lift-2 arms: the Lift-2 URDF's ranges (the robot the reference simulates), not R5a.urdf's.
+    assert lift2.joint_limits("right_joint1") == (-2.094, 3.1416)
+    assert lift2.joint_limits("left_joint4") == (-1.671, 1.671)
+    assert lift2.joint_limits("left_joint6") == (-2.094, 2.094)
     # FR3: the older (franka_description / Menagerie) table.
     assert fr3.joint_limits("left_joint4") == (-3.0421, -0.1518)
     assert fr3.joint_limits("left_joint6") == (0.5445, 4.5169)
@@ -472,3 +476,50 @@ def test_robot_facts_come_from_the_robot_folders() -> None:
         convention = reference_convention(robot)
         assert convention.tcp_offset == expected.tcp_offset
         np.testing.assert_array_equal(convention.R_ee_graspnet, expected.R_ee_graspnet)
+
+
+# Physical values that must carry a source in every bundled robot.yaml (robots/<name>/robot.yaml
+# ``sources``): the grip, the placement, the body facts the issue of reference fidelity named.
+REQUIRED_SOURCES = (
+    "placement.pos_range",
+    "convention",
+    "urdf.arm_joint_ranges",
+    "urdf.fingertip",
+    "arms.*.gripper.force_limit",
+    "arms.*.gripper.pad_friction",
+)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_every_physical_value_carries_a_source(name: str) -> None:
+    from harness.robots.spec import RobotFile
+
+    data = yaml.safe_load((ROBOTS_DIR / name / "robot.yaml").read_text(encoding="utf-8"))
+    spec = RobotFile.model_validate(data)
+    keys = set(spec.sources)
+    for required in REQUIRED_SOURCES:
+        arm_keys = {required.replace("arms.*.", f"arms.{a}.") for a in spec.arms}
+        assert required in keys or arm_keys <= keys, f"{name}: no source for {required}"
+    assert all(text.strip() for text in spec.sources.values())
+    # an unknown names the task key that sweeps it
+    for key, axis in spec.unsourced().items():
+        if key.endswith(("force_limit", "pad_friction", "mount_height")):
+            assert axis, f"{name}: {key} has no primary source and names no sweep axis"
+
+
+def test_sources_name_real_keys() -> None:
+    from harness.robots.spec import RobotFile
+
+    data = yaml.safe_load((ROBOTS_DIR / "fr3" / "robot.yaml").read_text(encoding="utf-8"))
+    data["sources"]["arms.*.gripper.grip"] = "a typo"
+    with pytest.raises(ValueError, match=re.escape("arms.*.gripper.grip")):
+        RobotFile.model_validate(data)
+
+
+def test_grip_forces_are_the_derived_ones() -> None:
+    # arx5-sdk: gripper_torque_max 1.5 N m over gripper_open_readout 5.03 rad for 0.088 m
+    ideal_r5a = 1.5 / (0.088 / 5.03)
+    assert ideal_r5a == pytest.approx(85.7, abs=0.05)
+    r5a = RobotModel.load("lift2").arms["left"].gripper
+    assert r5a.force_limit == pytest.approx(ideal_r5a, abs=0.05)
+    assert RobotModel.load("fr3").arms["left"].gripper.force_limit == 70.0  # Franka Hand datasheet

@@ -23,13 +23,24 @@ ROOT = Path(__file__).resolve().parents[1]
 # reference's and must not move when the phase runs.
 VALIDITY_COLUMNS = {
     "valid", "invalid_reason", "robustness_g", "hold_slip_m", "hold_rotation_rad",
-    "min_finger_force_n", "table_penetration_m", "wall_time_s", "plan_time_s", "ik_time_s",
+    "min_finger_force_n", "table_penetration_m", "table_replay", "wall_time_s", "plan_time_s",
+    "ik_time_s",
 }  # fmt: skip
 
 
 def canonical(name: str, **pick: object) -> TaskConfig:
     task = load_task(ROOT / "tasks" / "pick" / f"{name}.yaml")
     return task.model_copy(update={"pick": task.pick.model_copy(update=pick)})
+
+
+# The Lift-2 region these seeds were pinned on (0.33-0.43 m in front of the arm): the canonical
+# task now takes the reference's wider region, where many seeds are beyond the arm's reach.
+LIFT2_NEAR = {"pos_range": [[-0.35, -0.30, 0.0], [0.0, -0.20, 0.0]], "yaw_range": [-180, 180]}
+
+
+def lift2_near(**pick: object) -> TaskConfig:
+    """The canonical Lift-2 left cube task with the object in ``LIFT2_NEAR``."""
+    return with_object(canonical("lift2_left", **pick), "cube", placement=LIFT2_NEAR)
 
 
 def with_object(task: TaskConfig, mesh: str, **obj: object) -> TaskConfig:
@@ -86,10 +97,12 @@ def test_validity_terms_first_cause_wins() -> None:
 
 def test_reference_columns_identical_with_validity_on_and_off(cache: dict) -> None:
     """Fixed seeds, two robots: every reference column of every row is bit-identical."""
-    for name, seeds in (("fr3", (0, 1)), ("lift2_left", (1,))):
+    tasks = {"fr3": (canonical("fr3"), canonical("fr3", validity=False), (0, 1))}
+    tasks["lift2_left"] = (lift2_near(), lift2_near(validity=False), (1,))
+    for name, (task_on, task_off, seeds) in tasks.items():
         for seed in seeds:
-            on = row(canonical(name), seed, cache)
-            off = row(canonical(name, validity=False), seed, cache)
+            on = row(task_on, seed, cache)
+            off = row(task_off, seed, cache)
             assert on["invalid_reason"] in ("", *VALIDITY_REASONS)
             assert not math.isnan(on["robustness_g"])
             assert off["invalid_reason"] == "" and not off["valid"]
@@ -109,13 +122,15 @@ def test_clean_top_grasp_is_valid_and_has_no_penetration(cache: dict) -> None:
     assert r["min_finger_force_n"] >= 0.5
 
 
-def test_fingers_through_a_non_physical_table_are_not_valid(cache: dict) -> None:
+def test_fingers_through_a_non_physical_table_are_judged_on_a_physical_one(cache: dict) -> None:
     """Lift-2 canonical cube, table non-physical (neglect_collision_names): the reference
-    succeeds with a finger centimetres inside the table top."""
-    r = row(canonical("lift2_left"), 5, cache)
-    assert r["success"] and not r["valid"]
-    assert r["invalid_reason"] == "table_penetration"
-    assert r["table_penetration_m"] > 0.01
+    succeeds with a finger inside the table top; the same plan is executed again with the table
+    physical (harness.episode.table_verdict) and its outcome is the verdict."""
+    r = row(lift2_near(), 5, cache)
+    assert r["success"] and r["table_penetration_m"] > 0.0
+    assert r["table_replay"] != ""
+    assert r["valid"] == (r["table_replay"] == "held")
+    assert r["valid"] or r["invalid_reason"] == "table_penetration"
 
 
 def test_one_finger_at_the_closing_is_judged_after_the_hold(cache: dict) -> None:
@@ -145,11 +160,14 @@ def test_strict_success_is_the_validity_verdict(cache: dict) -> None:
 def test_robustness_is_monotone_in_object_friction(cache: dict) -> None:
     """Same seeds, object friction 0.3 vs 1.5: the low-friction cube survives lower tugs (the
     object's friction enters its pad contacts, averaged with the pads', harness/sim/friction.py).
-    On the Lift-2 (5 N per pad): the FR3's force-controlled 70 N grasp holds a 0.2 kg cube at
-    4 g at either friction."""
+    On the Lift-2 at 5 N per pad (Menagerie's cap; the R5a default is now the arx5-sdk's 85.7 N,
+    which holds it at 4 g at either friction, as the FR3's 70 N grasp does)."""
     levels: dict[float, list[float]] = {}
     for friction in (0.3, 1.5):
-        task = with_object(canonical("lift2_left"), "cube", friction=friction, mass=0.2)
+        task = with_object(
+            canonical("lift2_left"), "cube", friction=friction, mass=0.2, placement=LIFT2_NEAR
+        )
+        task = apply_overrides(task, {"robot.gripper.force_limit": 5.0})
         levels[friction] = [row(task, seed, cache)["robustness_g"] for seed in (1, 3, 4)]
     low, high = np.asarray(levels[0.3]), np.asarray(levels[1.5])
     assert np.all(low <= high), levels

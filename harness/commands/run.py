@@ -18,6 +18,7 @@ import dataclasses
 import re
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -132,7 +133,6 @@ def main(args: argparse.Namespace) -> int:
     from harness.runs.expansion import absolute_paths, expand
     from harness.runs.progress import ProgressLines
     from harness.runs.rundir import RunDir
-    from harness.runs.worker import execute
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
@@ -168,31 +168,24 @@ def main(args: argparse.Namespace) -> int:
     )
     write_engine(run.path, args.engine)
     if picks:
-        from harness.interndata import note_lines, summary_lines
-
-        for line in summary_lines(args.interndata, picks):
-            console.print(line, highlight=False, markup=False, soft_wrap=True)
-        notes = run.write_notes(note_lines(args.interndata, picks))
-        console.print(
-            f"notes (skipped skills, ignored keys, approximations): {notes}",
-            highlight=False,
-            markup=False,
-            soft_wrap=True,
-        )
+        _print_interndata(console, args.interndata, picks, run)
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
     # Without a terminal the live table shows only at the end: plain lines meanwhile.
     lines = None if console.is_terminal else ProgressLines("run", len(episodes)).start()
+    workers = getattr(args, "workers", 1) or 1
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
-            for episode in episodes:
-                row = execute(episode, str(run.path), sweep.record)
+
+            def on_result(row: dict[str, Any]) -> None:
                 run.append(row)
                 rows.append(row)
                 live.update(_table(rows, len(episodes)))
                 if lines is not None:
                     successes = sum(bool(r.get("success")) for r in rows)
                     lines.advance(note=f"success {successes}/{len(rows)}")
+
+            _execute_all(episodes, run.path, sweep.record, workers, on_result)
     except KeyboardInterrupt:
         from harness.runs.rundir import interrupted_line
 
@@ -271,6 +264,43 @@ def _print_outcome(
     if len(rows) != planned:
         return 130
     return 1 if too_many_errors(errors, len(rows)) else 0
+
+
+def _print_interndata(console: Any, source: str, picks: list[Any], run: Any) -> None:
+    """What an InternData task file became: one line per pick, and the notes file's path."""
+    from harness.interndata import note_lines, summary_lines
+
+    for line in summary_lines(source, picks):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+    notes = run.write_notes(note_lines(source, picks))
+    console.print(
+        f"notes (skipped skills, ignored keys, approximations): {notes}",
+        highlight=False,
+        markup=False,
+        soft_wrap=True,
+    )
+
+
+def _execute_all(
+    episodes: list[Any],
+    run_dir: Path,
+    record: str,
+    workers: int,
+    on_result: Callable[[dict[str, Any]], None],
+) -> None:
+    """Run ``episodes`` in this process, or on a pool of ``workers`` processes as ``harness
+    sweep --workers`` does (rows as they finish); an interrupted pool raises KeyboardInterrupt."""
+    if workers <= 1:
+        from harness.runs.worker import execute
+
+        for episode in episodes:
+            on_result(execute(episode, str(run_dir), record))
+        return
+    from harness.runs.executors import executor_for
+
+    stats = executor_for("process", workers)(episodes, run_dir, record, on_result)
+    if stats.interrupted:
+        raise KeyboardInterrupt
 
 
 def rate_line(rows: list[dict[str, Any]]) -> str:

@@ -98,6 +98,14 @@ class PickConfig(StrictModel):
         "(weights 1/score) instead of plain score order.",
     )
     timing: Literal["toppra", "ruckig"] = Field(default="toppra", json_schema_extra=HARNESS_ONLY)
+    lift_path: Literal["joint", "cartesian"] | None = Field(
+        default=None,
+        json_schema_extra=HARNESS_ONLY,
+        description="How the lift is planned: joint (a joint-space plan to the lift pose, as "
+        "the reference's cuRobo plan_single; 10 IK seeds per plan, 6 plans, 5 mm / 0.05 rad) "
+        "or cartesian (the straight line up). Default: joint under reference, cartesian under "
+        "strict.",
+    )
     speed_scale: FiniteFloat = Field(
         default=REFERENCE_SPEED_SCALE,
         gt=0.0,

@@ -147,6 +147,7 @@ class GripperChoice(StrictModel):
     variant: str | None = Field(default=None, description="A gripper variant of robot.yaml.")
     force_limit: FiniteFloat | None = Field(default=None, gt=0.0, le=10_000.0)
     pad_friction: FiniteFloat | None = Field(default=None, gt=0.0, le=10.0)
+    pad_torsion: FiniteFloat | None = Field(default=None, ge=0.0, le=1.0)
     kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
     kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
     grasp: Literal["force", "position"] | None = Field(
@@ -157,7 +158,7 @@ class GripperChoice(StrictModel):
         """The grip physics values this task sets (robot.yaml keys)."""
         return {
             key: value
-            for key in ("force_limit", "pad_friction", "kp", "kv", "grasp")
+            for key in ("force_limit", "pad_friction", "pad_torsion", "kp", "kv", "grasp")
             if (value := getattr(self, key)) is not None
         }
 

@@ -17,10 +17,15 @@ import time
 import numpy as np
 
 from harness.engines import ExecutionJob, engine_for
-from harness.episode import location
+from harness.episode import location, table_verdict
 from harness.episode.candidate_cache import ExecutedOutcome
 from harness.episode.planning import Choice, Planning
-from harness.episode.records import ExecutionColumns, MotionColumns, RowRecord
+from harness.episode.records import (
+    ExecutionColumns,
+    MotionColumns,
+    RowRecord,
+    TableReplayColumns,
+)
 from harness.episode.setup import WARMUP_TIME_S, EpisodeStopError
 from harness.episode.trace import planned_tcp
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
@@ -98,7 +103,9 @@ def _execute(
         planning.poses.lift_offset, setup.planner.checker, setup.semantics, warmup_steps,
         record=True, log_ctrl=setup.spec.log_ctrl,
     )  # fmt: skip
-    execution = engine_for(setup.spec.engine).execute(job)
+    engine = engine_for(setup.spec.engine)
+    state = None if setup.task.physics.table_contact else table_verdict.start_state(scene)
+    execution = engine.execute(job)
     if execution.outcome is None:
         why = f"during the warm-up steps: {execution.warmup_unstable}"
         raise EpisodeStopError("sim_unstable", why, location.stage_failure("warmup"))
@@ -108,7 +115,7 @@ def _execute(
     if execution.ctrl_log is not None:
         result.ctrl_log = execution.ctrl_log
     planning.finish_trace(outcome, targets, planned)
-    measured = ExecutionColumns(
+    execution_columns = ExecutionColumns(
         sim_time_s=outcome.sim_time_s,
         sim_steps=outcome.sim_steps,
         finger_force_left_n=outcome.finger_force_left_n,
@@ -119,9 +126,16 @@ def _execute(
         max_object_vel=outcome.max_object_vel,
         tcp_grasp_error_m=outcome.tcp_grasp_error_m,
     )
-    validity = validity_columns(execution.validity, outcome.table_penetration_m, outcome.validity)
+    replay = None
+    if state is not None and table_verdict.needs_replay(setup.task, outcome):
+        clock = time.perf_counter()
+        replay = table_verdict.replay_on_physical_table(engine, job, state)
+        result.timings["table_replay_s"] = time.perf_counter() - clock
+    judged, replayed = table_verdict.physical_verdict(setup.task, outcome.validity, replay)
+    validity = validity_columns(execution.validity, outcome.table_penetration_m, judged)
+    measured = (execution_columns, TableReplayColumns(replayed))
     stop = (outcome.failure_reason, outcome.message) if outcome.failure_reason else None
     if stop is None:
-        return (measured, validity), stop
+        return (*measured, validity), stop
     where = location.execution_failure(outcome.failure_phase, outcome.collision_pair)
-    return (measured, validity, where), stop
+    return (*measured, validity, where), stop

@@ -6,7 +6,9 @@ distance from the arm base, so where reach ends can be mapped from the rows alon
 
 The ``*_failure`` functions give ``failure_stage`` and the colliding pair (``collision_a``,
 ``collision_b``, body names, '' when the failure was no collision) for the stage the episode
-stopped at, so failures group without parsing ``error_message``. Stages:
+stopped at, so failures group without parsing ``error_message``; for a target out of reach
+also the best IK attempt's position residual and the joint at a limit there (``limit_joint``,
+``ik_residual_mm``), so a reach failure says which joint limits it. Stages:
 
 - ``settle`` / ``warmup``: the physics went unstable before the motion;
 - ``filter``: no candidate passed the direction filters;
@@ -40,9 +42,13 @@ def placement_columns(T_world_base: np.ndarray, T_world_object: np.ndarray) -> P
     return PlacementColumns(x, y, z, yaw, math.hypot(x, y))
 
 
-def _columns(stage: str, pair: tuple[str, str] | None) -> FailureLocationColumns:
+def _columns(
+    stage: str, pair: tuple[str, str] | None, point: FailurePoint | None = None
+) -> FailureLocationColumns:
     a, b = pair if pair is not None else ("", "")
-    return FailureLocationColumns(stage, a, b)
+    if point is None or point.residual_m is None:
+        return FailureLocationColumns(stage, a, b)
+    return FailureLocationColumns(stage, a, b, point.limit_joint, point.residual_m * 1e3)
 
 
 def stage_failure(stage: str) -> FailureLocationColumns:
@@ -52,7 +58,7 @@ def stage_failure(stage: str) -> FailureLocationColumns:
 
 def plan_failure(stage: str, point: FailurePoint | None) -> FailureLocationColumns:
     """The chosen candidate's motion failed to plan at ``stage`` (with its failing point)."""
-    return _columns(f"plan:{stage}", point.pair if point is not None else None)
+    return _columns(f"plan:{stage}", point.pair if point is not None else None, point)
 
 
 def feasibility_failure(verdicts: list[CandidateVerdict]) -> FailureLocationColumns:
@@ -61,7 +67,7 @@ def feasibility_failure(verdicts: list[CandidateVerdict]) -> FailureLocationColu
         return _columns("feasibility", None)
     last = verdicts[-1]
     point = last.failure_point
-    return _columns(f"feasibility:{last.stage}", point.pair if point is not None else None)
+    return _columns(f"feasibility:{last.stage}", point.pair if point is not None else None, point)
 
 
 def execution_failure(phase: str, pair: tuple[str, str] | None) -> FailureLocationColumns:

@@ -157,6 +157,7 @@ def feasibility(planning: Planning) -> Choice:
             verdict = planner.plan_chain(
                 position, pose_index, score, q_now, T_pre, T_grasp,
                 T_lift if test_carry else None, return_to_pregrasp, rng,
+                lift_path=semantics.lift_path,
             )  # fmt: skip
         verdict.T_world_pregrasp, verdict.T_world_grasp = T_pre, T_grasp
         return verdict

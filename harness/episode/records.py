@@ -104,6 +104,13 @@ class PlacementColumns:
 
 
 @dataclass(frozen=True)
+class TableReplayColumns:
+    """The table verdict's replay on a physical table (``harness.episode.table_verdict``)."""
+
+    table_replay: str
+
+
+@dataclass(frozen=True)
 class FailureLocationColumns:
     """Where the episode stopped and which pair of bodies collided there
     (``harness.episode.location``)."""
@@ -111,6 +118,8 @@ class FailureLocationColumns:
     failure_stage: str
     collision_a: str
     collision_b: str
+    limit_joint: str = ""
+    ik_residual_mm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -139,6 +148,7 @@ ROW_RECORDS: tuple[type, ...] = (
     MotionColumns,
     ExecutionColumns,
     ValidityColumns,
+    TableReplayColumns,
     PlacementColumns,
     FailureLocationColumns,
     EndColumns,

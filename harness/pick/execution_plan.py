@@ -56,7 +56,9 @@ def plan_chosen(
         and (T_lift is not None or pick.return_to_pregrasp)
     ):
         # A forward test without the carry: the chosen plan ends at the grasp; plan it now.
-        plan, stage, why = planner.plan_carry(plan, T_lift, pick.return_to_pregrasp)
+        plan, stage, why = planner.plan_carry(
+            plan, T_lift, pick.return_to_pregrasp, semantics.lift_path, rng
+        )
         if plan is None:
             raise PlanFailedError(stage, why, planner.last_failure)
     while plan is None and attempts <= PLAN_RETRIES:
@@ -66,6 +68,7 @@ def plan_chosen(
             chosen.position, chosen.pose_index, chosen.score, q_now, T_pre, T_grasp, T_lift,
             pick.return_to_pregrasp, rng,
             pregrasp_seed=tested.q if tested is not None and tested.success else None,
+            lift_path=semantics.lift_path,
         )  # fmt: skip
         plan = failure.plan
         if failure.stage not in ("transport", "ik_pregrasp"):

@@ -20,6 +20,7 @@ from harness.config import PickConfig
 from harness.grasps import CandidateRule
 from harness.pick.outcome import PickOutcome
 from harness.pick.verdict import VerdictTerm, reference_terms, strict_terms
+from harness.planning.planner import LiftPath
 from harness.planning.world import PlanningWorld
 from harness.sim.composition import TABLE_NAME
 
@@ -54,6 +55,8 @@ class Semantics:
     judge at once, as the reference).
     Candidates: ``candidates`` (the order rule and whether impossible filters are errors).
     Verdict: ``validity_is_verdict`` (the validity phase always runs and is the success).
+    Lift: ``lift_path`` (``joint``: a joint-space plan to the lift pose, the reference's;
+    ``cartesian``: the straight line up), ``pick.lift_path`` when set.
     """
 
     name: Literal["reference", "strict"]
@@ -69,6 +72,7 @@ class Semantics:
     hold_after_list: bool
     candidates: CandidateRule
     validity_is_verdict: bool = False
+    lift_path: LiftPath = "cartesian"
 
     @classmethod
     def from_pick(cls, pick: PickConfig) -> Semantics:
@@ -91,6 +95,9 @@ class Semantics:
             hold_after_list=strict,
             validity_is_verdict=strict,
             candidates=CandidateRule(order=pick.semantics, reject_impossible_filters=strict),
+            # reference: cuRobo plans the lift in joint space (template_controller.py plan);
+            # strict keeps the straight line it tests (unless the pick says otherwise)
+            lift_path=pick.lift_path or ("cartesian" if strict else "joint"),
         )
 
     def planning_world(self, target: str) -> PlanningWorld:

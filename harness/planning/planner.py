@@ -26,6 +26,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -36,7 +37,20 @@ from harness.planning.plans import CandidateVerdict, ChainPlan, FailurePoint
 from harness.planning.world import PlanningWorld
 from harness.sim.scene import Scene
 
+LiftPath = Literal["joint", "cartesian"]
+
 COLLISION_FREE_IK_ATTEMPTS = 3  # fresh IK restarts when a solution is in collision
+# The reference plans every command, the lift included, with cuRobo's motion generator in joint
+# space: MotionGenPlanConfig(max_attempts=10) in sequential mode (InternDataEngine
+# workflows/simbox/core/controllers/template_controller.py:180-186, _init_motion_gen), goal
+# thresholds cuRobo's defaults 5 mm / 0.05 (the same as its IK solver's, lines 207-210), and a
+# failed plan is retried on the next step until ``num_plan_failed > 5`` ends the episode
+# (template_controller.py:404-405 / 416-417, ee_forward; pick.py is_feasible(th=5)): 6 plans.
+LIFT_PLAN_ATTEMPTS = 10
+LIFT_PLAN_RETRIES = 6
+# A joint within this distance (rad or m) of a position limit is the limiting joint of an
+# unreachable target's best IK attempt.
+LIMIT_MARGIN = 1e-3
 
 
 @dataclass(frozen=True)
@@ -53,6 +67,9 @@ class PlannerSettings:
     rrt_step: float = 0.2  # joint-space extension step
     rrt_max_nodes: int = 4000
     shortcut_iterations: int = 40
+    # The joint-space lift (``lift_path: joint``): IK seeds per plan and plans per lift.
+    lift_attempts: int = LIFT_PLAN_ATTEMPTS
+    lift_retries: int = LIFT_PLAN_RETRIES
 
 
 class PickPlanner:
@@ -79,6 +96,34 @@ class PickPlanner:
         names = self.checker.pair_names(pairs[0]) if pairs else None
         self.last_failure = FailurePoint(np.array(q, dtype=float), names)
         return self.checker.describe(pairs) if pairs else ""
+
+    def _note_unreachable(self, result: IKResult) -> str:
+        """Remember the best IK attempt at an unreachable target with its residual and the
+        joint at a limit there; returns that joint ('' when none is at a limit)."""
+        joint = self.limiting_joint(result.q)
+        self.last_failure = FailurePoint(
+            np.array(result.q, dtype=float),
+            None,
+            joint,
+            result.position_error,
+            result.orientation_error,
+        )
+        return joint
+
+    def limiting_joint(self, q: np.ndarray) -> str:
+        """The active joint of ``q`` nearest a position limit, as ``name:lower`` or
+        ``name:upper``, if it lies within ``LIMIT_MARGIN`` of it; else ''. (A held lift,
+        whose limits are its value, is never the limiting joint.)"""
+        q = np.asarray(q, dtype=float)
+        best, best_gap = "", LIMIT_MARGIN
+        for index, name in enumerate(self.ik.joint_names):
+            lower, upper = self.lower[index], self.upper[index]
+            if upper - lower <= LIMIT_MARGIN:
+                continue
+            for side, gap in (("lower", q[index] - lower), ("upper", upper - q[index])):
+                if gap <= best_gap:
+                    best, best_gap = f"{name}:{side}", float(gap)
+        return best
 
     def sync(self, world: PlanningWorld) -> None:
         """Take the scene's current state and ``world`` as the planning world and IK posture.
@@ -121,7 +166,7 @@ class PickPlanner:
                     return result, ""
                 colliding = (result, f"IK solution in collision ({self._note(result.q, pairs)})")
             elif attempt == 0:
-                self._note(result.q)  # the best attempt at an unreachable target
+                self._note_unreachable(result)  # the best attempt at an unreachable target
                 return result, ""  # not reachable at all: restarts were already spent
             if rng is None or attempt == attempts:
                 break
@@ -184,20 +229,68 @@ class PickPlanner:
             T = line.at(k / count)
             result = self.ik.solve(T, q, None, s.ik)
             if not result.success:
-                self._note(result.q)
+                joint = self._note_unreachable(result)
                 return None, (
                     f"IK failed at {k}/{count} of the line ({result.position_error * 1e3:.1f} mm, "
-                    f"{result.orientation_error:.3f} rad)"
+                    f"{result.orientation_error:.3f} rad{', ' + joint if joint else ''})"
                 )
             if float(np.max(np.abs(result.q - q))) > s.max_joint_jump:
                 self._note(result.q)
-                return None, f"joint jump at {k}/{count} of the line (IK branch change)"
+                joint = self.ik.joint_names[int(np.argmax(np.abs(result.q - q)))]
+                return None, f"joint jump at {k}/{count} of the line (IK branch change, {joint})"
             if self.checker.segment_collides(q, result.q, phase, s.collision_resolution):
                 pairs = self.checker.contacts(result.q, phase)
                 return None, f"collision at {k}/{count} ({self._note(result.q, pairs)})"
             waypoints.append(result.q)
             q = result.q
         return np.stack(waypoints), ""
+
+    def joint_space_path(
+        self, q_start: np.ndarray, T_to: np.ndarray, phase: Phase, rng: np.random.Generator
+    ) -> tuple[np.ndarray | None, str]:
+        """Joint waypoints from ``q_start`` to any configuration that puts the EE at ``T_to``
+        (within the IK tolerances, 5 mm / 0.05 rad): the reference's joint-space plan to a pose
+        (cuRobo ``plan_single``), whose EE path is not a straight line.
+
+        Each of ``lift_retries`` plans tries ``lift_attempts`` IK seeds (``q_start`` first in
+        the first plan, then random configurations from ``rng``); the solutions are tried
+        nearest to ``q_start`` first, each with a collision-free joint path (``joint_path``:
+        direct, else RRT-Connect). Returns (waypoints, "") or (None, why), with the best IK
+        attempt, its residual and its limiting joint noted as the failure point."""
+        s = self.settings
+        best: IKResult | None = None
+        path_why = ""
+        for retry in range(s.lift_retries):
+            solutions: list[np.ndarray] = []
+            for attempt in range(s.lift_attempts):
+                first = retry == 0 and attempt == 0
+                seed = q_start if first else rng.uniform(self.lower, self.upper)
+                result = self.ik.solve(T_to, seed, None, s.ik)
+                if result.success:
+                    if first:  # the grasp's own branch: take it if its path is free
+                        path, _, why = self.joint_path(q_start, result.q, phase, rng)
+                        if path is not None:
+                            return path, ""
+                        path_why = why
+                    else:
+                        solutions.append(result.q)
+                elif best is None or result.residual < best.residual:
+                    best = result
+            solutions.sort(key=lambda q: float(np.sum(np.abs(q - q_start))))
+            for q_goal in solutions:
+                path, _, why = self.joint_path(q_start, q_goal, phase, rng)
+                if path is not None:
+                    return path, ""
+                path_why = why
+        tries = f"{s.lift_retries} plans x {s.lift_attempts} IK seeds"
+        if path_why:
+            return None, f"no collision-free joint path to the pose in {tries}: {path_why}"
+        assert best is not None
+        joint = self._note_unreachable(best)
+        return None, (
+            f"pose out of reach in {tries}: best IK residual {best.position_error * 1e3:.1f} mm"
+            f" / {best.orientation_error:.3f} rad{' at ' + joint if joint else ''}"
+        )
 
     # -- feasibility ----------------------------------------------------------------------------
 
@@ -246,11 +339,13 @@ class PickPlanner:
         return_to_pregrasp: bool,
         rng: np.random.Generator,
         pregrasp_seed: np.ndarray | None = None,
+        lift_path: LiftPath = "cartesian",
     ) -> CandidateVerdict:
         """``forward`` mode (and execution planning): the whole chained, checked motion.
 
         ``pregrasp_seed`` (e.g. the solution an ``ik`` test found) is tried before the current
-        state as the pre-grasp IK seed."""
+        state as the pre-grasp IK seed; ``lift_path`` is how the lift is planned
+        (``plan_carry``)."""
         start = time.perf_counter()
         verdict = CandidateVerdict(position, pose_index, score, False, "")
 
@@ -288,7 +383,9 @@ class PickPlanner:
             T_world_lift=None,
             used_rrt=used_rrt,
         )
-        carried, stage, why = self.plan_carry(plan, T_world_lift, return_to_pregrasp)
+        carried, stage, why = self.plan_carry(
+            plan, T_world_lift, return_to_pregrasp, lift_path, rng
+        )
         if carried is None:
             return fail(stage, why)
         verdict.plan = carried
@@ -297,27 +394,45 @@ class PickPlanner:
         return verdict
 
     def plan_carry(
-        self, plan: ChainPlan, T_world_lift: np.ndarray | None, return_to_pregrasp: bool
+        self,
+        plan: ChainPlan,
+        T_world_lift: np.ndarray | None,
+        return_to_pregrasp: bool,
+        lift_path: LiftPath = "cartesian",
+        rng: np.random.Generator | None = None,
     ) -> tuple[ChainPlan | None, str, str]:
-        """Extend a plan that ends at the grasp with the carry: the Cartesian lift to
-        ``T_world_lift`` (if any) and, with ``return_to_pregrasp``, the line back to the
-        pre-grasp the transport reached. Returns (the extended plan, "", "") or (None, stage,
-        why) with stage ``lift`` or ``return``. Deterministic (no random restarts)."""
+        """Extend a plan that ends at the grasp with the carry: the lift to ``T_world_lift``
+        (if any) and, with ``return_to_pregrasp``, the line back to the pre-grasp the transport
+        reached. Returns (the extended plan, "", "") or (None, stage, why) with stage ``lift``
+        or ``return``.
+
+        ``lift_path``: ``joint`` plans the lift as the reference does, in joint space to the
+        lift pose (``joint_space_path``; random IK seeds from ``rng``, a fixed stream when
+        None); ``cartesian`` follows the straight line (deterministic)."""
         self.checker.attach(plan.approach[-1])  # the target in the hand (when the world says)
         try:
-            return self._carry(plan, T_world_lift, return_to_pregrasp)
+            return self._carry(plan, T_world_lift, return_to_pregrasp, lift_path, rng)
         finally:
             self.checker.detach()
 
     def _carry(
-        self, plan: ChainPlan, T_world_lift: np.ndarray | None, return_to_pregrasp: bool
+        self,
+        plan: ChainPlan,
+        T_world_lift: np.ndarray | None,
+        return_to_pregrasp: bool,
+        lift_path: LiftPath,
+        rng: np.random.Generator | None,
     ) -> tuple[ChainPlan | None, str, str]:
         lift = None
         retreat = None
         q_end = plan.approach[-1]
         if T_world_lift is not None:
-            T_grasp_exact = self.ik.fk(q_end)
-            lift, why = self.cartesian_path(q_end, T_grasp_exact, T_world_lift, "carry")
+            if lift_path == "joint":
+                stream = rng if rng is not None else np.random.default_rng(0)
+                lift, why = self.joint_space_path(q_end, T_world_lift, "carry", stream)
+            else:
+                T_grasp_exact = self.ik.fk(q_end)
+                lift, why = self.cartesian_path(q_end, T_grasp_exact, T_world_lift, "carry")
             if lift is None:
                 return None, "lift", why
             q_end = lift[-1]

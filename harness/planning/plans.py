@@ -36,6 +36,11 @@ class FailurePoint:
 
     q: np.ndarray | None
     pair: tuple[str, str] | None = None
+    # For an unreachable target: the joint of ``q`` at (within ``LIMIT_MARGIN`` of) a position
+    # limit, as ``name:lower`` / ``name:upper`` ('' when none is), and the IK residual there.
+    limit_joint: str = ""
+    residual_m: float | None = None
+    residual_rad: float | None = None
 
 
 @dataclass

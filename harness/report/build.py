@@ -47,6 +47,7 @@ from harness.report.placement import plot_placement
 from harness.report.plots import plot_failures, plot_funnel, plot_success
 from harness.report.render import render_markdown
 from harness.report.sections import Table, funnel_tables, report_tables
+from harness.report.sensitivity import sensitivity_tables
 from harness.report.tables import (
     best_settings,
     error_rows,
@@ -199,6 +200,7 @@ def build_report(
         plots["placement"] = placement
     tables = [
         *report_tables(frame, summary, best),
+        *sensitivity_tables(summary),
         *episode_tables(run_dir, frame, summary),
         *funnel_tables(funnel(frame)),
     ]

@@ -31,8 +31,9 @@ FARTHER_M = 0.02  # reach failures this much farther (median) than successes: a 
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "
-    "(neglect_collision_names: [table] or table_contact off): the valid rate (the default "
-    "--objective) counts these as failures; make the table physical to stop them",
+    "(neglect_collision_names: [table] or table_contact off), and with the table physical the "
+    "same plan does not hold (table_replay says why): the valid rate (the default --objective) "
+    "counts these as failures; make the table physical to stop them",
     "one_finger": "only one finger holds the object: check the grasp width against the jaw",
     "slipped_in_hold": "the object slips in the hold: check friction and grip force",
     "lost_in_tug": "the grasp does not survive a 0.5 g tug: check friction and grip force",

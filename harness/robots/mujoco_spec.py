@@ -47,7 +47,7 @@ import numpy as np
 from harness.robots.model import RobotModel
 from harness.robots.spec import ArmSpec
 
-PAD_TORSION_ROLL = (0.01, 0.0001)  # torsional / rolling friction of the pads (m)
+PAD_ROLL = 0.0001  # rolling friction of the pads (m); the torsional: gripper.pad_torsion
 PAD_CONDIM = 4
 PAD_SOLREF = (0.01, 1.0)
 FINGER_EQUALITY_SOLREF = (0.005, 1.0)
@@ -200,7 +200,7 @@ def _pad_contacts(spec: mujoco.MjSpec, arm: ArmSpec) -> None:
     (torsional friction against pivoting) and a stiffer solref."""
     for geom in spec.geoms:
         if geom.parent.name in arm.finger_bodies and geom.group == COLLISION_GROUP:
-            geom.friction = [arm.gripper.pad_friction, *PAD_TORSION_ROLL]
+            geom.friction = [arm.gripper.pad_friction, arm.gripper.pad_torsion, PAD_ROLL]
             geom.condim = PAD_CONDIM
             geom.solref = list(PAD_SOLREF)
 

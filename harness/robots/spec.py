@@ -63,6 +63,12 @@ class GripperActuator(_Strict):
     pad_friction: Positive = Field(
         default=1.0, description="Sliding friction of the finger collision geoms (pads)."
     )
+    pad_torsion: NonNegative = Field(
+        default=0.01,
+        description="Torsional friction of the pads (m; MuJoCo condim 4): the torque a pad "
+        "resists about its contact normal per newton of normal force. Chosen, no public source; "
+        "it decides how far a held object pivots about the closing axis.",
+    )
     grasp: Literal["force", "position"] = Field(
         default="force",
         description="force: closing drives the fingers until each pad presses with "
@@ -81,7 +87,7 @@ class GripperActuator(_Strict):
 
 
 GRIPPER_FIELDS = ("kp", "kv", "force_limit", "damping", "armature", "frictionloss", "speed",
-                  "pad_friction", "grasp")  # fmt: skip
+                  "pad_friction", "pad_torsion", "grasp")  # fmt: skip
 
 
 class GripperVariant(_Strict):
@@ -98,6 +104,7 @@ class GripperVariant(_Strict):
     frictionloss: NonNegative | None = None
     speed: Positive | None = None
     pad_friction: Positive | None = None
+    pad_torsion: NonNegative | None = None
     grasp: Literal["force", "position"] | None = None
 
 
@@ -231,6 +238,35 @@ class RobotFile(_Strict):
         default_factory=dict,
         description="Alternative grippers a task selects with robot.gripper.variant.",
     )
+    sources: dict[str, str] = Field(
+        default_factory=dict,
+        description="Where each physical value comes from: a dotted key of this file "
+        "(arms.*.<key> for every arm) or urdf.<fact> (a value of the generated URDF) -> its "
+        "source and derivation; 'chosen, no public source ...' marks an unknown, and the text "
+        "after ' | ' names the task key that sweeps it.",
+    )
+
+    @model_validator(mode="after")
+    def _source_keys(self) -> RobotFile:
+        """Every ``sources`` key names a value of this file (or a ``urdf.`` fact)."""
+        for key in self.sources:
+            if key.startswith("urdf."):
+                continue
+            arms = list(self.arms) if key.startswith("arms.*.") else [None]
+            for arm in arms:
+                path = key.replace("arms.*.", f"arms.{arm}.") if arm else key
+                if not _has_path(self, path.split(".")):
+                    raise ValueError(f"sources: {key!r} names no value of robot.yaml")
+        return self
+
+    def unsourced(self) -> dict[str, str]:
+        """The ``sources`` entries without a primary source ('chosen ...'), key -> the task key
+        that sweeps it ('' when none is named)."""
+        return {
+            key: text.split(" | ", 1)[1].strip() if " | " in text else ""
+            for key, text in self.sources.items()
+            if "chosen" in text.split(" | ", 1)[0]
+        }
 
     @model_validator(mode="after")
     def _variant_names(self) -> RobotFile:
@@ -244,3 +280,16 @@ class RobotFile(_Strict):
     def variant_names(self) -> list[str]:
         """The default gripper first, then the alternatives."""
         return [self.gripper_variant, *self.gripper_variants]
+
+
+def _has_path(model: object, parts: list[str]) -> bool:
+    """Whether ``model`` (a pydantic model, dicts inside) has the dotted field ``parts``."""
+    node: object = model
+    for part in parts:
+        if isinstance(node, BaseModel) and part in type(node).model_fields:
+            node = getattr(node, part)
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return False
+    return True

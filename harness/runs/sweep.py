@@ -88,9 +88,15 @@ def check_resume_size(run: RunDir, sweep: SweepConfig, episodes_per_point: int |
 
 
 def with_overrides(
-    sweep: SweepConfig, record: str | None, episodes_per_point: int | None
+    sweep: SweepConfig,
+    record: str | None,
+    episodes_per_point: int | None,
+    resumed: RunDir | None = None,
 ) -> SweepConfig:
-    """The sweep with the command line's ``--record`` / ``--episodes-per-point``."""
+    """The sweep with the command line's ``--record`` / ``--episodes-per-point``; on a
+    ``resumed`` run another ``--episodes-per-point`` is refused (``check_resume_size``)."""
+    if resumed is not None:
+        check_resume_size(resumed, sweep, episodes_per_point)
     updates: dict[str, Any] = {}
     if record is not None:
         updates["record"] = record
@@ -135,9 +141,7 @@ def run_sweep(
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
         engine = run_engine(run, resume_dir is not None, engine)
-        if resume_dir is not None:
-            check_resume_size(run, sweep, episodes_per_point)
-        sweep = with_overrides(sweep, record, episodes_per_point)
+        sweep = with_overrides(sweep, record, episodes_per_point, run if resume_dir else None)
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
         check_sweep_size(sweep, len(tasks), max_episodes, max_points, source)

@@ -64,6 +64,8 @@ from harness.writes import check_outputs, write_file
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR = "screen", "confirm", "tune"
 DEFAULT_OPTIONS = TuneOptions()
 REFINE_DIR = "refine"  # the fine pass about the coarse pass's best directions
+# Each pass's generated sweep, in the tune directory until its run directory holds it.
+PASS_SWEEPS = {SCREEN_DIR: ".screen-sweep.yaml", REFINE_DIR: ".refine-sweep.yaml"}
 TUNE_OUTPUTS = ("success_map.csv", "decisions.csv", "race.csv", "tuned.yaml", "tuned.md")
 
 
@@ -151,7 +153,7 @@ def tune(
 
 TUNE_FILES = (
     OPTIONS_FILE,
-    *(f".{name}-sweep.yaml" for name in (SCREEN_DIR, REFINE_DIR)),
+    *PASS_SWEEPS.values(),
     *(f"{TUNE_DIR}/{name}" for name in TUNE_OUTPUTS),
 )
 
@@ -173,7 +175,7 @@ def _screen(sweep: SweepConfig, out: Path, name: str, run: dict[str, Any], objec
         outcome = run_sweep(resume_dir=folder, max_points=None, **{**run, "progress": label})
     else:
         path = write_file(
-            out / f".{name}-sweep.yaml",
+            out / PASS_SWEEPS[name],
             yaml.safe_dump(sweep.model_dump(mode="json"), sort_keys=False),
             root=out,
         )
@@ -303,7 +305,7 @@ def decide(
     units, names, plans = _units(success, settings, tasks, sweep.axes, options)
     if may_run:
         options = TuneOptions(**{**asdict(options), "plans": plans})
-        (out / OPTIONS_FILE).write_text(json.dumps(asdict(options), indent=2), encoding="utf-8")
+        write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
     if announce is not None:
         for line in plan_lines(units, names, options):
             announce(line)
@@ -323,15 +325,7 @@ def decide(
     log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
         finish_run(out / CONFIRM_DIR, options.objective)
-    why = (
-        f"budget {options.budget} spent"
-        if log.budget_spent
-        else "interrupted"
-        if log.interrupted
-        else "race rows not stored (--analyse runs nothing)"
-        if log.missing
-        else ""
-    )
+    why = _cut_short(log, options)
     decisions = pd.DataFrame(
         [
             unit_row(u, _unit_map(success, u), names[(u.task, u.context)], why, options.objective)
@@ -347,12 +341,7 @@ def decide(
         write_file(folder / name, table.to_csv(index=False), root=out)
     images = write_heatmaps(success, decisions, folder / "heatmaps", options.objective, out)
     header = _header(out, sweep.seed, options, log)
-    text = tuned_yaml(decisions, tasks, header, options.sources)
-    write_file(folder / "tuned.yaml", text, root=out)
-    link = f"../{SCREEN_DIR}/report.html"
-    page = f"\nPage (decisions first, then the screening): [{link}]({link})\n"
-    markdown = tuned_markdown(decisions, text, header, images) + page
-    write_file(folder / "tuned.md", markdown, root=out)
+    text = _write_tuned(out, decisions, tasks, header, images, options.sources)
     written = _write(decisions, tasks, options, write) if write else []
     if (screen.path / "report.html").is_file():  # the tune's page: its decisions first
         build_report(screen.path, objective=options.objective)
@@ -367,6 +356,39 @@ def decide(
         written,
         log,
     )
+
+
+def _cut_short(log: RaceLog, options: TuneOptions) -> str:
+    """Why the race ended before its own rule decided ('' when it did not): the reason an
+    undecided verdict gives."""
+    if log.budget_spent:
+        return f"budget {options.budget} spent"
+    if log.interrupted:
+        return "interrupted"
+    if log.missing:
+        return "race rows not stored (--analyse runs nothing)"
+    return ""
+
+
+def _write_tuned(
+    out: Path,
+    decisions: pd.DataFrame,
+    tasks: dict[str, TaskConfig],
+    header: list[str],
+    images: dict[tuple[str, str], Path],
+    sources: dict[str, str],
+) -> str:
+    """Write ``tuned.yaml`` (the keys to merge) and ``tuned.md`` (with the page's link); return
+    the YAML text."""
+    folder = out / TUNE_DIR
+    text = tuned_yaml(decisions, tasks, header, sources)
+    write_file(folder / "tuned.yaml", text, root=out)
+    link = f"../{SCREEN_DIR}/report.html"
+    page = f"\nPage (decisions first, then the screening): [{link}]({link})\n"
+    write_file(
+        folder / "tuned.md", tuned_markdown(decisions, text, header, images) + page, root=out
+    )
+    return text
 
 
 def _unit_map(success: pd.DataFrame, unit: Unit) -> pd.DataFrame:

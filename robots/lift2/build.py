@@ -18,9 +18,14 @@ R5A_ORIGINS = (  # R5a.urdf (fiveages-sim/arms_ros2_control); axes z, y, y, y, z
     ((0.0702, 5e-05, -0.083391), (0, 0, 0), Z),
     ((0.025286, 0, 0.083391), (PI, 0, 0), X),
 )
-# R5a URDF ranges; J1 upper 2.168 is a typo for 2.618 (robots.md section 9).
-R5A_LOWER = (-2.618, 0.0, 0.0, -1.57, -1.57, -1.57)
-R5A_UPPER = (2.618, 3.66, 3.14, 1.57, 1.57, 1.57)
+# Joint ranges of the arms of the Lift-2 URDF (fiveages-sim robot-descriptions-arx
+# arx5_description/xacro/lift2.urdf; ../shared/reference/robots.md section 4.2), the robot the
+# reference simulates: its lift2.yaml holds the lift at lift_home 0.46, the top of that URDF's
+# lift (0-0.46), and its USD (lift2/robot_invisible.usd) carries that description's limits.
+# (The R5a.urdf ranges, J4-J6 +-1.57, J3 0-3.14, are narrower; the reference's cuRobo
+# r5a_*_arm.yml is not public.)
+R5A_LOWER = (-2.094, 0.0, 0.0, -1.671, -1.671, -2.094)
+R5A_UPPER = (3.1416, 3.665, 3.24, 1.671, 1.671, 2.094)
 R5A_VELOCITY = (4.0, 4.0, 4.5, 4.5, 5.0, 5.0)  # arx5-sdk dq_max
 R5A_EFFORT = (30.0, 40.0, 30.0, 15.0, 10.0, 10.0)  # arx5-sdk torque_max
 R5A_MASSES = (0.423, 0.097, 1.199, 0.841, 0.124, 0.636, 0.441)
@@ -28,6 +33,14 @@ R5A_FINGER_MASS = 0.065
 R5A_FINGER_XYZ = (0.08657, 0.0249, -0.00024)
 R5A_STROKE = 0.044
 R5A_TCP = 0.125  # reference tcp_offset
+# Finger collision boxes: MuJoCo Menagerie arx_l5/arx_l5.xml (finger frame = link6 axes):
+# half-sizes (0.015, 0.002, 0.018) at x 0.015 and the fingertip pad (0.02, 0.002, 0.00525),
+# both at y = -+0.023: inner faces on the closing plane y = -+0.0249. The pad ends at the
+# reference's gripper keypoint tool_head, link6 + 0.135 x (InternDataEngine lift2.yaml
+# fl/fr_gripper_keypoints), 10 mm past the TCP: centred at 0.135 - 0.08657 - 0.02 = 0.02843
+# (Menagerie's own pad, at 0.05, reaches 0.15657, 31.6 mm past the TCP: 2 cm deeper).
+R5A_TOOL_HEAD = 0.135
+R5A_PAD_X = R5A_TOOL_HEAD - R5A_FINGER_XYZ[0] - 0.02  # pad centre on the finger
 
 
 def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) -> None:
@@ -86,14 +99,11 @@ def add_r5a(robot: Robot, p: str, parent: str, xyz: tuple[float, float, float]) 
     fx, fy, fz = R5A_FINGER_XYZ
     for n, sign in ((7, 1.0), (8, -1.0)):
         finger = robot.link(f"{p}link{n}", R5A_FINGER_MASS, "grey")
-        # MuJoCo Menagerie arx_l5/arx_l5.xml finger collision boxes (finger frame = link6
-        # axes): half-sizes (0.015, 0.002, 0.018) at x 0.015 and the fingertip pad
-        # (0.02, 0.002, 0.00525) at x 0.05, both at y = -+0.023: inner faces on the closing
-        # plane y = -+0.0249, fingertip 0.08657 + 0.07 = 0.15657 past link6.
+        # Menagerie arx_l5 finger boxes, the pad ending at tool_head (R5A_PAD_X).
         inner = -sign * 0.023
         finger.shapes = [
             box((0.015, inner, 0.0), (0.03, 0.004, 0.036)),
-            box((0.05, inner, 0.0), (0.04, 0.004, 0.0105), name=f"{p}link{n}_pad"),
+            box((R5A_PAD_X, inner, 0.0), (0.04, 0.004, 0.0105), name=f"{p}link{n}_pad"),
         ]
         robot.joint(
             f"{p}joint{n}",
@@ -136,9 +146,10 @@ Base/lift/mounting: fiveages-sim robot-descriptions-arx lift2.urdf (base 21 kg, 
 base + (0.094118, 0.0010067, 0.27), range 0-0.46 m, 0.15 m/s, 400 N; carriage 14.2 kg; arm bases
 at root + (0.16303, +-0.24842) as the reference's LeRobot converter has them, 0.0245 above the
 carriage as in lift2.urdf). The reference holds the lift at 0.46, the top of this
-range. Arms: R5a.urdf chain and ranges (J1 upper 2.168 is a typo, written as 2.618), arx5-sdk
-velocity and torque limits. Gripper: fingers at link6 + (0.08657, +-0.0249, -0.00024) sliding
-along +-y, 0-0.044 each (0.088 total), Menagerie arx_l5 collision boxes as pads. TCP at link6 + 0.125 x (reference tcp_offset).
+range. Arms: R5a.urdf chain, lift2.urdf arm joint ranges, arx5-sdk velocity and torque
+limits. Gripper: fingers at link6 + (0.08657, +-0.0249, -0.00024) sliding along +-y, 0-0.044
+each (0.088 total), Menagerie arx_l5 collision boxes as pads, fingertips at the reference
+keypoint tool_head (link6 + 0.135 x). TCP at link6 + 0.125 x (reference tcp_offset).
 Root 'base' = the chassis origin on the floor.
 """,
     )

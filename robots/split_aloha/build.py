@@ -37,7 +37,11 @@ PIPER_EFFORT = (100.0,) * 6  # URDF placeholder, also Menagerie's forcerange
 PIPER_MASSES = (1.02, 0.71, 1.17, 0.5, 0.38, 0.383)
 PIPER_GRIPPER_MASS = 0.15  # link6 with the gripper housing (older chain)
 PIPER_FINGER_MASS = 0.0265
-PIPER_FINGER_Z = 0.13503  # finger joint origin along link6 z (older chain joint7/joint8)
+# Finger joint origin along link6 z = the fingertip: the reference's gripper keypoint tool_head,
+# link6 + 0.12 z (InternDataEngine split_aloha.yaml fl/fr_gripper_keypoints), at its TCP. (The
+# older chain's joint7/joint8 and Menagerie's pads put it at 0.13503, 15 mm past the TCP, so
+# the reference's grasp poses put those fingers 15 mm deeper than the reference's.)
+PIPER_FINGER_Z = 0.12
 PIPER_STROKE = 0.05  # per finger: the reference's piper100 jaw 0.10 (the SDK's 0.07 fits in it)
 PIPER_TCP = 0.12
 
@@ -114,7 +118,7 @@ def _add_piper_gripper(robot: Robot, p: str) -> None:
         # MuJoCo Menagerie agilex_piper/piper.xml (current) finger collision boxes, in this
         # finger frame (opening along sign * x, approach +z): half-sizes (0.0025 closing,
         # 0.012 / 0.015 across, 0.015 along z) at 0.015 and 0.045 below the finger origin,
-        # inner faces on the finger plane. Fingertip = the finger origin, 0.13503 past link6.
+        # inner faces on the finger plane. Fingertip = the finger origin (PIPER_FINGER_Z).
         finger.shapes = [
             box((sign * 0.0025, 0, -0.045), (0.005, 0.03, 0.03)),
             box((sign * 0.0025, 0, -0.015), (0.005, 0.024, 0.03), name=f"{p}link{n}_pad"),
@@ -160,7 +164,8 @@ placeholders. Arm bases at footprint + (0.3685, +-0.306, 0.782): x, y from the r
 LeRobot converter (lmdb2lerobot_split_aloha_a1.py), height from the Cobot Magic cuRobo fixture
 (0.78 m high). Gripper: two prismatic fingers, 0-0.05
 each (the reference's piper100 jaw 0.10; the SDK's 0.07 is a robot.yaml variant), Menagerie
-agilex_piper collision boxes as pads. link6 is the SDK link6 turned +90 deg about z (fingers along x);
+agilex_piper collision boxes as pads, fingertips at the reference keypoint tool_head (link6 +
+0.12 z). link6 is the SDK link6 turned +90 deg about z (fingers along x);
 link6_sdk is the SDK frame. Root 'base' = the footprint on the floor.
 """,
     )
