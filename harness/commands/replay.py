@@ -14,6 +14,10 @@ from harness.writes import check_target
 
 
 def main(args: argparse.Namespace) -> int:
+    # /dev/full, a FIFO, a link: refused first (whatever its name), before the episode runs
+    for target in (args.record, args.video, args.video and Path(args.video).with_suffix(".png")):
+        if target:
+            check_target(Path(target))
     if args.record:
         check_suffix(args.record, RECORDING_SUFFIXES, "--record")
     if args.video:
@@ -23,9 +27,6 @@ def main(args: argparse.Namespace) -> int:
     from harness.runs.replay import find_episode, row_differences
     from harness.viz.headline import headline
 
-    for target in (args.record, args.video, args.video and Path(args.video).with_suffix(".png")):
-        if target:  # /dev/full, a FIFO, a link: refused before the episode runs
-            check_target(Path(target))
     console = make_console()
     run_dir = Path(args.run_dir)
     spec, stored = find_episode(run_dir, args.episode_id)
