@@ -31,6 +31,17 @@ from harness.robots.facts import interndata_robots, robot_arms
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = PROJECT_ROOT / "tasks" / "examples"
 HARNESS = Path(sys.executable).with_name("harness")
+TASKS_DIR = PROJECT_ROOT / "tasks" / "pick"
+"""The canonical pick task files (``tasks/pick/<robot>[_<arm>].yaml``)."""
+
+
+def episode(task: TaskConfig, seed: int = 0, cache: dict | None = None, **spec: Any) -> Any:
+    """``run_episode`` of ``task`` at ``seed`` (``cache``: a scene cache; ``spec``: more
+    ``EpisodeSpec`` fields)."""
+    from harness.episode import EpisodeSpec, run_episode
+
+    return run_episode(EpisodeSpec(task=task, seed=seed, **spec), cache)
+
 
 # --------------------------------------------------------------------------------------------
 # Robot lists (the registry's)

@@ -1,4 +1,4 @@
-"""The shared device of a process pool (``harness.engines.device_service``): batching, answers,
+"""The shared device of a process pool (``harness.engines.mjwarp.service``): batching, answers,
 errors, the paused episode budget, and a pool run whose mjwarp jobs go to the parent."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import pytest
 from helpers import fr3_device_jobs
 
 from harness.config import load_task
-from harness.engines import device_service as service_module
-from harness.engines.device_service import DeviceReply, DeviceService
+from harness.engines.mjwarp import service as service_module
+from harness.engines.mjwarp.service import DeviceReply, DeviceService
 from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError
 from harness.objects.assets import repo_root
@@ -177,7 +177,7 @@ def test_two_devices_run_two_batches_each_at_once(
     """Two devices of two slots each: four batches are on the devices at the same time (each
     waits at a barrier of four: fewer at once would time out), two on each device, each on a
     slot of its own device."""
-    from harness.engines import mjwarp_engine
+    from harness.engines.mjwarp import engine as mjwarp_engine
 
     monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _TwoDeviceEngine)
     _TwoDeviceEngine.barrier = threading.Barrier(4)

@@ -1,4 +1,4 @@
-"""Lanes (harness.engines.mjwarp_lanes, mjwarp_stream) on Warp's CPU device: jobs run one after
+"""Lanes (harness.engines.mjwarp.lanes, mjwarp_stream) on Warp's CPU device: jobs run one after
 another in a fixed set of worlds give the lockstep motion's rows and outcomes bit for bit.
 Skipped without the 'gpu' extra (as tests/test_engines.py)."""
 
@@ -27,11 +27,11 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
     import mujoco_warp as mjw
 
     from harness.benchmarks.engines import _SCENES
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.mjwarp_lanes import LaneRun
-    from harness.engines.mjwarp_motion import MotionRun
-    from harness.engines.mjwarp_steps import SMALL, BatchTimings
-    from harness.engines.retirement import segments
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.lanes import LaneRun
+    from harness.engines.mjwarp.motion import MotionRun
+    from harness.engines.mjwarp.retirement import segments
+    from harness.engines.mjwarp.steps import SMALL, BatchTimings
     from harness.episode.scene_cache import get_scene
 
     (job,) = fr3_device_jobs(1)
@@ -98,8 +98,8 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     of two lanes whose tug groups hold two jobs: each outcome (the verdict, its measures, the
     validity phase with its tug ladder) equals the lockstep batch's, field by field."""
     from harness.benchmarks.engines import _SCENES
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.mjwarp_stream import LaneStream
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.stream import LaneStream
     from harness.episode.scene_cache import get_scene
 
     jobs = fr3_device_jobs(3)

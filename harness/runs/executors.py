@@ -28,7 +28,7 @@ from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
-    from harness.engines.device_service import DeviceReply, DeviceService
+    from harness.engines.mjwarp.service import DeviceReply, DeviceService
     from harness.episode.spec import EpisodeSpec
 
 
@@ -74,12 +74,12 @@ def _worker_main(
 ) -> None:
     """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached.
     With ``device`` its ``mjwarp`` engine sends each job to the parent's shared device over
-    ``conn`` (``harness.engines.device_service``)."""
+    ``conn`` (``harness.engines.mjwarp.service``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if device:
         from harness.engines import register_engine
-        from harness.engines.device_service import PooledDeviceEngine
+        from harness.engines.mjwarp.service import PooledDeviceEngine
 
         register_engine(PooledDeviceEngine(conn))
     while True:
@@ -159,7 +159,7 @@ class _ProcessPool:
         # One device shared by the workers when an episode runs on the mjwarp engine.
         self.device: DeviceService | None = None
         if any(e.engine == "mjwarp" for e in episodes):
-            from harness.engines.device_service import DeviceService
+            from harness.engines.mjwarp.service import DeviceService
 
             self.device = DeviceService(self.busy)
 
@@ -282,7 +282,7 @@ class _ProcessPool:
 
     def device_request(self, worker: _Worker, message: Any) -> bool:
         """Hand a worker's device job to the shared device (False: the message is a row)."""
-        from harness.engines.device_service import DeviceRequest
+        from harness.engines.mjwarp.service import DeviceRequest
 
         if not isinstance(message, DeviceRequest) or self.device is None:
             return False

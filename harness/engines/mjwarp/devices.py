@@ -10,7 +10,7 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
-from harness.engines.busy_time import union_length
+from harness.engines.mjwarp.busy_time import union_length
 from harness.pick.outcome import PickOutcome
 
 
@@ -28,9 +28,9 @@ class GpuDevices:
     for them all."""
 
     def __init__(self, device: str) -> None:
-        from harness.engines.mjwarp_engine import MjwarpEngine
+        from harness.engines.mjwarp.engine import MjwarpEngine
 
-        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_steps.SMALL)
+        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default steps.SMALL)
         sizes = os.environ.get("BENCH_BUFFERS")
         buffers = None
         if sizes:
@@ -92,7 +92,7 @@ class GpuDevices:
 
     def warm_lanes(self, job: Any) -> None:
         """Compile the lanes' kernels and capture their graph once, off the clock."""
-        from harness.engines.mjwarp_stream import LaneStream
+        from harness.engines.mjwarp.stream import LaneStream
 
         for engine in self.engines:
             batch = engine.batch(self._scene(job), job.task)
@@ -114,7 +114,7 @@ class GpuDevices:
     def stream(self, job: Any, lanes: int) -> queue.Queue[Any]:
         """Start a stream of ``lanes`` lanes for ``job``'s task model (on the next slot in
         turn): the queue to put (index, job) into, and ``None`` when planning is done."""
-        from harness.engines.mjwarp_stream import LaneStream
+        from harness.engines.mjwarp.stream import LaneStream
 
         jobs: queue.Queue[Any] = queue.Queue()
         # a stream holds its slot for the whole run: the streams share the slots in turn (one

@@ -1,4 +1,4 @@
-"""Jobs streamed through lanes (``mjwarp_lanes``) as they are planned, judged in groups.
+"""Jobs streamed through lanes (``lanes``) as they are planned, judged in groups.
 
 The caller hands jobs over while it plans more (``source``); each free lane takes the next one.
 Between two replays the host collects the jobs whose span ended and judges the previous group
@@ -21,12 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from harness.engines.judge import judge_started
-from harness.engines.mjwarp_batch import LARGE, RungStart, WorldBatch, hold_windows
-from harness.engines.mjwarp_lanes import LaneRun
-from harness.engines.schedule import DeviceJob
-from harness.engines.signals import HoldWindow, window_steps
-from harness.engines.tug_rounds import Rung
+from harness.engines.mjwarp.batch import LARGE, RungStart, WorldBatch, hold_windows
+from harness.engines.mjwarp.judge import judge_started
+from harness.engines.mjwarp.lanes import LaneRun
+from harness.engines.mjwarp.schedule import DeviceJob
+from harness.engines.mjwarp.signals import HoldWindow, window_steps
+from harness.engines.mjwarp.tug import Rung
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import RungOutcome, validity_enabled
 

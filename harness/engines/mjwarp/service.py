@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING, Any
 
-from harness.engines.busy_time import union_length
+from harness.engines.mjwarp.busy_time import union_length
 from harness.errors import HarnessError
 
 if TYPE_CHECKING:
@@ -46,7 +46,7 @@ DEVICE_WAIT_LIMIT_S = 1800.0
 GATHER_S = 0.5
 
 
-# Batches on the device at once, each on a stream of its own (``harness.engines.device_slot``):
+# Batches on the device at once, each on a stream of its own (``harness.engines.mjwarp.slot``):
 # while one steps, the next gathers the jobs of the workers it answered. Chosen, no public
 # source (two hides one batch's host work behind the other's physics).
 SLOTS = 2
@@ -56,7 +56,7 @@ SLOTS = 2
 class DeviceRequest:
     """Worker to parent: execute this job on the shared device."""
 
-    job: Any  # harness.engines.schedule.DeviceJob
+    job: Any  # harness.engines.mjwarp.schedule.DeviceJob
 
 
 @dataclass
@@ -90,7 +90,7 @@ class PooledDeviceEngine:
         self.conn = conn
 
     def execute(self, job: ExecutionJob) -> Execution:
-        from harness.engines.schedule import device_job
+        from harness.engines.mjwarp.schedule import device_job
         from harness.pick.validity import validity_enabled
         from harness.sim.budget import budget_paused
 
@@ -129,7 +129,7 @@ class DeviceService:
         CUDA device); ``execute(scene, jobs)`` runs one batch instead (tests)."""
         self.waiting = waiting
         if devices is None:
-            from harness.engines.mjwarp_engine import default_devices
+            from harness.engines.mjwarp.engine import default_devices
 
             devices = default_devices() if execute is None else ["stub"]
         self.devices = devices
@@ -274,7 +274,7 @@ class DeviceService:
     def _start_engines(self) -> None:
         """One engine per device and its slots, queued alternately across the devices so that
         consecutive batches go to different devices."""
-        from harness.engines.mjwarp_engine import MjwarpEngine
+        from harness.engines.mjwarp.engine import MjwarpEngine
 
         self._engines = [MjwarpEngine(device) for device in self.devices]
         slots = [engine.slots(SLOTS) for engine in self._engines]

@@ -2,13 +2,13 @@
 
 ``execute`` (one job, what ``harness sweep --engine mjwarp`` calls in each worker) and
 ``execute_many`` (a batch of jobs of one task model, what the throughput bench feeds) both make
-each job's control schedule on the CPU (``harness.engines.schedule``), step the worlds in
-lockstep on the device (``harness.engines.mjwarp_batch``) and judge the recorded signals with the
-CPU's verdict terms (``harness.engines.judge``). The throughput bench can stream its jobs
-through lanes instead (``harness.engines.mjwarp_stream``: one fixed set of worlds, each running
+each job's control schedule on the CPU (``harness.engines.mjwarp.schedule``), step the worlds in
+lockstep on the device (``harness.engines.mjwarp.batch``) and judge the recorded signals with the
+CPU's verdict terms (``harness.engines.mjwarp.judge``). The throughput bench can stream its jobs
+through lanes instead (``harness.engines.mjwarp.stream``: one fixed set of worlds, each running
 jobs one after another). The device is ``HARNESS_WARP_DEVICE`` when set
 (``cpu`` for Warp's CPU device, ``cuda:1`` ...), else the first CUDA device, else the CPU: one
-engine per device. A sweep's shared device service (``harness.engines.device_service``) and the
+engine per device. A sweep's shared device service (``harness.engines.mjwarp.service``) and the
 throughput bench run one engine on each device of ``default_devices`` (every CUDA device, or
 the comma-separated ``HARNESS_WARP_DEVICE``).
 """
@@ -20,7 +20,7 @@ from typing import Any
 
 from harness.config import TaskConfig
 from harness.engines.base import Execution, ExecutionJob
-from harness.engines.schedule import DeviceJob, device_job
+from harness.engines.mjwarp.schedule import DeviceJob, device_job
 from harness.errors import HarnessError
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
@@ -70,9 +70,9 @@ class MjwarpEngine:
         buffers: tuple[int, int] | None = None,
         retire: float | None = None,
     ) -> None:
-        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_steps.SMALL``;
+        """``buffers``: (contacts, constraint rows) per world, else ``steps.SMALL``;
         ``retire``: the share of a batch's stepping worlds whose spans end a segment of its
-        motion (``harness.engines.retirement``; 0: lockstep), else ``retirement.RETIRE``."""
+        motion (``harness.engines.mjwarp.retirement``; 0: lockstep), else ``retirement.RETIRE``."""
         _import_warp()
         self.device = device or default_device()
         self.buffers = buffers
@@ -82,8 +82,9 @@ class MjwarpEngine:
     def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` (made once per model), on ``slot``
         (a ``DeviceSlot``: its stream and its device's lock) when given."""
-        from harness.engines.device_slot import DeviceSlot
-        from harness.engines.mjwarp_batch import SMALL, Buffers, DeviceModel, WorldBatch
+        from harness.engines.mjwarp.batch import SMALL, Buffers, WorldBatch
+        from harness.engines.mjwarp.model import DeviceModel
+        from harness.engines.mjwarp.slot import DeviceSlot
 
         slot = slot if slot is not None else DeviceSlot(self.device)
         # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
@@ -99,7 +100,7 @@ class MjwarpEngine:
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""
-        from harness.engines.device_slot import DeviceSlot
+        from harness.engines.mjwarp.slot import DeviceSlot
 
         return DeviceSlot.several(self.device, count)
 
