@@ -1,31 +1,347 @@
-"""The device side of the engines bench's GPU path: one engine per device, its slots, and
-the batches (or lane streams) handed to them, with where the device's time went."""
+"""The device side of the GPU path: every device's lane streams, fed with jobs as they are planned.
+
+``DeviceStreams`` is what ``harness sweep|tune --engine mjwarp`` (through the pool's
+``harness.engines.mjwarp.service.DeviceService``) and the engines bench (``BENCH_LANES``) run:
+jobs are queued per *stream key* (``stream_key``: one device model and one timing, so every
+approach cone of a task model shares a stream); one thread per device runs one lane stream at a
+time (``harness.engines.mjwarp.stream.LaneStream``), taking the key with the most jobs waiting;
+each outcome is handed back as soon as it is judged. A stream ends when no more jobs will come,
+or, while another key waits for the device, once it has nothing left to take or has held the
+device for ``QUANTUM_S`` (its remaining jobs wait for its next turn). Several devices (every CUDA
+device, or the comma-separated ``HARNESS_WARP_DEVICE``) each run a stream; two may serve one key.
+
+``GpuDevices`` is the bench's lockstep-batch side (``BENCH_BATCH``, ``BENCH_BUCKET``...): one
+engine per device, ``BENCH_SLOTS`` batches in flight per device, where the device's time went.
+"""
 
 from __future__ import annotations
 
 import os
 import queue
+import sys
 import threading
 import time
+from collections import deque
+from collections.abc import Callable, Hashable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
 from typing import Any
 
 from harness.engines.mjwarp.busy_time import union_length
 from harness.pick.outcome import PickOutcome
 
+# How long a stream keeps the device while another key's jobs wait (s). Chosen, no public
+# source: long against a stream's start (a graph capture, ~1 s), short against a sweep.
+QUANTUM_S = 30.0
+# Lanes per stream: CUDA devices step 8,192 worlds at 2.6-3.2 M world-steps/s on an H100
+# (docs/engines.md, "Lanes"); Warp's CPU device is a test device (~60 world-steps/s on this
+# project's 2-core machine), a few lanes. ``HARNESS_LANES`` overrides both.
+CUDA_LANES = 8192
+CPU_LANES = 4
+CPU_DEVICE_NOTE = (
+    "mjwarp on Warp's CPU device: a test device (~60 world-steps/s on 2 cores, minutes per "
+    "episode; the first use compiles its kernels for minutes); use a CUDA device for speed"
+)
+
+# Called with (outcome, None) or (None, why the device could not run the job).
+Answer = Callable[[PickOutcome | None, str | None], None]
+
 
 def batch_key(job: Any) -> str:
-    """Jobs of one task model share a batch (or a stream)."""
+    """The bench's lockstep batches hold jobs of one task."""
     return job.task.model_dump_json()
 
 
+StreamKey = tuple[Any, ...]
+
+
+def stream_key(job: Any) -> StreamKey:
+    """Jobs of one key share a lane stream: one device model (scene, arm, target) and one
+    timing (the lanes take their window and servo chunks from the stream's first job)."""
+    from harness.sim import scene_key
+
+    task, schedule = job.task, job.schedule
+    return (
+        scene_key(task), task.arm, task.target_object.name, float(task.pick.hold_time),
+        float(schedule.control_dt), tuple(schedule.chunk_sizes), int(schedule.warmup_steps),
+    )  # fmt: skip
+
+
+def default_lanes(device: str) -> int:
+    """``HARNESS_LANES``, else ``CUDA_LANES`` on a CUDA device and ``CPU_LANES`` on the CPU."""
+    chosen = os.environ.get("HARNESS_LANES")
+    if chosen:
+        return max(1, int(chosen))
+    return CPU_LANES if device == "cpu" else CUDA_LANES
+
+
+@dataclass
+class StreamStats:
+    """What the devices did: jobs, lane streams run, the most lanes of one, seconds with a
+    stream on a device (the union over devices), streams per device, the first-use compile
+    (s) per (device, key), failures."""
+
+    jobs: int = 0
+    streams: int = 0
+    lanes: int = 0
+    device_s: float = 0.0
+    by_device: dict[str, int] = field(default_factory=dict)
+    compile_s: dict[str, float] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+    timings: Any = None  # the streams' BatchTimings, summed (bench figures)
+
+    # the names the sweep's summary line reads (it predates lane streams)
+    @property
+    def batches(self) -> int:
+        return self.streams
+
+    @property
+    def largest(self) -> int:
+        return self.lanes
+
+
+def _log(message: str) -> None:
+    print(f"mjwarp: {message}", file=sys.stderr, flush=True)
+
+
+class DeviceStreams:
+    """Lane streams on ``devices``, one at a time per device (see the module docstring)."""
+
+    def __init__(
+        self,
+        devices: list[str],
+        lanes: int | None = None,
+        make_engine: Callable[[str], Any] | None = None,
+        run_stream: Callable[..., None] | None = None,
+        log: Callable[[str], None] = _log,
+    ) -> None:
+        """``lanes`` per stream (default ``default_lanes``); ``make_engine(device)`` the
+        engine of a device (default ``MjwarpEngine``); ``run_stream(engine, scene, jobs_source,
+        on_outcome, lanes)`` runs one stream instead of ``LaneStream`` (tests)."""
+        self.devices = devices
+        self.lanes = lanes
+        self.stats = StreamStats()
+        self._make_engine = make_engine
+        self._run_stream = run_stream or self._lane_stream
+        self._log = log
+        self._queues: dict[StreamKey, deque[tuple[Hashable, Any, Answer]]] = {}
+        self._active: dict[StreamKey, int] = {}
+        self._cond = threading.Condition()
+        self._closed = False
+        self._scenes: dict[Any, Any] = {}
+        self._scene_lock = threading.Lock()
+        self._spans: list[tuple[float, float]] = []
+        self._seen: set[tuple[str, StreamKey]] = set()
+        self._threads = [
+            threading.Thread(target=self._serve, args=(d,), name=f"mjwarp-{d}", daemon=True)
+            for d in devices
+        ]
+        if "cpu" in devices:
+            log(CPU_DEVICE_NOTE)
+        for thread in self._threads:
+            thread.start()
+
+    def submit(self, tag: Hashable, job: Any, answer: Answer) -> None:
+        """Queue ``job`` for its key's stream; ``answer`` is called (from a device thread)."""
+        try:
+            key = stream_key(job)
+        except Exception as exc:  # a job whose task cannot be read: its own error
+            answer(None, f"{type(exc).__name__}: {exc}")
+            return
+        with self._cond:
+            self._queues.setdefault(key, deque()).append((tag, job, answer))
+            self._cond.notify_all()
+
+    def close(self, wait_s: float | None = None) -> None:
+        """No more jobs: the streams take what is queued, end, and their threads return
+        (waited for up to ``wait_s``; None: until done)."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        for thread in self._threads:
+            thread.join(timeout=wait_s)
+
+    def abandon(self) -> None:
+        """Drop every queued job unanswered (the run was interrupted) and close."""
+        with self._cond:
+            for jobs in self._queues.values():
+                jobs.clear()
+        self.close(wait_s=5.0)
+
+    # ---- device threads
+
+    def _pick(self) -> StreamKey | None:
+        """(Holding the condition) the key to serve next, waiting for one; None once closed
+        and nothing is queued. A key no other device serves first, the longest queue first."""
+        while True:
+            waiting = [k for k, jobs in self._queues.items() if jobs]
+            if waiting:
+                return max(
+                    waiting, key=lambda k: (self._active.get(k, 0) == 0, len(self._queues[k]))
+                )
+            if self._closed:
+                return None
+            self._cond.wait(0.1)
+
+    def _serve(self, device: str) -> None:
+        engine: Any = None
+        while True:
+            with self._cond:
+                key = self._pick()
+                if key is None:
+                    return
+                self._active[key] = self._active.get(key, 0) + 1
+            try:
+                if engine is None:
+                    engine = self._engine(device)
+                self._one_stream(engine, device, key)
+            except Exception as exc:  # the device could not even start: answer what waits
+                self._fail(key, f"{type(exc).__name__}: {exc}")
+            finally:
+                with self._cond:
+                    self._active[key] -= 1
+                    self._cond.notify_all()
+
+    def _engine(self, device: str) -> Any:
+        if self._make_engine is not None:
+            return self._make_engine(device)
+        from harness.engines.mjwarp.engine import MjwarpEngine
+
+        return MjwarpEngine(device)
+
+    def _fail(self, key: StreamKey, message: str) -> None:
+        with self._cond:
+            jobs = list(self._queues.get(key, ()))
+            self._queues.get(key, deque()).clear()
+            self.stats.errors.append(message)
+        for _, _, answer in jobs:
+            answer(None, message)
+
+    def _scene(self, task: Any) -> Any:
+        from harness.episode.scene_cache import get_scene
+
+        with self._scene_lock:
+            return get_scene(task, self._scenes).scene
+
+    def _one_stream(self, engine: Any, device: str, key: StreamKey) -> None:
+        """One stream of ``key``'s jobs on ``engine`` until it ends; every job it took is
+        answered, with its outcome or the stream's error."""
+        taken: dict[Hashable, Answer] = {}
+        started = time.perf_counter()
+        first = (device, key) not in self._seen
+        self._seen.add((device, key))
+
+        def source(block: bool) -> list[tuple[Hashable, Any]] | None:
+            with self._cond:
+                while True:
+                    jobs = self._queues[key]
+                    others = any(
+                        k != key and q and self._active.get(k, 0) == 0
+                        for k, q in self._queues.items()
+                    )
+                    turn_over = others and time.perf_counter() - started > QUANTUM_S
+                    if jobs and not turn_over:
+                        out = []
+                        while jobs:
+                            tag, job, answer = jobs.popleft()
+                            taken[tag] = answer
+                            out.append((tag, job))
+                        return out
+                    if self._closed or others:
+                        return None
+                    if not block:
+                        return []
+                    self._cond.wait(0.05)
+                    block = False  # once: the caller asks again
+
+        label = f"{device} {key[1]} {key[2]}"
+
+        def on_outcome(tag: Hashable, outcome: PickOutcome) -> None:
+            answer = taken.pop(tag, None)
+            if first and label not in self.stats.compile_s:
+                spent = time.perf_counter() - started
+                self.stats.compile_s[label] = spent
+                self._log(f"{label}: first outcome after {spent:.1f} s (kernels ready)")
+            with self._cond:
+                self.stats.jobs += 1
+            if answer is not None:
+                answer(outcome, None)
+
+        if first:
+            self._log(
+                f"{label}: first stream of this task model; Warp compiles its kernels unless "
+                "they are in Warp's kernel cache (minutes on first use, seconds after)"
+            )
+        lanes = self.lanes or default_lanes(device)
+        scene = None
+        try:
+            with self._cond:
+                head = self._queues[key][0][1] if self._queues[key] else None
+            if head is None:
+                return
+            scene = self._scene(head.task)
+            self._run_stream(engine, scene, source, on_outcome, lanes)
+        except Exception as exc:
+            message = f"lane stream on {device} failed: {type(exc).__name__}: {exc}"
+            with self._cond:
+                self.stats.errors.append(message)
+            for answer in taken.values():
+                answer(None, message)
+            taken.clear()
+        finally:
+            end = time.perf_counter()
+            with self._cond:
+                self._spans.append((started, end))
+                self.stats.device_s = union_length(self._spans)
+                self.stats.streams += 1
+                self.stats.lanes = max(self.stats.lanes, lanes)
+                self.stats.by_device[device] = self.stats.by_device.get(device, 0) + 1
+        for answer in taken.values():  # a stream that ended without judging a job it took
+            answer(None, "the lane stream ended without the job's outcome")
+
+    def _lane_stream(
+        self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int
+    ) -> None:
+        from harness.engines.mjwarp.stream import LaneStream
+
+        # the task of the stream's first job: its device model (arm, target) and buffers
+        head = source(True)
+        while head == []:  # another device took what was queued: wait for more or the end
+            head = source(True)
+        if head is None:
+            return
+        batch = engine.batch(scene, head[0][1].task)
+        stream = LaneStream(batch, nlane=lanes, on_outcome=on_outcome)
+        given = [head]
+
+        def replay_first(block: bool) -> Any:
+            return given.pop() if given else source(block)
+
+        stream.run(replay_first)
+        with self._cond:
+            if self.stats.timings is None:
+                self.stats.timings = stream.timings
+            elif self.stats.timings is not stream.timings:
+                _add_timings(self.stats.timings, stream.timings)
+
+
+def _add_timings(total: Any, more: Any) -> None:
+    for name in (
+        "physics_s", "tug_s", "upload_s", "download_s", "judge_s", "world_steps",
+        "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns",
+    ):  # fmt: skip
+        setattr(total, name, getattr(total, name) + getattr(more, name))
+    for name in ("peak_rows", "peak_contacts"):
+        setattr(total, name, max(getattr(total, name), getattr(more, name)))
+
+
 class GpuDevices:
-    """The device side of the GPU path: one engine per device (``device``: one name, or
-    several separated by commas), its scenes, the outcomes by episode index and where its time
-    went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each
-    with a stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one
-    batch's host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits
-    for them all."""
+    """The bench's lockstep batches: one engine per device (``device``: one name, or several
+    separated by commas), its scenes, the outcomes by episode index and where its time went.
+    ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each with a
+    stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one batch's
+    host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits for
+    them all. Lane streams (``BENCH_LANES``) go through ``DeviceStreams`` (``to_stream``)."""
 
     def __init__(self, device: str) -> None:
         from harness.engines.mjwarp.engine import MjwarpEngine
@@ -62,16 +378,17 @@ class GpuDevices:
             for engine, slots in zip(self.engines, per_device, strict=True):
                 self.slots.put((engine, slots[k]))
         self.slot_count = self.slots.qsize()
-        self.slot_turns = list(self.slots.queue)  # the streams take the slots in turn
         self.threads = ThreadPoolExecutor(self.slot_count)
         self.pending: list[Future[None]] = []
         self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
-        self.streams: dict[str, queue.Queue[Any]] = {}  # by task model: its lanes' job queue
+        self.streams: DeviceStreams | None = None  # lane streams (BENCH_LANES), at first use
         self.lock = threading.Lock()
 
     @property
     def device_s(self) -> float:
-        """Wall time with at least one batch on the device."""
+        """Wall time with at least one batch (or stream) on the device."""
+        if self.streams is not None:
+            return self.streams.stats.device_s
         return union_length(self.busy)
 
     def _scene(self, job: Any) -> Any:
@@ -100,62 +417,30 @@ class GpuDevices:
             LaneStream(batch, nlane=1, group=1).run(lambda block, items=items: items.pop(0))
 
     def to_stream(self, index: int, job: Any, lanes: int) -> None:
-        """Hand a planned job to its task model's stream (started at its first job)."""
-        key = batch_key(job)
-        if key not in self.streams:
-            self.streams[key] = self.stream(job, lanes)
-        self.streams[key].put((index, job))
+        """Hand a planned job to the lane streams (the product's ``DeviceStreams``, on this
+        bench's engines), its outcome kept under ``index``."""
+        if self.streams is None:
+            engines = {engine.device: engine for engine in self.engines}
+            self.streams = DeviceStreams(list(engines), lanes, make_engine=engines.__getitem__)
+
+        def answer(outcome: PickOutcome | None, error: str | None) -> None:
+            if outcome is not None:
+                with self.lock:
+                    self.outcomes[index] = outcome
+
+        self.streams.submit(index, job, answer)
 
     def close_streams(self) -> None:
-        """No more jobs: each stream drains and ends."""
-        for jobs in self.streams.values():
-            jobs.put(None)
-
-    def stream(self, job: Any, lanes: int) -> queue.Queue[Any]:
-        """Start a stream of ``lanes`` lanes for ``job``'s task model (on the next slot in
-        turn): the queue to put (index, job) into, and ``None`` when planning is done."""
-        from harness.engines.mjwarp.stream import LaneStream
-
-        jobs: queue.Queue[Any] = queue.Queue()
-        # a stream holds its slot for the whole run: the streams share the slots in turn (one
-        # beyond the pool's threads starts when an earlier stream ends, after planning)
-        engine, slot = self.slot_turns[len(self.streams) % len(self.slot_turns)]
-        batch = engine.batch(self._scene(job), job.task, slot)
-        stream = LaneStream(batch, nlane=lanes)
-        waited = [0.0]
-        closed = [False]
-
-        def source(block: bool) -> list[Any] | None:
-            """What was put since the last call; ``None`` once ``None`` was put."""
-            if closed[0]:
-                return None
-            out: list[Any] = []
-            clock = time.perf_counter()
-            try:
-                item = jobs.get(timeout=0.05) if block else jobs.get_nowait()
-                while item is not None:
-                    out.append(item)
-                    item = jobs.get_nowait()
-                closed[0] = True
-                return out or None
-            except queue.Empty:
-                return out
-            finally:
-                if block:
-                    waited[0] += time.perf_counter() - clock
-
-        def run() -> None:
-            clock = time.perf_counter()
-            outcomes = stream.run(source)
-            end = time.perf_counter()
-            with self.lock:
-                # device time: the stream's wall time less its waits for planned jobs
-                self.busy.append((clock, end - waited[0]))
-                self.outcomes.update({int(k): v for k, v in outcomes.items()})  # type: ignore[arg-type]
-                self._add(stream.timings, lanes)
-
-        self.pending.append(self.threads.submit(run))
-        return jobs
+        """No more jobs: the streams drain and end; their timings are counted in."""
+        if self.streams is None:
+            return
+        self.streams.close()
+        stats = self.streams.stats
+        if stats.errors:
+            raise RuntimeError(f"lane streams failed: {stats.errors[0]}")
+        if stats.timings is not None:
+            self._add(stats.timings, stats.lanes)
+        self.counts["batches"] = stats.streams
 
     def step(self, indices: list[int], jobs: list[Any]) -> None:
         """Queue one batch of worlds; its outcomes are kept under the episodes' indices."""
@@ -186,7 +471,7 @@ class GpuDevices:
             self._add(timings, len(jobs))
 
     def _add(self, timings: Any, worlds: int) -> None:
-        """Count a batch's (or a stream's) timings in; holding ``self.lock``."""
+        """Count a batch's (or the streams') timings in."""
         for key in self.totals:
             self.totals[key] += getattr(timings, key)
         for key in ("world_steps", "motion_steps", "span_steps"):
