@@ -407,6 +407,16 @@ def _add_bench(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("bench", "main"))
 
 
+def _add_compile(sub: Subparsers) -> None:
+    """``harness compile TASK_OR_SWEEP``"""
+    p = sub.add_parser(
+        "compile",
+        help="compile the mjwarp engine's kernels of a task or sweep into Warp's kernel cache",
+    )
+    p.add_argument("path", help="task or sweep YAML")
+    p.set_defaults(func=_handler("compile", "main"))
+
+
 # Every command's parser builder, in the order of ``harness --help``.
 COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_validate,
@@ -421,6 +431,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_robots,
     _add_objects,
     _add_bench,
+    _add_compile,
 )
 
 

@@ -26,11 +26,9 @@ from typing import Any
 from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.config.robot_registry import available_robots, canonical_task_files
-from harness.engines import Execution, ExecutionJob, register_engine
 from harness.engines.mjwarp.devices import GpuDevices, batch_key
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
-from harness.pick.validity import validity_enabled
 from harness.runs.expansion import point_overrides
 
 SECTION = "engines"
@@ -41,35 +39,15 @@ TARGET_RATIO = 8.0
 TARGET_RATE = 3_000_000.0
 
 
-class _Collector:
-    """An engine that keeps the job (as a ``DeviceJob``) instead of executing it."""
-
-    name = "collect"
-
-    def __init__(self) -> None:
-        self.jobs: list[Any] = []
-
-    def execute(self, job: ExecutionJob) -> Execution:
-        from harness.engines.mjwarp.schedule import device_job
-
-        self.jobs.append(device_job(job))
-        outcome = PickOutcome(failure_reason="error", message="collected for the device")
-        return Execution(outcome, validity_enabled(job.task.pick))
-
-
-_COLLECTOR = _Collector()
 _SCENES: dict[Any, Any] = {}
 
 
 def _plan(spec: Any) -> tuple[dict[str, Any], Any]:
-    """Worker: plan one episode; its row (when it ended before execution) and its job (no
-    viewer trace: nothing reads it here)."""
-    from harness.episode import run_episode
+    """Worker: plan one episode; its row (when it ended before execution) and its job
+    (``harness.engines.mjwarp.warm.plan_job``, the path ``harness compile`` plans with)."""
+    from harness.engines.mjwarp.warm import plan_job
 
-    register_engine(_COLLECTOR)
-    _COLLECTOR.jobs.clear()
-    row = run_episode(dataclasses.replace(spec, engine="collect", trace=False), _SCENES).row
-    return row, (_COLLECTOR.jobs[0] if _COLLECTOR.jobs else None)
+    return plan_job(spec, _SCENES)
 
 
 def _cpu(spec: Any) -> dict[str, Any]:

@@ -15,6 +15,7 @@ the comma-separated ``HARNESS_WARP_DEVICE``).
 
 from __future__ import annotations
 
+import contextlib
 import os
 from typing import Any
 
@@ -25,6 +26,8 @@ from harness.errors import HarnessError
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
 from harness.sim import Scene
+
+_NOTED = False  # the CPU device's note is said once per process
 
 
 def _import_warp() -> tuple[Any, Any]:
@@ -78,6 +81,14 @@ class MjwarpEngine:
         self.buffers = buffers
         self.retire = retire
         self._models: dict[tuple[int, str, str], Any] = {}
+        global _NOTED
+        if self.device == "cpu" and not _NOTED:
+            import sys
+
+            from harness.engines.mjwarp.devices import CPU_DEVICE_NOTE
+
+            print(f"mjwarp: {CPU_DEVICE_NOTE}", file=sys.stderr, flush=True)
+            _NOTED = True
 
     def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` (made once per model), on ``slot``
@@ -113,8 +124,17 @@ class MjwarpEngine:
         return wp.get_mempool_used_mem_high(device) / 1e9
 
     def execute(self, job: ExecutionJob) -> Execution:
+        """One job in this process. Its device time is not the episode's wall-clock time on
+        Warp's CPU device (a test device: minutes per episode) nor on a task model's first use
+        (Warp compiles its kernels then): the budget is paused, so neither ends it as
+        ``timeout``."""
+        from harness.sim.budget import budget_paused
+
         packed = device_job(job)
-        outcome = self.batch(job.scene, job.task).run([packed])[0]
+        first = (id(job.scene.model), job.task.arm, job.task.target_object.name) not in self._models
+        paused = budget_paused() if first or self.device == "cpu" else contextlib.nullcontext()
+        with paused:
+            outcome = self.batch(job.scene, job.task).run([packed])[0]
         return Execution.of_batch(outcome, validity_enabled(job.task.pick))
 
     def execute_many(
