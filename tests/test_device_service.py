@@ -231,6 +231,18 @@ def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
     assert device_pool.depth_for(10**6, 1, 1) == device_pool.MAX_DEPTH
 
 
+def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
+    from harness.engines.mjwarp.devices import default_lanes
+
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    assert default_lanes("cuda:0", 3000) == 1024  # the best of 1,024 / 2,048 / 8,192 measured
+    assert default_lanes("cuda:0", 10) == 256
+    assert default_lanes("cuda:0", 65536) == default_lanes("cuda:0") == 8192
+    assert default_lanes("cpu", 3000) == 4
+    monkeypatch.setenv("HARNESS_LANES", "64")
+    assert default_lanes("cuda:1", 3000) == 64
+
+
 def _stub_service(monkeypatch: pytest.MonkeyPatch, stub: _Streams) -> None:
     original = DeviceService.__init__
 

@@ -173,7 +173,8 @@ class DevicePool:
 
             service = DeviceService()
         self.device = service
-        lanes = sum(default_lanes(d) for d in service.devices)
+        service.streams.episodes = len(episodes)
+        lanes = sum(default_lanes(d, len(episodes)) for d in service.devices)
         self.depth = depth_for(lanes, 1, self.count)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 

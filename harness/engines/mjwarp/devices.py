@@ -16,6 +16,7 @@ engine per device, ``BENCH_SLOTS`` batches in flight per device, where the devic
 
 from __future__ import annotations
 
+import math
 import os
 import queue
 import sys
@@ -67,12 +68,28 @@ def stream_key(job: Any) -> StreamKey:
     )  # fmt: skip
 
 
-def default_lanes(device: str) -> int:
-    """``HARNESS_LANES``, else ``CUDA_LANES`` on a CUDA device and ``CPU_LANES`` on the CPU."""
+# The fewest lanes a CUDA stream gets for a small run (a step of fewer worlds is no faster).
+MIN_CUDA_LANES = 256
+# Episodes per lane a run needs before more lanes pay: every lane steps whether busy or not,
+# and a stream's first outcome comes one episode span (~9-12 s on an H100) after its start. On
+# one H100, issue 34's 3,000-episode FR3 sweep took 46.8 s with 1,024 lanes, 50.7 s with 2,048
+# and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs.
+EPISODES_PER_LANE = 3
+
+
+def default_lanes(device: str, episodes: int | None = None) -> int:
+    """``HARNESS_LANES``, else on the CPU ``CPU_LANES``, else on a CUDA device the power of
+    two nearest above ``episodes / EPISODES_PER_LANE`` between ``MIN_CUDA_LANES`` and
+    ``CUDA_LANES`` (``CUDA_LANES`` when the run's size is not known)."""
     chosen = os.environ.get("HARNESS_LANES")
     if chosen:
         return max(1, int(chosen))
-    return CPU_LANES if device == "cpu" else CUDA_LANES
+    if device == "cpu":
+        return CPU_LANES
+    if episodes is None:
+        return CUDA_LANES
+    wanted = max(1, math.ceil(episodes / EPISODES_PER_LANE))
+    return max(MIN_CUDA_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
 
 
 @dataclass
@@ -120,6 +137,7 @@ class DeviceStreams:
         on_outcome, lanes)`` runs one stream instead of ``LaneStream`` (tests)."""
         self.devices = devices
         self.lanes = lanes
+        self.episodes: int | None = None  # the run's size, when known (``default_lanes``)
         self.stats = StreamStats()
         self._make_engine = make_engine
         self._run_stream = run_stream or self._lane_stream
@@ -272,7 +290,7 @@ class DeviceStreams:
                 f"{label}: first stream of this task model; Warp compiles its kernels unless "
                 "they are in Warp's kernel cache (minutes on first use, seconds after)"
             )
-        lanes = self.lanes or default_lanes(device)
+        lanes = self.lanes or default_lanes(device, self.episodes)
         scene = None
         try:
             with self._cond:
