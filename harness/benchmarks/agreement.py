@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -30,16 +31,17 @@ def wilson(successes: int, n: int) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def _executed(steps: pd.Series) -> pd.Series:
+def _executed(steps: Any) -> Any:
     """Rows whose pick ran on the engine (a plan that failed has no physics steps)."""
-    return pd.to_numeric(steps, errors="coerce").fillna(0) > 0
+    numbers: Any = pd.to_numeric(steps, errors="coerce")
+    return numbers.fillna(0) > 0
 
 
-def _reason(rows: pd.Series) -> pd.Series:
-    return rows.fillna("").astype(str)
+def _reason(reasons: Any) -> Any:
+    return reasons.fillna("").astype(str)
 
 
-def matched(cpu: pd.DataFrame, gpu: pd.DataFrame) -> pd.DataFrame:
+def matched(cpu: pd.DataFrame, gpu: pd.DataFrame) -> Any:
     """The two runs' rows side by side (suffixes ``_cpu``, ``_gpu``), matched on the point
     and the episode."""
     keys = ["point", "episode_id"]
@@ -48,7 +50,7 @@ def matched(cpu: pd.DataFrame, gpu: pd.DataFrame) -> pd.DataFrame:
 
 def per_point(cpu: pd.DataFrame, gpu: pd.DataFrame) -> pd.DataFrame:
     """One record per point (and one ``all`` record): rates, intervals and agreement."""
-    both = matched(cpu, gpu)
+    both: Any = matched(cpu, gpu)
     records = []
     groups = [(str(point), rows) for point, rows in both.groupby("point", sort=True)]
     for point, rows in [*groups, ("all", both)]:
@@ -90,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         "valid_agree",
     ]  # fmt: skip
     with pd.option_context("display.width", 200, "display.max_columns", 20):
-        print(table[columns].to_string(index=False, float_format=lambda v: f"{v:.4f}"))
+        print(table[columns].round(4).to_string(index=False))
     return 0
 
 
