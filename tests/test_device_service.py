@@ -345,3 +345,41 @@ def test_a_pool_sweep_on_warps_cpu_device_gives_the_lockstep_rows(
     cpu: list[dict[str, Any]] = []
     run_process_pool(episodes, tmp_path / "cpu", "none", cpu.append, workers=2)
     assert list(rows[0]) == list(cpu[0])
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.ray
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_ray_sweep_on_loopback_streams_to_the_device_actor(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--backend ray --engine mjwarp`` on a local Ray (loopback) with Warp's CPU device: two
+    planning actors feed the node's device actor; two FR3 cube episodes get the lockstep
+    batch's verdicts."""
+    pytest.importorskip("ray")
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+    from harness.runs.executors import run_ray
+
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    monkeypatch.setenv("HARNESS_LANES", "2")
+    task = fr3().model_copy(update={"limits": fr3().limits.model_copy(update={"wall_time_s": 60})})
+    episodes = [
+        dataclasses.replace(EpisodeSpec(task=task, seed=s, episode_index=s), engine="mjwarp")
+        for s in range(2)
+    ]
+    rows: list[dict[str, Any]] = []
+    stats = run_ray(episodes, tmp_path, "none", rows.append, workers=2)
+    assert stats.finished == 2 and not stats.crashed
+    assert stats.device is not None and stats.device.jobs == 2 and not stats.device.errors
+    jobs = fr3_device_jobs(2)
+    reference, _ = MjwarpEngine("cpu").execute_many(get_scene(task, {}).scene, jobs)
+    by_seed = {r["seed"]: r for r in rows}
+    for seed, outcome in enumerate(reference):
+        row = by_seed[seed]
+        assert row["engine"] == "mjwarp" and row["failure_reason"] != "timeout"
+        assert (row["success"], row["failure_reason"] or "") == (
+            outcome.success, outcome.failure_reason or "",
+        )  # fmt: skip
+        assert row["lift_height_m"] == pytest.approx(outcome.lift_height_m, abs=1e-9)

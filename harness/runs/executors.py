@@ -334,7 +334,16 @@ def _run_on_ray(
     workers: int,
     share: bool,
 ) -> RunStats:
-    """The episodes on actors of an initialised Ray (see ``run_ray``)."""
+    """The episodes on actors of an initialised Ray (see ``run_ray``); with the ``mjwarp``
+    engine, planning actors feed one device actor per node (``harness.runs.ray_device``)."""
+    if any(e.engine == "mjwarp" for e in episodes):
+        from harness.runs.ray_device import run_on_ray_device
+
+        stats = RunStats()
+        run_on_ray_device(
+            ray, episodes, str(run_dir), record, on_result, workers, share, stats, error_row
+        )
+        return stats
 
     @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:
