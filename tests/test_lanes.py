@@ -120,3 +120,39 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
         assert same_fields(outcomes[key], expected), key
     assert stream.timings.tug_rounds >= 2 and stream.timings.reruns == 0
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_job_too_long_for_a_lane_is_answered_before_the_stream_ends(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A product stream ends only when its run does, after every answer: a job whose span
+    exceeds the lanes' rows (here: every job, ``LANE_ROWS`` cut to 16) runs as a lockstep
+    batch once the lanes are idle, and its outcome is the lockstep batch's."""
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp import stream as stream_module
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+
+    jobs = fr3_device_jobs(1)
+    task = jobs[0].task
+    engine = MjwarpEngine("cpu")
+    scene = get_scene(task, _SCENES).scene
+    lockstep = engine.batch(scene, task).run(jobs)
+    monkeypatch.setattr(stream_module, "LANE_ROWS", 16)
+    answered: dict[Hashable, object] = {}
+    given = [[("a", jobs[0])]]
+
+    def source(block: bool) -> list[tuple[Hashable, object]] | None:
+        if given:
+            return given.pop()  # type: ignore[return-value]
+        return None if "a" in answered else []  # like a sweep: no end before the answer
+
+    stream = stream_module.LaneStream(
+        engine.batch(scene, task), nlane=2, group=2,
+        on_outcome=lambda key, outcome: answered.__setitem__(key, outcome),
+    )  # fmt: skip
+    stream.run(source)  # type: ignore[arg-type]
+    assert same_fields(answered["a"], lockstep[0])

@@ -122,6 +122,9 @@ class LaneStream:
             if not closed:
                 if idle and not pending:
                     self._judge(tugged)  # nothing else to do until the source answers
+                    # jobs too long for a slot or whose buffers overflowed: their callers wait
+                    # for them (a product stream ends only when its run does)
+                    self._finish_lockstep()
                 new = source(idle and not pending)
                 closed = new is None
                 pending.extend(new or [])
@@ -239,20 +242,21 @@ class LaneStream:
 
     def _finish_lockstep(self) -> None:
         """The jobs too long for a slot (lockstep on the stream's buffers), and those that did
-        not fit them (lockstep on ``LARGE``, as a lockstep batch reruns its overflowed worlds)."""
-        for items, batch in (
-            (self._lockstep, self.batch),
-            (self._rerun, WorldBatch(self.batch.dm, buffers=LARGE, slot=self.batch.slot)),
-        ):
-            if not items:
-                continue
-            if batch is not self.batch:
-                self.timings.reruns += len(items)
-            outcomes = batch.run_held([job for _, job in items])
+        not fit them (lockstep on ``LARGE``, as a lockstep batch reruns its overflowed worlds);
+        each list is emptied as it runs."""
+        if self._lockstep:
+            items, self._lockstep = self._lockstep, []
+            outcomes = self.batch.run_held([job for _, job in items])
             for (key, _), outcome in zip(items, outcomes, strict=True):
                 self._done(key, outcome)
-            if batch is not self.batch:
-                self._merge(batch)
+        if self._rerun:
+            items, self._rerun = self._rerun, []
+            large = WorldBatch(self.batch.dm, buffers=LARGE, slot=self.batch.slot)
+            self.timings.reruns += len(items)
+            outcomes = large.run_held([job for _, job in items])
+            for (key, _), outcome in zip(items, outcomes, strict=True):
+                self._done(key, outcome)
+            self._merge(large)
 
     def _merge(self, batch: WorldBatch) -> None:
         for name in ("physics_s", "tug_s", "upload_s", "download_s", "judge_s"):
