@@ -193,22 +193,13 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
 
 
 def _add_engine(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--engine",
-        choices=["mujoco", "mjwarp"],
-        default="mujoco",
-        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra; batched "
-        "worlds on a GPU, Warp's CPU device without one)",
-    )
+    why = "execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra: GPU lanes)"
+    p.add_argument("--engine", choices=["mujoco", "mjwarp"], default="mujoco", help=why)
 
 
 def _add_objective(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--objective",
-        choices=["reference", "valid"],
-        default="reference",
-        help="rank the best settings by the reference success rate or by the valid rate",
-    )
+    why = "rank the best settings by the reference success rate or by the valid rate"
+    p.add_argument("--objective", choices=["reference", "valid"], default="reference", help=why)
 
 
 def _add_compare(sub: Subparsers) -> None:
@@ -409,10 +400,7 @@ def _add_bench(sub: Subparsers) -> None:
 
 def _add_compile(sub: Subparsers) -> None:
     """``harness compile TASK_OR_SWEEP``"""
-    p = sub.add_parser(
-        "compile",
-        help="compile the mjwarp engine's kernels of a task or sweep into Warp's kernel cache",
-    )
+    p = sub.add_parser("compile", help="compile a task's or sweep's mjwarp kernels (Warp cache)")
     p.add_argument("path", help="task or sweep YAML")
     p.set_defaults(func=_handler("compile", "main"))
 

@@ -23,10 +23,10 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+from harness.benchmarks.engines_batches import GpuDevices, batch_key
 from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.config.robot_registry import available_robots, canonical_task_files
-from harness.engines.mjwarp.devices import GpuDevices, batch_key
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
 from harness.runs.expansion import point_overrides
@@ -44,8 +44,8 @@ _SCENES: dict[Any, Any] = {}
 
 def _plan(spec: Any) -> tuple[dict[str, Any], Any]:
     """Worker: plan one episode; its row (when it ended before execution) and its job
-    (``harness.engines.mjwarp.warm.plan_job``, the path ``harness compile`` plans with)."""
-    from harness.engines.mjwarp.warm import plan_job
+    (``harness.runs.warm.plan_job``, the path ``harness compile`` plans with)."""
+    from harness.runs.warm import plan_job
 
     return plan_job(spec, _SCENES)
 

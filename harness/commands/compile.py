@@ -1,6 +1,6 @@
 """``harness compile TASK_OR_SWEEP``: compile the mjwarp engine's kernels of every task model of
 a task or sweep YAML into Warp's kernel cache, with a progress line per model and device
-(``harness.engines.mjwarp.warm``)."""
+(``harness.runs.warm``)."""
 
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ def main(args: argparse.Namespace) -> int:
     from harness.config import load_sweep, load_task
     from harness.engines.mjwarp.devices import CPU_DEVICE_NOTE
     from harness.engines.mjwarp.engine import default_devices
-    from harness.engines.mjwarp.warm import model_jobs, warm
     from harness.episode import EpisodeSpec
     from harness.runs.expansion import expand
+    from harness.runs.warm import model_jobs, warm
 
     path = Path(args.path)
     try:

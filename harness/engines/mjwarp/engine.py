@@ -28,6 +28,10 @@ from harness.pick.validity import validity_enabled
 from harness.sim import Scene
 
 _NOTED = False  # the CPU device's note is said once per process
+CPU_DEVICE_NOTE = (
+    "mjwarp on Warp's CPU device: a test device (~60 world-steps/s on 2 cores, minutes per "
+    "episode; the first use compiles its kernels for minutes); use a CUDA device for speed"
+)
 
 
 def _import_warp() -> tuple[Any, Any]:
@@ -84,8 +88,6 @@ class MjwarpEngine:
         global _NOTED
         if self.device == "cpu" and not _NOTED:
             import sys
-
-            from harness.engines.mjwarp.devices import CPU_DEVICE_NOTE
 
             print(f"mjwarp: {CPU_DEVICE_NOTE}", file=sys.stderr, flush=True)
             _NOTED = True
