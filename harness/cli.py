@@ -399,6 +399,13 @@ def _add_bench(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("bench", "main"))
 
 
+def _add_compile(sub: Subparsers) -> None:
+    """``harness compile TASK_OR_SWEEP``"""
+    p = sub.add_parser("compile", help="compile a task's or sweep's mjwarp kernels (Warp cache)")
+    p.add_argument("path", help="task or sweep YAML")
+    p.set_defaults(func=_handler("compile", "main"))
+
+
 # Every command's parser builder, in the order of ``harness --help``.
 COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_validate,
@@ -413,6 +420,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_robots,
     _add_objects,
     _add_bench,
+    _add_compile,
 )
 
 

@@ -114,6 +114,27 @@ for job in "$@"; do
     tp_8k_warm_65k)  # the lockstep baseline: 65536 in bucketed batches of 8192, warm start
       BENCH_BATCH=8192 BENCH_BUCKET=2 BENCH_MIN_BATCH=4096 BENCH_CPU_EPISODES=512 \
         BENCH_OBJECTS=cube python3 -m harness.benchmarks.engines 65536 "$R/tp_8k_warm_65k" fr3 ;;
+    fr3_sweep_yaml)  # issue 34's FR3 cube sweep: 3 approach cones x 1,000 seeds (3,000 rows)
+      printf '%s\n' 'name: fr3_cube_cones' 'tasks:' "  - $PWD/tasks/pick/fr3.yaml" 'axes:' \
+        '  pick.approach_filter: [[downward, 120], [downward, 140], [downward, 160]]' \
+        '  object.mesh: [cube]' 'episodes_per_point: 1000' 'seed: 0' 'record: none' \
+        > /tmp/fr3_cube_cones.yaml; cat /tmp/fr3_cube_cones.yaml ;;
+    compile_fr3)  # the sweep's kernels into Warp's cache, one progress line per model
+      python3 -m harness.cli compile /tmp/fr3_cube_cones.yaml ;;
+    compile_demo)
+      python3 -m harness.cli compile tasks/sweeps/demo.yaml ;;
+    fr3_cpu)  # the CPU engine on every core
+      python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --workers "$(nproc)" \
+        --out "$R/fr3_cpu" --no-progress --record none ;;
+    fr3_gpu)  # the product path: planning on every core but one, lanes on the GPU(s)
+      python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu" --no-progress --record none ;;
+    demo_cpu)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --workers "$(nproc)" \
+        --out "$R/demo_cpu" --no-progress --record none ;;
+    demo_gpu)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu" --no-progress --record none ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

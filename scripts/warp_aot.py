@@ -44,7 +44,7 @@ def box_modules(logs: list[Path]) -> set[tuple[str, str]]:
 def create_modules(arms: tuple[str, ...], objects: tuple[str, ...]) -> None:
     """Run one planned job per task model on Warp's CPU device, so every module is registered."""
     from harness.benchmarks import engines as bench
-    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.episode.scene_cache import get_scene
 
     engine = MjwarpEngine("cpu")

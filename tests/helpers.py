@@ -46,6 +46,17 @@ NO_INTERNDATA_EXAMPLES = (
     f"{INTERNDATA_EXAMPLES_ENV}=DIR (where to get it: docs/interndata.md#example-data)"
 )
 HARNESS = Path(sys.executable).with_name("harness")
+TASKS_DIR = PROJECT_ROOT / "tasks" / "pick"
+"""The canonical pick task files (``tasks/pick/<robot>[_<arm>].yaml``)."""
+
+
+def episode(task: TaskConfig, seed: int = 0, cache: dict | None = None, **spec: Any) -> Any:
+    """``run_episode`` of ``task`` at ``seed`` (``cache``: a scene cache; ``spec``: more
+    ``EpisodeSpec`` fields)."""
+    from harness.episode import EpisodeSpec, run_episode
+
+    return run_episode(EpisodeSpec(task=task, seed=seed, **spec), cache)
+
 
 # --------------------------------------------------------------------------------------------
 # Robot lists (the registry's)

@@ -11,7 +11,7 @@ from typing import Any, ClassVar
 import pytest
 
 from harness.benchmarks import engines as bench
-from harness.engines import mjwarp_engine
+from harness.engines.mjwarp import engine as mjwarp_engine
 from harness.pick.outcome import PickOutcome
 
 
@@ -178,7 +178,7 @@ def test_a_warm_start_runs_the_first_batch_before_the_buckets_fill(
 
 
 def test_device_time_is_the_union_of_the_batches_spans() -> None:
-    from harness.engines.busy_time import union_length
+    from harness.engines.mjwarp.busy_time import union_length
 
     assert union_length([(0.0, 2.0), (1.0, 3.0), (5.0, 6.0)]) == pytest.approx(4.0)
     assert union_length([(0.0, 4.0), (1.0, 2.0)]) == pytest.approx(4.0)

@@ -1,5 +1,8 @@
-"""The shared device of a process pool (``harness.engines.device_service``): batching, answers,
-errors, the paused episode budget, and a pool run whose mjwarp jobs go to the parent."""
+"""The shared devices of a process pool (``harness.engines.mjwarp.service``,
+``harness.engines.mjwarp.devices``, ``harness.runs.device_pool``): jobs streamed per task model,
+answers as they are judged, errors, the paused episode budget, workers that plan on while their
+jobs are on the device, and (slow, Warp's CPU device) a pool sweep whose rows match the
+lockstep engine's."""
 
 from __future__ import annotations
 
@@ -14,12 +17,14 @@ import pytest
 from helpers import fr3_device_jobs
 
 from harness.config import load_task
-from harness.engines import device_service as service_module
-from harness.engines.device_service import DeviceReply, DeviceService
+from harness.engines.mjwarp import service as service_module
+from harness.engines.mjwarp.devices import stream_key
+from harness.engines.mjwarp.service import Baton, DeviceReply, DeviceService
 from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
+from harness.runs import device_pool
 from harness.runs.executors import run_process_pool
 from harness.sim.budget import budget_paused, check_deadline, episode_budget
 
@@ -37,6 +42,52 @@ def fr3_jobs() -> list[Any]:
     return jobs
 
 
+class _Streams:
+    """A stand-in for the lane streams: each stream takes jobs from its source until it ends,
+    answering each with a stub outcome naming the stream; ``hold`` jobs are taken before the
+    first answer (so a test can require that many jobs in flight at once)."""
+
+    def __init__(self, hold: int = 1, fail: bool = False) -> None:
+        self.hold, self.fail = hold, fail
+        self.streams: list[list[Any]] = []
+        self.lock = threading.Lock()
+
+    def __call__(self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+        assert scene.model.nbody > 0
+        with self.lock:
+            self.streams.append([])
+            mine = self.streams[-1]
+            number = len(self.streams)
+        held: list[Any] = []
+        deadline = time.monotonic() + 60
+        while True:
+            items = source(True)
+            if items is None:
+                break
+            mine.extend(items)
+            held.extend(items)
+            if self.fail:
+                raise RuntimeError("out of device memory")
+            if len(held) >= self.hold or time.monotonic() > deadline:
+                for tag, _ in held:
+                    on_outcome(
+                        tag,
+                        PickOutcome(
+                            failure_reason="lift_below_threshold",
+                            message=f"stream {number}",
+                            control_steps=1,
+                        ),
+                    )
+                held = []
+                self.hold = 1
+        for tag, _ in held:
+            on_outcome(tag, PickOutcome(message=f"stream {number}", control_steps=1))
+
+
+def _service(stub: _Streams, devices: list[str] | None = None) -> DeviceService:
+    return DeviceService(devices or ["stub"], make_engine=lambda d: d, run_stream=stub)
+
+
 def _answers(service: DeviceService, jobs: list[Any]) -> list[DeviceReply]:
     replies: list[DeviceReply | None] = [None] * len(jobs)
     done = threading.Semaphore(0)
@@ -46,7 +97,7 @@ def _answers(service: DeviceService, jobs: list[Any]) -> list[DeviceReply]:
         done.release()
 
     for i, job in enumerate(jobs):
-        service.submit(job, lambda reply, i=i: answer(i, reply))
+        service.submit(i, job, lambda reply, i=i: answer(i, reply), track=i)
     for _ in jobs:
         assert done.acquire(timeout=60)
     service.stop()
@@ -54,32 +105,63 @@ def _answers(service: DeviceService, jobs: list[Any]) -> list[DeviceReply]:
     return [r for r in replies if r is not None]
 
 
-def test_waiting_jobs_run_as_one_batch_and_each_gets_its_own_outcome(fr3_jobs) -> None:
-    batches: list[int] = []
-
-    def execute(scene: Any, jobs: list[Any]) -> list[PickOutcome]:
-        assert scene.model.nbody > 0
-        batches.append(len(jobs))
-        return [PickOutcome(message=f"job {id(job)}") for job in jobs]
-
-    service = DeviceService(lambda: len(fr3_jobs), execute=execute)
+def test_jobs_of_one_task_model_share_a_stream_and_each_gets_its_outcome(fr3_jobs) -> None:
+    stub = _Streams(hold=3)
+    service = _service(stub)
     replies = _answers(service, fr3_jobs)
-    assert batches == [3]
-    assert [r.outcome.message for r in replies if r.outcome] == [
-        f"job {id(job)}" for job in fr3_jobs
-    ]
-    assert (service.stats.batches, service.stats.jobs, service.stats.largest) == (1, 3, 3)
+    assert [r.track for r in replies] == [0, 1, 2]
+    assert all(r.outcome is not None and r.outcome.message == "stream 1" for r in replies)
+    assert len(stub.streams) == 1 and len(stub.streams[0]) == 3
+    assert (service.stats.jobs, service.stats.streams) == (3, 1)
 
 
-def test_a_failed_batch_answers_every_job_with_the_error(fr3_jobs) -> None:
-    def execute(scene: Any, jobs: list[Any]) -> list[PickOutcome]:
-        raise RuntimeError("out of device memory")
+def test_approach_cones_share_a_stream_key(fr3_jobs) -> None:
+    """The stream key is the device model and timing: a job whose task differs only in its
+    grasp filter (a sweep's approach cone) goes to the same stream."""
+    job = fr3_jobs[0]
+    pick = job.task.pick.model_copy(update={"pre_grasp_offset": 0.2})
+    other = dataclasses.replace(job, task=job.task.model_copy(update={"pick": pick}))
+    assert stream_key(other) == stream_key(job)
+    hold = job.task.pick.model_copy(update={"hold_time": 2 * job.task.pick.hold_time})
+    longer = dataclasses.replace(job, task=job.task.model_copy(update={"pick": hold}))
+    assert stream_key(longer) != stream_key(job)
 
-    service = DeviceService(lambda: len(fr3_jobs), execute=execute)
+
+def test_a_failed_stream_answers_every_job_it_took_with_the_error(fr3_jobs) -> None:
+    service = _service(_Streams(fail=True))
     replies = _answers(service, fr3_jobs)
     assert all(r.outcome is None for r in replies)
     assert all("RuntimeError: out of device memory" in (r.error or "") for r in replies)
-    assert service.stats.batches == 0 and len(service.stats.errors) == 1
+    assert service.stats.errors
+
+
+def test_two_devices_each_run_a_stream_of_the_same_key(fr3_jobs) -> None:
+    """Two devices: while the first device's stream holds its jobs (it answers once it has
+    two), the second takes the rest of the queue: both streams run at once."""
+    entered = threading.Barrier(2)
+
+    class Two(_Streams):
+        def __call__(self, engine: Any, scene: Any, *args: Any) -> None:
+            entered.wait(timeout=60)  # fewer than two streams at once would time out here
+            super().__call__(engine, scene, *args)
+
+    stub = Two(hold=1)
+    service = DeviceService(["cuda:0", "cuda:1"], make_engine=lambda d: d, run_stream=stub)
+    replies: list[DeviceReply] = []
+    done = threading.Semaphore(0)
+
+    def answer(reply: DeviceReply) -> None:
+        replies.append(reply)
+        done.release()
+
+    for i, job in enumerate(fr3_jobs * 2):
+        service.submit(i, job, answer)
+        time.sleep(0.05)
+    for _ in range(6):
+        assert done.acquire(timeout=60)
+    service.stop()
+    assert all(r.outcome is not None for r in replies), [r.error for r in replies]
+    assert sorted(service.stats.by_device) == ["cuda:0", "cuda:1"]
 
 
 def test_the_wait_for_the_device_is_not_the_episodes_time() -> None:
@@ -92,146 +174,212 @@ def test_the_wait_for_the_device_is_not_the_episodes_time() -> None:
             check_deadline()
 
 
-def _stub_batch(scene: Any, jobs: list[Any]) -> list[PickOutcome]:
-    return [
-        PickOutcome(failure_reason="lift_below_threshold", message="stub device", control_steps=1)
-        for _ in jobs
-    ]
+def test_each_thread_has_its_own_episode_budget() -> None:
+    """A worker's episode threads: one past its limit does not end another's."""
+    errors: list[str] = []
+    inside = threading.Barrier(2)
+
+    def episode(limit: float, sleep: float) -> None:
+        with episode_budget(limit, 10):
+            inside.wait(timeout=10)
+            time.sleep(sleep)
+            try:
+                check_deadline()
+            except EpisodeTimeoutError:
+                errors.append(f"{limit}")
+
+    threads = [threading.Thread(target=episode, args=a) for a in ((0.05, 0.2), (30.0, 0.2))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == ["0.05"]
 
 
-def test_a_pool_sends_its_mjwarp_jobs_to_the_parents_device(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Two workers plan, the parent's device thread answers their jobs (a stub batch here):
-    every executed row carries the device's outcome and the engine's name."""
+def test_the_baton_lets_one_thread_plan_while_another_waits_for_its_reply() -> None:
+    holders: list[int] = []
+    baton = Baton(holders.append)
+    log: list[str] = []
+
+    def first() -> None:
+        baton.hold(0)
+        baton.expect(0)
+        log.append("0 sent")
+        reply = baton.wait_for(0, 10)
+        log.append(f"0 got {reply.outcome.message if reply and reply.outcome else None}")
+        baton.release()
+
+    thread = threading.Thread(target=first)
+    thread.start()
+    while "0 sent" not in log:
+        time.sleep(0.01)
+    baton.hold(1)  # the first thread waits for its reply: the baton is free
+    log.append("1 planned")
+    baton.deliver(DeviceReply(0, PickOutcome(message="ok")))
+    time.sleep(0.1)
+    assert "0 got ok" not in log  # it needs the baton back first
+    baton.release()
+    thread.join(timeout=10)
+    assert log == ["0 sent", "1 planned", "0 got ok"]
+    assert holders == [0, 1, 0]
+
+
+def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
+    assert device_pool.depth_for(8192, 1, 31) == 529  # ceil(2 * 8192 / 31)
+    assert device_pool.depth_for(4, 1, 2) == 4
+    assert device_pool.depth_for(1, 1, 32) == 2  # at least one planning and one waiting
+    assert device_pool.depth_for(10**6, 1, 1) == device_pool.MAX_DEPTH
+
+
+def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
+    from harness.engines.mjwarp.devices import default_lanes
+
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    assert default_lanes("cuda:0", 3000) == 1024  # the best of 1,024 / 2,048 / 8,192 measured
+    assert default_lanes("cuda:0", 10) == 256
+    assert default_lanes("cuda:0", 65536) == default_lanes("cuda:0") == 8192
+    assert default_lanes("cpu", 3000) == 4
+    monkeypatch.setenv("HARNESS_LANES", "64")
+    assert default_lanes("cuda:1", 3000) == 64
+
+
+def _stub_service(monkeypatch: pytest.MonkeyPatch, stub: _Streams) -> None:
     original = DeviceService.__init__
 
-    def with_stub(self: DeviceService, waiting: Any, devices: Any = None, execute: Any = None):
-        original(self, waiting, devices, _stub_batch)
+    def with_stub(self: DeviceService, devices: Any = None, **streams: Any) -> None:
+        original(self, ["stub"], lanes=4, make_engine=lambda d: d, run_stream=stub)
 
     monkeypatch.setattr(service_module.DeviceService, "__init__", with_stub)
+
+
+def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two workers, six episodes: the stub device answers nothing until it holds four jobs, so
+    a worker blocked on its first job (at most two in flight) would never finish. Every row
+    carries the device's outcome and the engine's name; the job count is the rows executed."""
+    stub = _Streams(hold=4)
+    _stub_service(monkeypatch, stub)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
     episodes = [
         dataclasses.replace(EpisodeSpec(task=fr3(), seed=s, episode_index=s), engine="mjwarp")
-        for s in range(4)
+        for s in range(6)
     ]
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=2)
-    assert stats.finished == 4 and not stats.crashed
-    # the stub's verdict: only an episode executed on the device can end with it
-    executed = [r for r in rows if r["failure_reason"] == "lift_below_threshold"]
-    assert len(executed) == stats.device.jobs >= 3
-    assert all(r["error_message"] == "stub device" for r in executed)
+    assert stats.finished == 6 and not stats.crashed
+    assert sorted(r["seed"] for r in rows) == list(range(6))
+    executed = [r for r in rows if r["error_message"].startswith("stream ")]
+    assert len(executed) == stats.device.jobs >= 4
+    assert sum(len(s) for s in stub.streams) == stats.device.jobs
     assert all(r["engine"] == "mjwarp" for r in rows)
-    assert 1 <= stats.device.largest <= 2
+
+
+@pytest.mark.slow
+def test_a_pool_shares_candidates_as_on_the_cpu(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Points that differ only in a selection key (two approach cones) share each seed's
+    evaluation: the rows are those without sharing, and the device executes no more jobs."""
+    from harness.config import apply_overrides
+    from harness.runs.expansion import point_overrides
+
+    _stub_service(monkeypatch, _Streams())
+    base = fr3()
+    cones = [
+        apply_overrides(base, point_overrides(base, {"pick.approach_filter": ["downward", deg]}))
+        for deg in (140, 160)
+    ]
+    episodes = [
+        dataclasses.replace(EpisodeSpec(task=t, seed=s, episode_index=s), engine="mjwarp")
+        for s in range(2)
+        for t in cones
+    ]
+    shared: list[dict[str, Any]] = []
+    with_sharing = run_process_pool(episodes, tmp_path / "a", "none", shared.append, workers=2)
+    alone: list[dict[str, Any]] = []
+    without = run_process_pool(
+        episodes, tmp_path / "b", "none", alone.append, workers=2, share=False
+    )
+    assert with_sharing.finished == without.finished == 4
+    assert with_sharing.device.jobs <= without.device.jobs
+    by_id = {(r["episode_id"], r["approach_filter"]): r for r in alone}
+    for row in shared:
+        twin = by_id[row["episode_id"], row["approach_filter"]]
+        for column in ("success", "failure_reason", "traj_duration_s", "tcp_grasp_error_m"):
+            assert row[column] == twin[column] or (row[column] != row[column]), column
 
 
 @pytest.mark.slow
 @pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
-def test_a_pool_on_warps_cpu_device_gives_the_mujoco_verdicts(
+def test_a_pool_sweep_on_warps_cpu_device_gives_the_lockstep_rows(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Two FR3 cube episodes planned by two workers and stepped as one MJWarp batch on Warp's
-    CPU device: the same reference and validity verdicts as the CPU engine."""
+    """Three FR3 cube episodes planned by two workers and streamed through two lanes on Warp's
+    CPU device: the same verdicts and measures as the same jobs run as one lockstep batch
+    (``MjwarpEngine.execute_many``), and the CPU engine's row columns."""
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+
     monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
-    monkeypatch.setattr(service_module, "GATHER_S", 120.0)  # both jobs in one batch
-    task = fr3().model_copy(update={"limits": fr3().limits.model_copy(update={"wall_time_s": 900})})
-    episodes = [EpisodeSpec(task=task, seed=s, episode_index=s) for s in range(2)]
+    monkeypatch.setenv("HARNESS_LANES", "2")
+    task = fr3().model_copy(update={"limits": fr3().limits.model_copy(update={"wall_time_s": 60})})
+    episodes = [EpisodeSpec(task=task, seed=s, episode_index=s) for s in range(3)]
+    on_gpu = [dataclasses.replace(e, engine="mjwarp") for e in episodes]
+    rows: list[dict[str, Any]] = []
+    stats = run_process_pool(on_gpu, tmp_path / "gpu", "none", rows.append, workers=2)
+    assert stats.finished == 3 and not stats.device.errors
+    jobs = fr3_device_jobs(3)
+    reference, _ = MjwarpEngine("cpu").execute_many(get_scene(task, {}).scene, jobs)
+    by_seed = {r["seed"]: r for r in rows}
+    assert stats.device.jobs == len(jobs) == 3
+    for seed, outcome in enumerate(reference):
+        row = by_seed[seed]
+        assert row["failure_reason"] != "timeout"
+        assert row["success"] == outcome.success
+        assert (row["failure_reason"] or "") == (outcome.failure_reason or "")
+        assert row["lift_height_m"] == pytest.approx(outcome.lift_height_m, abs=1e-9)
+        assert outcome.validity is not None
+        assert row["valid"] == outcome.validity.valid
     cpu: list[dict[str, Any]] = []
     run_process_pool(episodes, tmp_path / "cpu", "none", cpu.append, workers=2)
-    gpu: list[dict[str, Any]] = []
-    on_gpu = [dataclasses.replace(e, engine="mjwarp") for e in episodes]
-    stats = run_process_pool(on_gpu, tmp_path / "gpu", "none", gpu.append, workers=2)
-    by_seed = {r["seed"]: r for r in cpu}
-    assert stats.device.jobs == 2 and stats.device.largest == 2
-    for row in gpu:
-        twin = by_seed[row["seed"]]
-        assert list(row) == list(twin)
-        for key in ("success", "failure_reason", "valid", "invalid_reason"):
-            assert row[key] == twin[key], key
+    assert list(rows[0]) == list(cpu[0])
 
 
-class _TwoDeviceEngine:
-    """A stand-in ``MjwarpEngine``: its slots are names; every batch waits at a barrier."""
-
-    barrier: threading.Barrier | None = None
-    entered = threading.Semaphore(0)  # released by each batch as it reaches the device
-
-    def __init__(self, device: str | None = None) -> None:
-        self.device = device or "?"
-
-    def slots(self, count: int) -> list[str]:
-        return [f"{self.device} slot {k}" for k in range(count)]
-
-    def execute_many(self, scene: Any, jobs: list[Any], slot: Any = None) -> tuple[list, None]:
-        assert slot is not None and slot.startswith(self.device)
-        assert _TwoDeviceEngine.barrier is not None
-        _TwoDeviceEngine.entered.release()
-        _TwoDeviceEngine.barrier.wait(timeout=60)
-        return [PickOutcome(message=f"{slot}") for _ in jobs], None
-
-
-def test_two_devices_run_two_batches_each_at_once(
-    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.ray
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_ray_sweep_on_loopback_streams_to_the_device_actor(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Two devices of two slots each: four batches are on the devices at the same time (each
-    waits at a barrier of four: fewer at once would time out), two on each device, each on a
-    slot of its own device."""
-    from harness.engines import mjwarp_engine
+    """``--backend ray --engine mjwarp`` on a local Ray (loopback) with Warp's CPU device: two
+    planning actors feed the node's device actor; two FR3 cube episodes get the lockstep
+    batch's verdicts."""
+    pytest.importorskip("ray")
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+    from harness.runs.executors import run_ray
 
-    monkeypatch.setattr(mjwarp_engine, "MjwarpEngine", _TwoDeviceEngine)
-    _TwoDeviceEngine.barrier = threading.Barrier(4)
-    service = DeviceService(lambda: 1, devices=["cuda:0", "cuda:1"])
-    replies: list[DeviceReply] = []
-    done = threading.Semaphore(0)
-
-    def answer(reply: DeviceReply) -> None:
-        replies.append(reply)
-        done.release()
-
-    for _ in range(4):  # one job at a time, each sent once the one before is on a device
-        service.submit(fr3_jobs[0], answer)
-        assert _TwoDeviceEngine.entered.acquire(timeout=60)
-    for _ in range(4):
-        assert done.acquire(timeout=60)
-    service.stop()
-    assert all(r.outcome is not None for r in replies), [r.error for r in replies]
-    slots = sorted(r.outcome.message for r in replies if r.outcome)
-    assert slots == ["cuda:0 slot 0", "cuda:0 slot 1", "cuda:1 slot 0", "cuda:1 slot 1"]
-    assert service.stats.by_device == {"cuda:0": 2, "cuda:1": 2}
-    assert service.stats.batches == 4 and not service.stats.errors
-
-
-def test_a_second_batch_runs_while_the_first_is_on_the_device(fr3_jobs) -> None:
-    """Two slots: the job that arrives while the first batch is on the device runs as a batch
-    of its own at the same time (both wait at a barrier: one at a time, it would time out and
-    both batches fail), and each job gets its own outcome."""
-    barrier = threading.Barrier(2)
-    started = threading.Event()
-    batches: list[int] = []
-
-    def execute(scene: Any, jobs: list[Any]) -> list[PickOutcome]:
-        batches.append(len(jobs))
-        started.set()
-        barrier.wait(timeout=60)
-        return [PickOutcome(message=f"job {id(job)}") for job in jobs]
-
-    service = DeviceService(lambda: 2, execute=execute)
-    first, second = fr3_jobs[:2]
-    replies: list[DeviceReply] = []
-    done = threading.Semaphore(0)
-
-    def answer(reply: DeviceReply) -> None:
-        replies.append(reply)
-        done.release()
-
-    service.submit(first, answer)
-    assert started.wait(timeout=60)  # the first batch (the first job alone) is on the device
-    service.submit(second, answer)
-    assert done.acquire(timeout=90) and done.acquire(timeout=90)
-    service.stop()
-    assert batches == [1, 1]
-    assert sorted(r.outcome.message for r in replies if r.outcome) == sorted(
-        f"job {id(job)}" for job in (first, second)
-    )
-    assert service.stats.batches == 2 and not service.stats.errors
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    monkeypatch.setenv("HARNESS_LANES", "2")
+    task = fr3().model_copy(update={"limits": fr3().limits.model_copy(update={"wall_time_s": 60})})
+    episodes = [
+        dataclasses.replace(EpisodeSpec(task=task, seed=s, episode_index=s), engine="mjwarp")
+        for s in range(2)
+    ]
+    rows: list[dict[str, Any]] = []
+    stats = run_ray(episodes, tmp_path, "none", rows.append, workers=2)
+    assert stats.finished == 2 and not stats.crashed
+    assert stats.device is not None and stats.device.jobs == 2 and not stats.device.errors
+    jobs = fr3_device_jobs(2)
+    reference, _ = MjwarpEngine("cpu").execute_many(get_scene(task, {}).scene, jobs)
+    by_seed = {r["seed"]: r for r in rows}
+    for seed, outcome in enumerate(reference):
+        row = by_seed[seed]
+        assert row["engine"] == "mjwarp" and row["failure_reason"] != "timeout"
+        assert (row["success"], row["failure_reason"] or "") == (
+            outcome.success, outcome.failure_reason or "",
+        )  # fmt: skip
+        assert row["lift_height_m"] == pytest.approx(outcome.lift_height_m, abs=1e-9)

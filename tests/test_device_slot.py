@@ -1,4 +1,4 @@
-"""Device slots (harness.engines.device_slot) on Warp's CPU device: the slots of a device share
+"""Device slots (harness.engines.mjwarp.slot) on Warp's CPU device: the slots of a device share
 one lock, which a slot holds while it issues Warp calls; on the CPU there are no streams.
 Skipped without the 'gpu' extra (Warp)."""
 
@@ -18,7 +18,7 @@ pytestmark = [
 
 
 def test_slots_of_a_device_share_one_lock_and_take_turns() -> None:
-    from harness.engines.device_slot import DeviceSlot
+    from harness.engines.mjwarp.slot import DeviceSlot
 
     first, second = DeviceSlot.several("cpu", 2)
     assert first.lock is second.lock and first.stream is None and not first.cuda

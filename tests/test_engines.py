@@ -14,7 +14,7 @@ from helpers import same_fields
 
 from harness.config import load_task
 from harness.engines import ENGINE_NAMES, engine_for, register_engine
-from harness.engines.signals import (
+from harness.engines.mjwarp.signals import (
     OBJ_MAT,
     OBJ_POS,
     SIGNALS,
@@ -87,7 +87,7 @@ class _Keep:
         self.jobs: list = []
 
     def execute(self, job):
-        from harness.engines.schedule import device_job
+        from harness.engines.mjwarp.schedule import device_job
 
         self.jobs.append(device_job(job))
         return engine_for("mujoco").execute(job)
@@ -124,7 +124,7 @@ class _BothSchedules:
         self.pairs: list = []
 
     def execute(self, job):
-        from harness.engines.schedule import build_schedule
+        from harness.engines.mjwarp.schedule import build_schedule
 
         self.pairs.append((build_schedule(job, lean=False), build_schedule(job)))
         return engine_for("mujoco").execute(job)
@@ -188,9 +188,9 @@ def test_mjwarp_tug_rounds_give_the_24_rung_ladder() -> None:
     rung-worlds than 24 only where the ladder stops early, never more."""
     from harness.benchmarks.engines import _SCENES, _plan, tasks
     from harness.config import apply_overrides
-    from harness.engines.mjwarp_batch import WorldBatch
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.tug_rounds import RoundPolicy
+    from harness.engines.mjwarp.batch import WorldBatch
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.tug import RoundPolicy
     from harness.episode import EpisodeSpec
     from harness.episode.scene_cache import get_scene
     from harness.runs.expansion import point_overrides
@@ -229,9 +229,9 @@ def test_a_world_whose_rows_do_not_fit_runs_again_with_the_large_buffers(
     directly; when ``LARGE`` is too small as well the episode ends
     ``sim_unstable`` naming the full buffer, never as a silently wrong verdict."""
     from harness.benchmarks.engines import _SCENES, _plan
-    from harness.engines import mjwarp_batch
-    from harness.engines.mjwarp_batch import LARGE, Buffers, WorldBatch
-    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp import batch as mjwarp_batch
+    from harness.engines.mjwarp.batch import LARGE, Buffers, WorldBatch
+    from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.episode.scene_cache import get_scene
 
     task = fr3()
@@ -264,10 +264,10 @@ def test_worlds_that_leave_the_motion_early_keep_the_lockstep_rows() -> None:
     import mujoco_warp as mjw
 
     from harness.benchmarks.engines import _SCENES, _plan
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.mjwarp_motion import MotionRun
-    from harness.engines.mjwarp_steps import SMALL, BatchTimings
-    from harness.engines.retirement import segments
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.motion import MotionRun
+    from harness.engines.mjwarp.retirement import segments
+    from harness.engines.mjwarp.steps import SMALL, BatchTimings
     from harness.episode.scene_cache import get_scene
 
     task = fr3()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import PICK_TASKS, make_task, write_box
+from helpers import PICK_TASKS, TASKS_DIR, episode, make_task, write_box
 from reference_robots import REFERENCE_PLANNER_FILES
 
 from harness.config import PickConfig, apply_overrides, load_task
@@ -16,8 +16,6 @@ from harness.episode import (
     INIT_RECORD_TIME_S,
     SETTLE_TIME_S,
     WARMUP_TIME_S,
-    EpisodeSpec,
-    run_episode,
 )
 from harness.episode.ids import episode_seed
 from harness.episode.scene_cache import get_scene, grasp_file_for
@@ -31,7 +29,6 @@ from harness.robots import RobotModel
 from harness.runs.store import SCHEMA
 from harness.transforms import invert_T
 
-TASKS_DIR = Path(__file__).resolve().parents[1] / "tasks" / "pick"
 TASK_FILES = PICK_TASKS
 ADDED_BY_EXECUTORS = {"worker_peak_rss_mb", "recording", "recording_error", "config_sha256"}
 
@@ -44,10 +41,6 @@ def cube(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def cache() -> dict:
     return {}
-
-
-def episode(task, seed: int = 0, cache: dict | None = None, **spec):
-    return run_episode(EpisodeSpec(task=task, seed=seed, **spec), cache)
 
 
 # --------------------------------------------------------------------------------------------

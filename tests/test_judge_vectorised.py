@@ -1,4 +1,4 @@
-"""The batch judge's one-pass walk (``harness.engines.judge._Judge.motion``) against the CPU
+"""The batch judge's one-pass walk (``harness.engines.mjwarp.judge._Judge.motion``) against the CPU
 loop's row-by-row walk it replaced, on real FR3 jobs with synthetic signal rows: unstable rows
 (NaN, runaway speeds, an escaped object), failing closings, timeouts, everywhere."""
 
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from helpers import fr3_device_jobs
 
-from harness.engines.judge import _Judge
-from harness.engines.signals import (
+from harness.engines.mjwarp.judge import _Judge
+from harness.engines.mjwarp.signals import (
     EE_MAT,
     JOINT_SPEED,
     MAX_QVEL,

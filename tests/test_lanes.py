@@ -1,4 +1,4 @@
-"""Lanes (harness.engines.mjwarp_lanes, mjwarp_stream) on Warp's CPU device: jobs run one after
+"""Lanes (harness.engines.mjwarp.lanes, mjwarp_stream) on Warp's CPU device: jobs run one after
 another in a fixed set of worlds give the lockstep motion's rows and outcomes bit for bit.
 Skipped without the 'gpu' extra (as tests/test_engines.py)."""
 
@@ -27,11 +27,11 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
     import mujoco_warp as mjw
 
     from harness.benchmarks.engines import _SCENES
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.mjwarp_lanes import LaneRun
-    from harness.engines.mjwarp_motion import MotionRun
-    from harness.engines.mjwarp_steps import SMALL, BatchTimings
-    from harness.engines.retirement import segments
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.lanes import LaneRun
+    from harness.engines.mjwarp.motion import MotionRun
+    from harness.engines.mjwarp.retirement import segments
+    from harness.engines.mjwarp.steps import SMALL, BatchTimings
     from harness.episode.scene_cache import get_scene
 
     (job,) = fr3_device_jobs(1)
@@ -98,8 +98,8 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     of two lanes whose tug groups hold two jobs: each outcome (the verdict, its measures, the
     validity phase with its tug ladder) equals the lockstep batch's, field by field."""
     from harness.benchmarks.engines import _SCENES
-    from harness.engines.mjwarp_engine import MjwarpEngine
-    from harness.engines.mjwarp_stream import LaneStream
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.stream import LaneStream
     from harness.episode.scene_cache import get_scene
 
     jobs = fr3_device_jobs(3)
@@ -120,3 +120,39 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
         assert same_fields(outcomes[key], expected), key
     assert stream.timings.tug_rounds >= 2 and stream.timings.reruns == 0
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_job_too_long_for_a_lane_is_answered_before_the_stream_ends(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A product stream ends only when its run does, after every answer: a job whose span
+    exceeds the lanes' rows (here: every job, ``LANE_ROWS`` cut to 16) runs as a lockstep
+    batch once the lanes are idle, and its outcome is the lockstep batch's."""
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp import stream as stream_module
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode.scene_cache import get_scene
+
+    jobs = fr3_device_jobs(1)
+    task = jobs[0].task
+    engine = MjwarpEngine("cpu")
+    scene = get_scene(task, _SCENES).scene
+    lockstep = engine.batch(scene, task).run(jobs)
+    monkeypatch.setattr(stream_module, "LANE_ROWS", 16)
+    answered: dict[Hashable, object] = {}
+    given = [[("a", jobs[0])]]
+
+    def source(block: bool) -> list[tuple[Hashable, object]] | None:
+        if given:
+            return given.pop()  # type: ignore[return-value]
+        return None if "a" in answered else []  # like a sweep: no end before the answer
+
+    stream = stream_module.LaneStream(
+        engine.batch(scene, task), nlane=2, group=2,
+        on_outcome=lambda key, outcome: answered.__setitem__(key, outcome),
+    )  # fmt: skip
+    stream.run(source)  # type: ignore[arg-type]
+    assert same_fields(answered["a"], lockstep[0])

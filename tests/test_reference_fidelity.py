@@ -12,7 +12,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from test_episode import TASKS_DIR, episode
+from helpers import TASKS_DIR, episode
 
 from harness.config import apply_overrides, load_task
 from harness.config.pick import REFERENCE_SPEED_SCALE

@@ -1,4 +1,4 @@
-"""When worlds leave a batch's lockstep motion (harness.engines.retirement): every world is
+"""When worlds leave a batch's lockstep motion (harness.engines.mjwarp.retirement): every world is
 stepped through its whole span, worlds leave shortest first, a segment ends when the set share
 of its worlds has ended, and nothing retires below the floor of worlds."""
 
@@ -10,7 +10,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness.engines.retirement import segments
+from harness.engines.mjwarp.retirement import segments
 
 
 def test_a_quarter_of_the_worlds_leave_at_each_segment_end() -> None:

@@ -185,6 +185,25 @@ def test_no_import_cycles() -> None:
     )
 
 
+def test_no_test_module_imports_another_test_module() -> None:
+    tests = ROOT / "tests"
+    own = {path.stem for path in tests.glob("test_*.py")}
+    offenders = []
+    for path in sorted(tests.glob("test_*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            offenders += [
+                f"{path.name}: {n}"
+                for n in names
+                if n.split(".")[-1] in own or n.startswith("tests.test_")
+            ]
+    assert offenders == []
+
+
 def robot_generators() -> list[Path]:
     """The robots' own URDF generators (``robots/<name>/build.py``, the template's too) and the
     driver: code outside the package, under the same size rules."""

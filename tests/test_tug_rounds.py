@@ -1,4 +1,4 @@
-"""The batched engine's tug rounds (harness.engines.tug_rounds), on fake rung outcomes: the
+"""The batched engine's tug rounds (harness.engines.mjwarp.tug), on fake rung outcomes: the
 ladder's result is the one tug_ladder gives when every rung is known, whatever the pattern of
 survived rungs, for every round policy."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness.engines.tug_rounds import RUNGS, RoundPolicy, Rung, run_rounds, walk
+from harness.engines.mjwarp.tug import RUNGS, RoundPolicy, Rung, run_rounds, walk
 from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug_ladder
 
 TOP = TUG_LEVELS_G[-1]

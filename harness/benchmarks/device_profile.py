@@ -128,7 +128,7 @@ def _stats(values: list[int] | list[float]) -> dict[str, float]:
 
 
 class Profiler:
-    """Replaces ``mjwarp_steps.replay`` and ``stepper`` while active (``installed``): the
+    """Replaces ``steps.replay`` and ``stepper`` while active (``installed``): the
     control steps whose index is in ``rows`` run eagerly under kernel timing, the rest as
     replays of the captured graph, as the engine runs them."""
 
@@ -139,7 +139,7 @@ class Profiler:
 
     @contextmanager
     def installed(self) -> Iterator[Profile]:
-        from harness.engines import mjwarp_steps
+        from harness.engines.mjwarp import steps as mjwarp_steps
 
         replay, stepper = mjwarp_steps.replay, mjwarp_steps.stepper
         mjwarp_steps.replay = self._replay(replay)
@@ -253,7 +253,7 @@ def run_case(
 
 
 def main() -> None:
-    from harness.engines.mjwarp_engine import MjwarpEngine
+    from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.episode.scene_cache import get_scene
 
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])

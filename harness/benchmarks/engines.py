@@ -3,7 +3,7 @@
 The same episodes (the five arms of ``tasks/pick``, objects cube and banana, seeds 0..n-1) run
 twice on this box: CPU-only (``mujoco``, one process per core, as ``harness sweep`` runs) and
 with the physics on the GPU (``mjwarp``): the same worker processes plan each episode and make
-its control schedule (``harness.engines.schedule``) and send the job (``DeviceJob``) to this
+its control schedule (``harness.engines.mjwarp.schedule``) and send the job (``DeviceJob``) to this
 process, which steps each task model's jobs as one batch of worlds and judges them with the same
 verdict terms. Figures: episodes per hour end to end on both paths and their ratio; where the
 GPU path's time goes (planning pool, upload, physics, tug, download); physics world-steps/s at
@@ -23,14 +23,12 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from harness.benchmarks.engines_device import GpuDevices, batch_key
+from harness.benchmarks.engines_batches import GpuDevices, batch_key
 from harness.benchmarks.framework import Figure, figure
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.config.robot_registry import available_robots, canonical_task_files
-from harness.engines import Execution, ExecutionJob, register_engine
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome
-from harness.pick.validity import validity_enabled
 from harness.runs.expansion import point_overrides
 
 SECTION = "engines"
@@ -41,35 +39,15 @@ TARGET_RATIO = 8.0
 TARGET_RATE = 3_000_000.0
 
 
-class _Collector:
-    """An engine that keeps the job (as a ``DeviceJob``) instead of executing it."""
-
-    name = "collect"
-
-    def __init__(self) -> None:
-        self.jobs: list[Any] = []
-
-    def execute(self, job: ExecutionJob) -> Execution:
-        from harness.engines.schedule import device_job
-
-        self.jobs.append(device_job(job))
-        outcome = PickOutcome(failure_reason="error", message="collected for the device")
-        return Execution(outcome, validity_enabled(job.task.pick))
-
-
-_COLLECTOR = _Collector()
 _SCENES: dict[Any, Any] = {}
 
 
 def _plan(spec: Any) -> tuple[dict[str, Any], Any]:
-    """Worker: plan one episode; its row (when it ended before execution) and its job (no
-    viewer trace: nothing reads it here)."""
-    from harness.episode import run_episode
+    """Worker: plan one episode; its row (when it ended before execution) and its job
+    (``harness.runs.warm.plan_job``, the path ``harness compile`` plans with)."""
+    from harness.runs.warm import plan_job
 
-    register_engine(_COLLECTOR)
-    _COLLECTOR.jobs.clear()
-    row = run_episode(dataclasses.replace(spec, engine="collect", trace=False), _SCENES).row
-    return row, (_COLLECTOR.jobs[0] if _COLLECTOR.jobs else None)
+    return plan_job(spec, _SCENES)
 
 
 def _cpu(spec: Any) -> dict[str, Any]:
@@ -137,7 +115,7 @@ def run_gpu(
     device is the slower side. With ``bucket`` > 1 it only starts the device while nothing is on
     it (the first batch after ``min_batch`` jobs instead of ``bucket * batch``); the other
     batches are bucketed. ``lanes`` > 0 streams every planned job to ``lanes`` lanes of its
-    task model instead (``harness.engines.mjwarp_stream``: no batches, no padding). The
+    task model instead (``harness.engines.mjwarp.stream``: no batches, no padding). The
     outcomes and where the time went."""
     gpu = GpuDevices(device)
     planned: list[Any] = [None] * len(all_specs)
@@ -329,7 +307,7 @@ def _device_work(gpu: dict[str, Any]) -> str:
 
 
 def run(quick: bool) -> list[Figure]:
-    from harness.engines.mjwarp_engine import default_devices
+    from harness.engines.mjwarp.engine import default_devices
 
     seeds = 2 if quick else 32
     workers = os.cpu_count() or 1
@@ -341,7 +319,7 @@ def main() -> None:
     every record written (agreement.jsonl, summary.json)."""
     import sys
 
-    from harness.engines.mjwarp_engine import default_devices
+    from harness.engines.mjwarp.engine import default_devices
 
     seeds, out = int(sys.argv[1]), Path(sys.argv[2])
     arms = tuple(sys.argv[3:]) or ARMS

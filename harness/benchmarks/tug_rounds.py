@@ -2,7 +2,7 @@
 
 Runs episodes on the CPU ``mujoco`` engine with every one of the 24 tug rungs computed (a rung
 starts from the held state, so running all of them changes no result), then replays each
-tugged episode's rung outcomes through ``harness.engines.tug_rounds.run_rounds`` under each
+tugged episode's rung outcomes through ``harness.engines.mjwarp.tug.run_rounds`` under each
 ``RoundPolicy``: rounds (device batches) and rung-worlds (worlds stepped for 0.5 s each) per
 policy, and a check that every policy's ladder gives the CPU row's ``robustness_g``.
 
@@ -19,7 +19,7 @@ from typing import Any
 
 from harness.benchmarks.engines import ARMS, OBJECTS, specs, tasks
 from harness.config import apply_overrides
-from harness.engines.tug_rounds import RUNGS, RoundPolicy, Rung, run_rounds, walk
+from harness.engines.mjwarp.tug import RUNGS, RoundPolicy, Rung, run_rounds, walk
 from harness.pick import validity
 from harness.pick.validity import RungOutcome
 from harness.runs.expansion import point_overrides

@@ -82,9 +82,9 @@ def main(args: argparse.Namespace) -> int:
             else ""
         )
         console.print(
-            f"device: {device.jobs} job(s) in {device.batches} batch(es){spread} of up to "
-            f"{device.largest} world(s), {device.device_s:.1f} s"
-            + (f"; {len(device.errors)} failed batch(es)" if device.errors else "")
+            f"device: {device.jobs} job(s) in {device.streams} lane stream(s){spread} of "
+            f"{device.lanes} lanes, {device.device_s:.1f} s"
+            + (f"; {len(device.errors)} failed stream(s)" if device.errors else "")
         )
     print_summary(outcome.run_dir, console)
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)

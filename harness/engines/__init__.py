@@ -37,7 +37,7 @@ def engine_for(name: str) -> ExecutionEngine:
 
             engine = MujocoEngine()
         else:
-            from harness.engines.mjwarp_engine import MjwarpEngine
+            from harness.engines.mjwarp.engine import MjwarpEngine
 
             engine = MjwarpEngine()
         _ENGINES[name] = engine

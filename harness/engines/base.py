@@ -4,7 +4,7 @@ Planning (reset, candidates, feasibility, plan, timing) stays on the CPU; an eng
 chosen plan and returns a ``PickOutcome`` judged by the one set of verdict terms
 (``harness.pick.verdict``). ``mujoco`` runs today's CPU executor in the episode's own scene;
 ``mjwarp`` replays the executor's control schedule on MuJoCo Warp worlds in lockstep and judges
-the signals it recorded (``harness.engines.judge``).
+the signals it recorded (``harness.engines.mjwarp.judge``).
 """
 
 from __future__ import annotations

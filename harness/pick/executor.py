@@ -10,7 +10,7 @@ Execution: the control loop runs in Python once per control step; the servo setp
 chunking are ``harness.pick.servo``. The validity phase that follows the verdict, and its
 verdict, are ``harness.pick.executor_validity``. This is the CPU engine's executor
 (``harness.engines.mujoco_engine``); the batched GPU engine replays the control schedule it
-produces (``harness.engines.schedule``).
+produces (``harness.engines.mjwarp.schedule``).
 """
 
 from __future__ import annotations

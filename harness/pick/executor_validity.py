@@ -9,15 +9,34 @@ the phase measured into the row's ``ValidityResult`` with the one set of verdict
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
+
+import numpy as np
 
 from harness.config import PickConfig
-from harness.pick.outcome import ValidityMeasure, ValidityResult
-from harness.pick.validity import ValidityPhase
-from harness.pick.verdict import MAX_TABLE_PENETRATION, first_failure, validity_terms
+from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
+from harness.pick.semantics import Semantics
+from harness.pick.validity import PhaseHost, ValidityPhase
+from harness.pick.verdict import (
+    MAX_TABLE_PENETRATION,
+    VerdictTerm,
+    first_failure,
+    validity_terms,
+)
 
-if TYPE_CHECKING:
-    from harness.pick.executor import PickExecutor
+
+class ValidityHost(PhaseHost, Protocol):
+    """What the validity phase's end needs of the executor that ran the pick
+    (``harness.pick.executor.PickExecutor``; a protocol, so this module does not import it)."""
+
+    out: PickOutcome
+    pick: PickConfig
+    semantics: Semantics
+    failed_term: str
+    post: str | None
+    object_init_position: np.ndarray
+
+    def judge(self, terms: tuple[VerdictTerm, ...]) -> bool: ...
 
 
 def stopped_validity(measure: ValidityMeasure, failed_term: str, message: str) -> ValidityResult:
@@ -37,7 +56,7 @@ def judged_validity(pick: PickConfig, measure: ValidityMeasure) -> ValidityResul
     )
 
 
-def run_validity_phase(executor: PickExecutor, verdict_reached: bool) -> None:
+def run_validity_phase(executor: ValidityHost, verdict_reached: bool) -> None:
     """After the verdict: the validity phase and its verdict (strict's success); the command
     list's columns (steps, peak speeds) stay those of the list."""
     out = executor.out

@@ -13,9 +13,7 @@ import math
 import multiprocessing as mp
 import os
 import signal
-import sys
 import time
-import types
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
@@ -23,19 +21,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
-from harness.files import WRITE_TIMEOUT_S
 from harness.runs.scheduling import share_groups, shared_order
+from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, main_module_hidden
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
-    from harness.engines.device_service import DeviceReply, DeviceService
     from harness.episode.spec import EpisodeSpec
 
 
 OnResult = Callable[[dict[str, Any]], None]
-# A worker that dies mid-episode (segfault, OOM kill) gets its episode run again this many
-# times before the episode is stored as an ``error`` row.
-CRASH_RETRIES = 1
 
 
 @dataclass
@@ -46,7 +40,7 @@ class RunStats:
     interrupted: bool = False
     wall_time_s: float = 0.0
     errors: list[str] = field(default_factory=list)
-    device: Any = None  # DeviceStats of the shared device (mjwarp on the process pool)
+    device: Any = None  # StreamStats of the shared devices (mjwarp on the process pool)
 
 
 def run_serial(
@@ -69,19 +63,10 @@ def run_serial(
     return stats
 
 
-def _worker_main(
-    conn: Connection, run_dir: str, record: str, share: bool, device: bool = False
-) -> None:
-    """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached.
-    With ``device`` its ``mjwarp`` engine sends each job to the parent's shared device over
-    ``conn`` (``harness.engines.device_service``)."""
+def _worker_main(conn: Connection, run_dir: str, record: str, share: bool) -> None:
+    """Process-pool worker: receive episodes on ``conn``, send rows back; scenes stay cached."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    if device:
-        from harness.engines import register_engine
-        from harness.engines.device_service import PooledDeviceEngine
-
-        register_engine(PooledDeviceEngine(conn))
     while True:
         try:
             episode = conn.recv()
@@ -103,33 +88,6 @@ class _Worker:
     episode: EpisodeSpec | None = None
     group: list[EpisodeSpec] = field(default_factory=list)  # the rest of its share group
     deadline: float = math.inf  # monotonic time past which the worker is killed
-    device_since: float | None = None  # waiting for the shared device since (monotonic)
-
-
-# A worker still busy this long after its episode's ``limits.wall_time_s`` is killed and the
-# episode stored as ``timeout`` (the episode's own checks and alarm end it at the limit; this
-# is the backstop for code that neither checks nor lets the alarm in, e.g. a long C call). The
-# grace covers the recording write after the episode (bounded by files.WRITE_TIMEOUT_S).
-KILL_GRACE_S = WRITE_TIMEOUT_S + 30.0
-
-
-@contextlib.contextmanager
-def _main_module_hidden() -> Iterator[None]:
-    """Start a spawned worker without re-running the caller's script.
-
-    A spawned child imports the parent's ``__main__`` by path, which re-runs a script's top level
-    and, without an ``if __name__ == "__main__":`` guard, makes a script that calls
-    ``harness.sweep`` fail. The worker's target lives in this package and needs nothing from
-    ``__main__``, so the main module is hidden from the spawn preparation for the start.
-    """
-    main = sys.modules.get("__main__")
-    stand_in = types.ModuleType("__main__")
-    sys.modules["__main__"] = stand_in
-    try:
-        yield
-    finally:
-        if main is not None:
-            sys.modules["__main__"] = main
 
 
 class _ProcessPool:
@@ -156,22 +114,12 @@ class _ProcessPool:
         self.requeued: list[EpisodeSpec] = []  # episodes of dead workers, run again first
         self.attempts: dict[str, int] = {}
         self.workers: list[_Worker] = []
-        # One device shared by the workers when an episode runs on the mjwarp engine.
-        self.device: DeviceService | None = None
-        if any(e.engine == "mjwarp" for e in episodes):
-            from harness.engines.device_service import DeviceService
-
-            self.device = DeviceService(self.busy)
-
-    def busy(self) -> int:
-        """Workers with an episode in hand (each may send one device job)."""
-        return sum(w.episode is not None for w in self.workers)
 
     def spawn(self) -> _Worker:
         parent, child = self.context.Pipe()
         process = self.context.Process(
             target=_worker_main,
-            args=(child, str(self.run_dir), self.record, self.share, self.device is not None),
+            args=(child, str(self.run_dir), self.record, self.share),
             daemon=True,
         )
         # Ctrl-C goes to the whole terminal process group. The worker ignores SIGINT once its
@@ -182,7 +130,7 @@ class _ProcessPool:
         if blocked:
             signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
-            with _main_module_hidden():
+            with main_module_hidden():
                 process.start()
         finally:
             if blocked:
@@ -217,20 +165,14 @@ class _ProcessPool:
 
     def next_deadline(self) -> float | None:
         """Seconds until the first busy worker's kill deadline (None: no busy worker)."""
-        deadlines = [
-            w.deadline for w in self.workers if w.episode is not None and w.device_since is None
-        ]
+        deadlines = [w.deadline for w in self.workers if w.episode is not None]
         return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
 
     def kill_overdue(self) -> None:
         """Kill each worker past its episode's deadline; the episode is a ``timeout`` row and
         the rest of its share group goes to the next free worker (nothing else is lost)."""
         now = time.monotonic()
-        overdue = [
-            w
-            for w in self.workers
-            if w.episode is not None and w.device_since is None and now > w.deadline
-        ]
+        overdue = [w for w in self.workers if w.episode is not None and now > w.deadline]
         for worker in overdue:
             if worker.conn.poll():  # its row arrived meanwhile: collected on the next turn
                 continue
@@ -258,8 +200,6 @@ class _ProcessPool:
                 row = worker.conn.recv()
             except (EOFError, OSError):
                 row = None
-            if self.device is not None and self.device_request(worker, row):
-                return
             if row is not None:
                 self.on_result(row)
                 self.stats.finished += 1
@@ -280,25 +220,6 @@ class _ProcessPool:
             self.retry_or_fail(worker.episode, reason)
             self.start()
 
-    def device_request(self, worker: _Worker, message: Any) -> bool:
-        """Hand a worker's device job to the shared device (False: the message is a row)."""
-        from harness.engines.device_service import DeviceRequest
-
-        if not isinstance(message, DeviceRequest) or self.device is None:
-            return False
-        worker.device_since = time.monotonic()
-        self.device.submit(message.job, functools.partial(self.answer, worker))
-        return True
-
-    def answer(self, worker: _Worker, reply: DeviceReply) -> None:
-        """(Device thread) send a worker its job's outcome; the wait does not count towards
-        its kill deadline."""
-        if worker.device_since is not None:
-            worker.deadline += time.monotonic() - worker.device_since
-        worker.device_since = None
-        with contextlib.suppress(OSError, BrokenPipeError):
-            worker.conn.send(reply)
-
     def retry_or_fail(self, episode: EpisodeSpec, reason: str) -> None:
         """A dead worker's episode runs again (``CRASH_RETRIES`` times), then is an error row:
         a one-off crash (out of memory, a killed process) must not count as a failed pick."""
@@ -315,8 +236,6 @@ class _ProcessPool:
 
     def shutdown(self) -> None:
         """Stop every worker: a polite stop after a normal run, terminate after Ctrl-C."""
-        if self.device is not None:
-            self.device.stop()
         for worker in self.workers:
             try:
                 if self.stats.interrupted:
@@ -339,7 +258,15 @@ def run_process_pool(
     workers: int,
     share: bool = True,
 ) -> RunStats:
-    """One process per worker, one episode in flight per worker; dead workers are replaced."""
+    """One process per worker, one episode in flight per worker; dead workers are replaced.
+    With the ``mjwarp`` engine the workers plan on while the devices execute
+    (``harness.runs.device_pool``)."""
+    if any(e.engine == "mjwarp" for e in episodes):
+        from harness.runs.device_pool import DevicePool, run_device_pool
+
+        stats = RunStats()
+        run_device_pool(DevicePool(episodes, run_dir, record, on_result, stats, workers, share))
+        return stats
     pool = _ProcessPool(episodes, run_dir, record, on_result, share)
     stats = pool.stats
     start = time.perf_counter()
@@ -358,8 +285,6 @@ def run_process_pool(
         stats.interrupted = True
     finally:
         pool.shutdown()
-    if pool.device is not None:
-        stats.device = pool.device.stats
     stats.wall_time_s = time.perf_counter() - start
     return stats
 
@@ -414,7 +339,16 @@ def _run_on_ray(
     workers: int,
     share: bool,
 ) -> RunStats:
-    """The episodes on actors of an initialised Ray (see ``run_ray``)."""
+    """The episodes on actors of an initialised Ray (see ``run_ray``); with the ``mjwarp``
+    engine, planning actors feed one device actor per node (``harness.runs.ray_device``)."""
+    if any(e.engine == "mjwarp" for e in episodes):
+        from harness.runs.ray_device import run_on_ray_device
+
+        stats = RunStats()
+        run_on_ray_device(
+            ray, episodes, str(run_dir), record, on_result, workers, share, stats, error_row
+        )
+        return stats
 
     @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:

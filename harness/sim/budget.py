@@ -29,14 +29,27 @@ class _Budget:
     sim_steps: int
 
 
-_ACTIVE: list[_Budget] = []
+class _Stacks(threading.local):
+    """Each thread's own stack of budgets: a worker that runs several episodes in threads
+    (``harness.runs.device_pool``) limits each by its own."""
+
+    def __init__(self) -> None:
+        self.stack: list[_Budget] = []
+
+
+_STACKS = _Stacks()
+
+
+def _active() -> list[_Budget]:
+    return _STACKS.stack
 
 
 def spend(nstep: int) -> None:
     """Take ``nstep`` physics steps from the active budget, or end the episode as a timeout."""
-    if not _ACTIVE:
+    active = _active()
+    if not active:
         return
-    budget = _ACTIVE[-1]
+    budget = active[-1]
     if nstep > budget.steps_left:
         used = budget.sim_steps - budget.steps_left
         raise EpisodeTimeoutError(
@@ -49,8 +62,9 @@ def spend(nstep: int) -> None:
 
 def check_deadline() -> None:
     """End the episode as a timeout once the active budget's wall-clock deadline has passed."""
-    if _ACTIVE and time.perf_counter() > _ACTIVE[-1].deadline:
-        budget = _ACTIVE[-1]
+    active = _active()
+    if active and time.perf_counter() > active[-1].deadline:
+        budget = active[-1]
         used = budget.sim_steps - budget.steps_left
         raise EpisodeTimeoutError(
             f"wall-clock limit of {budget.wall_time_s:g} s reached after {used:,} physics "
@@ -63,10 +77,11 @@ def budget_paused() -> Iterator[None]:
     """Stop the active budget's clock while the episode waits for work that is not its own
     (a shared device executing a batch of many workers' jobs, which may first compile its
     kernels): the deadline moves by the time spent inside, and the alarm is off meanwhile."""
-    if not _ACTIVE:
+    active = _active()
+    if not active:
         yield
         return
-    budget = _ACTIVE[-1]
+    budget = active[-1]
     alarm = threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGALRM")
     armed = alarm and signal.getitimer(signal.ITIMER_REAL)[0] > 0.0
     if armed:
@@ -85,7 +100,8 @@ def budget_paused() -> Iterator[None]:
 def episode_budget(wall_time_s: float, sim_steps: int) -> Iterator[None]:
     """Limit the episode run inside: ``wall_time_s`` of wall clock, ``sim_steps`` physics steps."""
     budget = _Budget(time.perf_counter() + wall_time_s, wall_time_s, sim_steps, sim_steps)
-    _ACTIVE.append(budget)
+    active = _active()
+    active.append(budget)
     alarm = threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGALRM")
     previous = None
     if alarm:
@@ -102,4 +118,4 @@ def episode_budget(wall_time_s: float, sim_steps: int) -> Iterator[None]:
         if alarm:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous or signal.SIG_DFL)
-        _ACTIVE.pop()
+        active.pop()

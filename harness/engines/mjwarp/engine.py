@@ -2,29 +2,36 @@
 
 ``execute`` (one job, what ``harness sweep --engine mjwarp`` calls in each worker) and
 ``execute_many`` (a batch of jobs of one task model, what the throughput bench feeds) both make
-each job's control schedule on the CPU (``harness.engines.schedule``), step the worlds in
-lockstep on the device (``harness.engines.mjwarp_batch``) and judge the recorded signals with the
-CPU's verdict terms (``harness.engines.judge``). The throughput bench can stream its jobs
-through lanes instead (``harness.engines.mjwarp_stream``: one fixed set of worlds, each running
+each job's control schedule on the CPU (``harness.engines.mjwarp.schedule``), step the worlds in
+lockstep on the device (``harness.engines.mjwarp.batch``) and judge the recorded signals with the
+CPU's verdict terms (``harness.engines.mjwarp.judge``). The throughput bench can stream its jobs
+through lanes instead (``harness.engines.mjwarp.stream``: one fixed set of worlds, each running
 jobs one after another). The device is ``HARNESS_WARP_DEVICE`` when set
 (``cpu`` for Warp's CPU device, ``cuda:1`` ...), else the first CUDA device, else the CPU: one
-engine per device. A sweep's shared device service (``harness.engines.device_service``) and the
+engine per device. A sweep's shared device service (``harness.engines.mjwarp.service``) and the
 throughput bench run one engine on each device of ``default_devices`` (every CUDA device, or
 the comma-separated ``HARNESS_WARP_DEVICE``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 from typing import Any
 
 from harness.config import TaskConfig
 from harness.engines.base import Execution, ExecutionJob
-from harness.engines.schedule import DeviceJob, device_job
+from harness.engines.mjwarp.schedule import DeviceJob, device_job
 from harness.errors import HarnessError
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
 from harness.sim import Scene
+
+_NOTED = False  # the CPU device's note is said once per process
+CPU_DEVICE_NOTE = (
+    "mjwarp on Warp's CPU device: a test device (~60 world-steps/s on 2 cores, minutes per "
+    "episode; the first use compiles its kernels for minutes); use a CUDA device for speed"
+)
 
 
 def _import_warp() -> tuple[Any, Any]:
@@ -70,20 +77,27 @@ class MjwarpEngine:
         buffers: tuple[int, int] | None = None,
         retire: float | None = None,
     ) -> None:
-        """``buffers``: (contacts, constraint rows) per world, else ``mjwarp_steps.SMALL``;
+        """``buffers``: (contacts, constraint rows) per world, else ``steps.SMALL``;
         ``retire``: the share of a batch's stepping worlds whose spans end a segment of its
-        motion (``harness.engines.retirement``; 0: lockstep), else ``retirement.RETIRE``."""
+        motion (``harness.engines.mjwarp.retirement``; 0: lockstep), else ``retirement.RETIRE``."""
         _import_warp()
         self.device = device or default_device()
         self.buffers = buffers
         self.retire = retire
         self._models: dict[tuple[int, str, str], Any] = {}
+        global _NOTED
+        if self.device == "cpu" and not _NOTED:
+            import sys
+
+            print(f"mjwarp: {CPU_DEVICE_NOTE}", file=sys.stderr, flush=True)
+            _NOTED = True
 
     def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` (made once per model), on ``slot``
         (a ``DeviceSlot``: its stream and its device's lock) when given."""
-        from harness.engines.device_slot import DeviceSlot
-        from harness.engines.mjwarp_batch import SMALL, Buffers, DeviceModel, WorldBatch
+        from harness.engines.mjwarp.batch import SMALL, Buffers, WorldBatch
+        from harness.engines.mjwarp.model import DeviceModel
+        from harness.engines.mjwarp.slot import DeviceSlot
 
         slot = slot if slot is not None else DeviceSlot(self.device)
         # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
@@ -99,7 +113,7 @@ class MjwarpEngine:
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""
-        from harness.engines.device_slot import DeviceSlot
+        from harness.engines.mjwarp.slot import DeviceSlot
 
         return DeviceSlot.several(self.device, count)
 
@@ -112,8 +126,17 @@ class MjwarpEngine:
         return wp.get_mempool_used_mem_high(device) / 1e9
 
     def execute(self, job: ExecutionJob) -> Execution:
+        """One job in this process. Its device time is not the episode's wall-clock time on
+        Warp's CPU device (a test device: minutes per episode) nor on a task model's first use
+        (Warp compiles its kernels then): the budget is paused, so neither ends it as
+        ``timeout``."""
+        from harness.sim.budget import budget_paused
+
         packed = device_job(job)
-        outcome = self.batch(job.scene, job.task).run([packed])[0]
+        first = (id(job.scene.model), job.task.arm, job.task.target_object.name) not in self._models
+        paused = budget_paused() if first or self.device == "cpu" else contextlib.nullcontext()
+        with paused:
+            outcome = self.batch(job.scene, job.task).run([packed])[0]
         return Execution.of_batch(outcome, validity_enabled(job.task.pick))
 
     def execute_many(

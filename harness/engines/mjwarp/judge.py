@@ -1,10 +1,10 @@
 """A batched engine's signals judged into a ``PickOutcome``, with the CPU executor's rules.
 
 The measurements are taken at the control steps the CPU executor takes them (the schedule says
-which: ``harness.engines.schedule``) and judged by the same verdict terms
+which: ``harness.engines.mjwarp.schedule``) and judged by the same verdict terms
 (``harness.pick.verdict``: ``closing_terms``, the semantics' ``verdict_terms``,
 ``validity_terms``) and the same tug ladder (``harness.pick.validity.tug_ladder``, answered from
-the rungs the batch ran: ``harness.engines.tug_rounds``): no second copy of the reference or
+the rungs the batch ran: ``harness.engines.mjwarp.tug``): no second copy of the reference or
 validity checks lives here, only the reading of the signal rows.
 Not reproduced: strict's robot-environment collision check during the motion (no collision
 model on the device; ``collisions`` stays empty) and the event log / trace.
@@ -17,8 +17,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from harness.engines.schedule import DeviceJob, ExecutionSchedule
-from harness.engines.signals import (
+from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
+from harness.engines.mjwarp.signals import (
     EE_MAT,
     EE_POS,
     FORCE_LEFT,
@@ -34,7 +34,7 @@ from harness.engines.signals import (
     unstable_reason,
     unstable_rows,
 )
-from harness.engines.tug_rounds import Rung, walk
+from harness.engines.mjwarp.tug import Rung, walk
 from harness.pick.executor_validity import judged_validity, stopped_validity
 from harness.pick.outcome import PickOutcome, ValidityMeasure
 from harness.pick.validity import TUG_MAX_SLIP, RungOutcome, pose_drift

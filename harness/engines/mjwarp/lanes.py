@@ -1,6 +1,6 @@
 """Lanes: a fixed set of worlds on the device, each running episodes one after another.
 
-Lockstep (``mjwarp_motion``) steps every world of a batch until the batch's longest span ends,
+Lockstep (``motion``) steps every world of a batch until the batch's longest span ends,
 and a batch waits until enough jobs are planned: on an H100 (FR3 cube, 65,536 episodes) 23-33%
 of the motion's world-steps were past the worlds' own spans, and the device idled while the
 first batches filled. Here one ``mjw.Data`` of ``nlane`` worlds (one CUDA graph, captured once)
@@ -26,12 +26,12 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
-from harness.engines import mjwarp_kernels as kernels
-from harness.engines import mjwarp_lane_kernels as lk
-from harness.engines import mjwarp_steps as steps
-from harness.engines.mjwarp_steps import BatchTimings, Buffers
-from harness.engines.schedule import DeviceJob
-from harness.engines.signals import SIGNALS
+from harness.engines.mjwarp import kernels, steps
+from harness.engines.mjwarp import lane_kernels as lk
+from harness.engines.mjwarp.model import DeviceModel
+from harness.engines.mjwarp.schedule import DeviceJob
+from harness.engines.mjwarp.signals import SIGNALS
+from harness.engines.mjwarp.steps import BatchTimings, Buffers
 
 
 @dataclass
@@ -50,7 +50,7 @@ class LaneRun:
 
     def __init__(
         self,
-        dm,  # type: ignore[no-untyped-def]  # mjwarp_batch.DeviceModel (import cycle)
+        dm: DeviceModel,
         nlane: int,
         capacity: int,
         rows: int,

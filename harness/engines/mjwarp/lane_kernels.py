@@ -1,16 +1,16 @@
-"""The Warp kernels of the lanes (``harness.engines.mjwarp_lanes``): each world of the data is a
+"""The Warp kernels of the lanes (``harness.engines.mjwarp.lanes``): each world of the data is a
 lane that runs episodes one after another, at its own phase.
 
 Per physics step, inside one captured CUDA graph: ``lane_ctrl`` sets the controls of the lanes
 at the start of a servo chunk, MuJoCo Warp steps every world, ``lane_tick`` advances each lane's
 phase and says what it records (``row_of``: a signal row at the end of a control step, its start
-row at the end of the warm-up), the signal kernels of ``mjwarp_kernels`` record, and
+row at the end of the warm-up), the signal kernels of ``kernels`` record, and
 ``lane_release`` frees the lanes whose span ended. The host loads new jobs into free lanes
 between replays (``scatter_*``) and gathers the finished jobs' rows (``gather_rows``).
 
 A lane's phase counts the physics steps since its job was loaded: ``warmup`` steps with the
 start controls, then control steps of ``substeps`` physics steps each, chunk by chunk, exactly
-the order of the lockstep motion (``mjwarp_motion``), so a job's rows do not depend on the
+the order of the lockstep motion (``motion``), so a job's rows do not depend on the
 lane or on the other lanes (``tests/test_lanes.py`` compares them bit for bit on Warp's CPU
 device).
 """
@@ -21,7 +21,7 @@ from typing import Any
 
 import warp as wp
 
-from harness.engines.mjwarp_kernels import BASELINE, NO_ROW
+from harness.engines.mjwarp.kernels import BASELINE, NO_ROW
 
 
 @wp.kernel
@@ -97,7 +97,7 @@ def lane_track(
     peak_rows: wp.array(dtype=wp.int32),  # per lane: since its job was loaded
     peak_contacts: wp.array(dtype=wp.int32),  # the data's, since the last replay
 ):
-    """``mjwarp_kernels.track_use`` for lanes (the same rule: after every physics step)."""
+    """``kernels.track_use`` for lanes (the same rule: after every physics step)."""
     lane = wp.tid()
     peak_rows[lane] = wp.max(peak_rows[lane], nefc[lane])
     if lane == 0:

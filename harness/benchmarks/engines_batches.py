@@ -1,5 +1,7 @@
-"""The device side of the engines bench's GPU path: one engine per device, its slots, and
-the batches (or lane streams) handed to them, with where the device's time went."""
+"""The engines bench's lockstep-batch side (``BENCH_BATCH``, ``BENCH_BUCKET``, ``BENCH_SLOTS``):
+one engine per device, several batches in flight per device, where the device's time went. Its
+lane streams (``BENCH_LANES``) are the product's ``harness.engines.mjwarp.devices.DeviceStreams``.
+"""
 
 from __future__ import annotations
 
@@ -10,27 +12,28 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
-from harness.engines.busy_time import union_length
+from harness.engines.mjwarp.busy_time import union_length
+from harness.engines.mjwarp.devices import DeviceStreams, scene_for
 from harness.pick.outcome import PickOutcome
 
 
 def batch_key(job: Any) -> str:
-    """Jobs of one task model share a batch (or a stream)."""
+    """The bench's lockstep batches hold jobs of one task."""
     return job.task.model_dump_json()
 
 
 class GpuDevices:
-    """The device side of the GPU path: one engine per device (``device``: one name, or
-    several separated by commas), its scenes, the outcomes by episode index and where its time
-    went. ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each
-    with a stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one
-    batch's host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits
-    for them all."""
+    """The bench's lockstep batches: one engine per device (``device``: one name, or several
+    separated by commas), its scenes, the outcomes by episode index and where its time went.
+    ``step`` hands a batch to one of ``BENCH_SLOTS`` (default 2) threads per device, each with a
+    stream of its own (``DeviceSlot``), the slots taken in turn across the devices: one batch's
+    host work (upload, tug rounds, judging) overlaps another's physics; ``drain`` waits for
+    them all. Lane streams (``BENCH_LANES``) go through ``DeviceStreams`` (``to_stream``)."""
 
     def __init__(self, device: str) -> None:
-        from harness.engines.mjwarp_engine import MjwarpEngine
+        from harness.engines.mjwarp.engine import MjwarpEngine
 
-        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default mjwarp_steps.SMALL)
+        # BENCH_BUFFERS=contacts,rows: the per-world buffers (default steps.SMALL)
         sizes = os.environ.get("BENCH_BUFFERS")
         buffers = None
         if sizes:
@@ -62,22 +65,21 @@ class GpuDevices:
             for engine, slots in zip(self.engines, per_device, strict=True):
                 self.slots.put((engine, slots[k]))
         self.slot_count = self.slots.qsize()
-        self.slot_turns = list(self.slots.queue)  # the streams take the slots in turn
         self.threads = ThreadPoolExecutor(self.slot_count)
         self.pending: list[Future[None]] = []
         self.busy: list[tuple[float, float]] = []  # (start, end) of each batch
-        self.streams: dict[str, queue.Queue[Any]] = {}  # by task model: its lanes' job queue
+        self.streams: DeviceStreams | None = None  # lane streams (BENCH_LANES), at first use
         self.lock = threading.Lock()
 
     @property
     def device_s(self) -> float:
-        """Wall time with at least one batch on the device."""
+        """Wall time with at least one batch (or stream) on the device."""
+        if self.streams is not None:
+            return self.streams.stats.device_s
         return union_length(self.busy)
 
     def _scene(self, job: Any) -> Any:
-        from harness.episode.scene_cache import get_scene
-
-        return get_scene(job.task, self.scenes).scene
+        return scene_for(job.task, self.scenes, self.lock)
 
     def load(self, jobs: list[Any]) -> None:
         """Load (compile) the kernels of each task model among ``jobs``, off the clock."""
@@ -92,7 +94,7 @@ class GpuDevices:
 
     def warm_lanes(self, job: Any) -> None:
         """Compile the lanes' kernels and capture their graph once, off the clock."""
-        from harness.engines.mjwarp_stream import LaneStream
+        from harness.engines.mjwarp.stream import LaneStream
 
         for engine in self.engines:
             batch = engine.batch(self._scene(job), job.task)
@@ -100,62 +102,30 @@ class GpuDevices:
             LaneStream(batch, nlane=1, group=1).run(lambda block, items=items: items.pop(0))
 
     def to_stream(self, index: int, job: Any, lanes: int) -> None:
-        """Hand a planned job to its task model's stream (started at its first job)."""
-        key = batch_key(job)
-        if key not in self.streams:
-            self.streams[key] = self.stream(job, lanes)
-        self.streams[key].put((index, job))
+        """Hand a planned job to the lane streams (the product's ``DeviceStreams``, on this
+        bench's engines), its outcome kept under ``index``."""
+        if self.streams is None:
+            engines = {engine.device: engine for engine in self.engines}
+            self.streams = DeviceStreams(list(engines), lanes, make_engine=engines.__getitem__)
+
+        def answer(outcome: PickOutcome | None, error: str | None) -> None:
+            if outcome is not None:
+                with self.lock:
+                    self.outcomes[index] = outcome
+
+        self.streams.submit(index, job, answer)
 
     def close_streams(self) -> None:
-        """No more jobs: each stream drains and ends."""
-        for jobs in self.streams.values():
-            jobs.put(None)
-
-    def stream(self, job: Any, lanes: int) -> queue.Queue[Any]:
-        """Start a stream of ``lanes`` lanes for ``job``'s task model (on the next slot in
-        turn): the queue to put (index, job) into, and ``None`` when planning is done."""
-        from harness.engines.mjwarp_stream import LaneStream
-
-        jobs: queue.Queue[Any] = queue.Queue()
-        # a stream holds its slot for the whole run: the streams share the slots in turn (one
-        # beyond the pool's threads starts when an earlier stream ends, after planning)
-        engine, slot = self.slot_turns[len(self.streams) % len(self.slot_turns)]
-        batch = engine.batch(self._scene(job), job.task, slot)
-        stream = LaneStream(batch, nlane=lanes)
-        waited = [0.0]
-        closed = [False]
-
-        def source(block: bool) -> list[Any] | None:
-            """What was put since the last call; ``None`` once ``None`` was put."""
-            if closed[0]:
-                return None
-            out: list[Any] = []
-            clock = time.perf_counter()
-            try:
-                item = jobs.get(timeout=0.05) if block else jobs.get_nowait()
-                while item is not None:
-                    out.append(item)
-                    item = jobs.get_nowait()
-                closed[0] = True
-                return out or None
-            except queue.Empty:
-                return out
-            finally:
-                if block:
-                    waited[0] += time.perf_counter() - clock
-
-        def run() -> None:
-            clock = time.perf_counter()
-            outcomes = stream.run(source)
-            end = time.perf_counter()
-            with self.lock:
-                # device time: the stream's wall time less its waits for planned jobs
-                self.busy.append((clock, end - waited[0]))
-                self.outcomes.update({int(k): v for k, v in outcomes.items()})  # type: ignore[arg-type]
-                self._add(stream.timings, lanes)
-
-        self.pending.append(self.threads.submit(run))
-        return jobs
+        """No more jobs: the streams drain and end; their timings are counted in."""
+        if self.streams is None:
+            return
+        self.streams.close()
+        stats = self.streams.stats
+        if stats.errors:
+            raise RuntimeError(f"lane streams failed: {stats.errors[0]}")
+        if stats.timings is not None:
+            self._add(stats.timings, stats.lanes)
+        self.counts["batches"] = stats.streams
 
     def step(self, indices: list[int], jobs: list[Any]) -> None:
         """Queue one batch of worlds; its outcomes are kept under the episodes' indices."""
@@ -186,7 +156,7 @@ class GpuDevices:
             self._add(timings, len(jobs))
 
     def _add(self, timings: Any, worlds: int) -> None:
-        """Count a batch's (or a stream's) timings in; holding ``self.lock``."""
+        """Count a batch's (or the streams') timings in."""
         for key in self.totals:
             self.totals[key] += getattr(timings, key)
         for key in ("world_steps", "motion_steps", "span_steps"):

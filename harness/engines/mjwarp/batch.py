@@ -1,14 +1,14 @@
 """Many execution jobs of one task model stepped in lockstep on MuJoCo Warp.
 
-One ``mjw.Model`` per task model (``DeviceModel``), one ``mjw.Data`` of ``len(jobs)`` worlds per
-batch. Each world starts from its job's reset state (qpos, qvel, mocap pose, warm start), runs the
-reference's warm-up steps with the home controls, then its control schedule
-(``harness.engines.schedule``): the schedule lives on the device as (world, chunk row, actuator)
+One ``mjw.Model`` per task model (``model.DeviceModel``), one ``mjw.Data`` of ``len(jobs)``
+worlds per batch. Each world starts from its job's reset state (qpos, qvel, mocap pose, warm
+start), runs the reference's warm-up steps with the home controls, then its control schedule
+(``schedule``): the schedule lives on the device as (world, chunk row, actuator)
 and a device step counter indexes it inside the captured CUDA graph of one control step (setting
 the controls, the physics steps of each servo chunk, recording the signals, saving the validity
 window's states); the host replays that graph once per control step. Worlds whose schedule ended
 hold their last controls. The validity phase's tug runs in rounds of rung batches
-(``harness.engines.tug_rounds``): each rung is a world started from its episode's state at the
+(``harness.engines.mjwarp.tug``): each rung is a world started from its episode's state at the
 end of the hold with its pull in ``xfrc_applied``; round 1 runs every tugged episode's six
 directions at the top level, each later round the rungs its ladder still asks for. On Warp's
 CPU device the same functions run without capture.
@@ -24,31 +24,28 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
-from harness.config import TaskConfig
-from harness.engines import mjwarp_kernels as kernels
-from harness.engines import mjwarp_steps as steps
-from harness.engines.device_slot import DeviceSlot
-from harness.engines.judge import held_in_tcp, judge_started, needs_tug, rung_outcome
-from harness.engines.mjwarp_motion import MotionRun
-from harness.engines.mjwarp_steps import LARGE, SMALL, BatchTimings, Buffers
-from harness.engines.retirement import MIN_WORLDS, RETIRE, segments
-from harness.engines.schedule import DeviceJob
-from harness.engines.signals import (
+from harness.engines.mjwarp import kernels, steps
+from harness.engines.mjwarp.judge import held_in_tcp, judge_started, needs_tug, rung_outcome
+from harness.engines.mjwarp.model import DeviceModel
+from harness.engines.mjwarp.motion import MotionRun
+from harness.engines.mjwarp.retirement import MIN_WORLDS, RETIRE, segments
+from harness.engines.mjwarp.schedule import DeviceJob
+from harness.engines.mjwarp.signals import (
     SIGNALS,
     HoldWindow,
     hold_window,
     window_steps,
 )
-from harness.engines.tug_rounds import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
+from harness.engines.mjwarp.slot import DeviceSlot
+from harness.engines.mjwarp.steps import LARGE, SMALL, BatchTimings, Buffers
+from harness.engines.mjwarp.tug import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
 from harness.pick.outcome import PickOutcome
-from harness.pick.penetration import TablePenetration
 from harness.pick.validity import (
     TUG_DIRECTIONS,
     RungOutcome,
     tug_rung_steps,
     validity_enabled,
 )
-from harness.sim import Scene
 
 # The most rung-worlds stepped at once: a round of a large batch (six rungs per tugged world:
 # ~98,000 worlds for a batch of 16,384) runs in parts of at most this many, so that its device
@@ -56,76 +53,6 @@ from harness.sim import Scene
 # first round of an 8,192-world batch (~46,000 rung-worlds) ran in one part on an H100 80GB
 # with a 25 GB high-water mark.
 MAX_RUNG_WORLDS = 32_768
-
-
-class DeviceModel:
-    """A task model on a Warp device, with the constant inputs of the signal kernels."""
-
-    def __init__(self, scene: Scene, task: TaskConfig, device: str) -> None:
-        m = scene.model
-        self.mj_model = m
-        self.template = scene.data
-        self.device = device
-        handles = scene.arms[task.arm]
-        obj = scene.objects[task.target_object.name]
-        with wp.ScopedDevice(device):
-            self.model = mjw.put_model(m)
-            self.robot_dof = wp.array(scene.robot_dof.astype(np.int32), dtype=wp.int32)
-            self.finger_side = wp.array(handles.finger_geom_side.astype(np.int32), dtype=wp.int32)
-            geom_object = scene.geom_object == scene.object_names.index(obj.name)
-            self.object_geom = wp.array(geom_object.astype(np.int32), dtype=wp.int32)
-            pen = TablePenetration(scene)
-            self.pen_geom = wp.array(pen.geoms.astype(np.int32), dtype=wp.int32)
-            self.pen_box = wp.array(pen.box_half.astype(np.float32), dtype=wp.vec3)
-            self.pen_radial = wp.array(pen.radial.astype(np.float32), dtype=wp.float32)
-            self.pen_round = wp.array(pen.round.astype(np.float32), dtype=wp.float32)
-            self.pen_offset = wp.array(pen.offset.astype(np.float32), dtype=wp.vec3)
-        # The table geom sits in the world body: its model pose is its world pose (an unrotated
-        # box: its face normals are the world axes).
-        self.table = wp.vec3(*(float(v) for v in m.geom_pos[pen.table]))
-        self.table_half = wp.vec3(*(float(v) for v in m.geom_size[pen.table]))
-        self.pen_count = len(pen.geoms)
-        self.obj_body = int(obj.body_id)
-        self.obj_dof = int(obj.dof_adr)
-        self.ee_body = int(handles.ee_body)
-        self.tcp_body = int(handles.tcp_body)
-        self.weight = float(m.body_subtreemass[obj.body_id]) * float(np.linalg.norm(m.opt.gravity))
-
-    def penetration_start(self, nworld: int) -> wp.array:
-        """Per world and geom, how deep it is in the slab at the start (filled by ``record``
-        with ``baseline``)."""
-        return wp.zeros((nworld, max(1, self.pen_count)), dtype=wp.float32, device=self.device)
-
-    def record(
-        self,
-        d: mjw.Data,
-        row_of: wp.array,
-        out: wp.array,
-        start_out: wp.array,
-        pen_initial: wp.array,
-        world_of: wp.array,
-    ) -> None:
-        """Launch the signal kernels for the current state: each world ``w`` of ``d`` whose
-        ``row_of[w]`` is a row writes ``out[world_of[w], row]``; one whose row is
-        ``kernels.BASELINE`` writes ``start_out[world_of[w], 0]``, the start the table
-        penetration is counted from (``TablePenetration.depth``'s first call; its penetration
-        is 0); ``kernels.NO_ROW``: nothing."""
-        wp.launch(
-            kernels.record, dim=d.nworld,
-            inputs=[
-                d.qpos, d.qvel, d.xpos, d.xmat, d.geom_xpos, d.geom_xmat, self.robot_dof,
-                self.obj_body, self.obj_dof, self.ee_body, self.tcp_body, self.pen_geom,
-                self.pen_box, self.pen_radial, self.pen_round, self.pen_offset, self.table,
-                self.table_half, pen_initial, row_of, world_of, out, start_out,
-            ],
-        )  # fmt: skip
-        wp.launch(
-            kernels.finger_forces, dim=d.naconmax,
-            inputs=[
-                d.nacon, d.contact.geom, d.contact.worldid, d.contact.efc_address, d.efc.force,
-                self.finger_side, self.object_geom, row_of, world_of, out, start_out,
-            ],
-        )  # fmt: skip
 
 
 class WorldBatch:

@@ -5,7 +5,7 @@ chunk (where the CPU executor reads its inputs): the finger normal forces on the
 the object's position and linear velocity, the robot's largest joint speed, the deepest robot
 robot geom's depth inside the table slab beyond its depth at the start (the measure of
 ``harness.pick.penetration``, bounded on the device by the slab's separating axes:
-``mjwarp_kernels.slab_depth``), the largest |qvel| and a non-finite flag (the instability
+``kernels.slab_depth``), the largest |qvel| and a non-finite flag (the instability
 test), the end-effector and TCP poses and the object's orientation.
 """
 
@@ -53,7 +53,7 @@ def window_steps(hold_time: float, control_dt: float) -> int:
 def unstable_reason(row: np.ndarray) -> str | None:
     """The CPU scene's instability test (``Scene.unstable``) on one signal row; MJWarp keeps no
     per-world warning counters, so the bad-acceleration test is not made (the full-buffer test
-    is: ``mjwarp_steps.BufferUse``)."""
+    is: ``steps.BufferUse``)."""
     if row[NONFINITE] > 0 or not np.all(np.isfinite(row)):
         return "NaN in the simulation state"
     if row[MAX_QVEL] > MAX_SANE_SPEED:

@@ -1,4 +1,4 @@
-"""When worlds leave a batch's lockstep motion: its segments (``mjwarp_motion`` steps them).
+"""When worlds leave a batch's lockstep motion: its segments (``motion`` steps them).
 
 Pure arithmetic on the worlds' spans (control steps each must be stepped: its schedule, then
 its validity window), so that the plan is tested without a device.

@@ -4,9 +4,11 @@ One batch alone leaves the GPU idle while the host uploads it, decides its tug r
 it, and leaves the host idle while the GPU steps it. With two slots, one thread per slot, one
 batch's host work overlaps another's physics, and two batches' kernels can run side by side.
 
-Warp keeps one *current* stream per device for every thread, so the slots of a device share a
-lock: a slot's thread holds it while it issues Warp calls (with its own stream made current) and
-lets go of it only while it waits for its stream (``wait``), polling an event every 0.5 ms
+Warp keeps one *current* device, and one current stream per device, for the whole process (not
+per thread), so every slot of every device shares one lock (``HOST_LOCK``): a slot's thread holds
+it while it issues Warp calls (with its own device and stream made current each time it takes
+the lock) and lets go of it only while it waits for its stream (``wait``), polling an event
+every 0.5 ms
 rather than spinning a core in a CUDA synchronize (the driver's default with fewer contexts than
 cores), a core the planning processes beside this one can use. On Warp's CPU device there are
 no streams: the slots take turns.
@@ -22,6 +24,11 @@ from typing import Any
 import warp as wp
 
 POLL_S = 0.0005
+# One lock for the host side of every slot: two threads issuing Warp calls for two devices at
+# once raced on Warp's process-wide current device (an H200 pair: "illegal memory access" on
+# the first streams, 2026-11-27); the devices still step at the same time while their threads
+# wait for their streams.
+HOST_LOCK = threading.Lock()
 
 
 class DeviceSlot:
@@ -29,14 +36,14 @@ class DeviceSlot:
 
     def __init__(self, device: str, lock: Any = None, stream: Any = None) -> None:
         self.device = device
-        self.lock = lock if lock is not None else threading.Lock()
+        self.lock = lock if lock is not None else HOST_LOCK
         self.stream = stream
         self.cuda = wp.get_device(device).is_cuda
 
     @classmethod
     def several(cls, device: str, count: int) -> list[DeviceSlot]:
-        """``count`` slots of ``device`` sharing one lock, each with a stream of its own."""
-        lock = threading.Lock()
+        """``count`` slots of ``device`` sharing the host lock, each with a stream of its own."""
+        lock = HOST_LOCK
         cuda = wp.get_device(device).is_cuda
         return [cls(device, lock, wp.Stream(device) if cuda else None) for _ in range(count)]
 
@@ -54,6 +61,7 @@ class DeviceSlot:
         self.lock.release()
 
     def _make_current(self) -> None:
+        wp.set_device(self.device)
         if self.stream is not None:
             wp.set_stream(self.stream, self.device)
 

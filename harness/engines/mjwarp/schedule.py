@@ -93,7 +93,7 @@ class _ScheduleExecutor(PickExecutor):
         return super()._object_speed() if not self.lean else 0.0
 
     def judge(self, terms: tuple[VerdictTerm, ...]) -> bool:
-        return False  # verdicts are taken on the engine's signals (harness.engines.judge)
+        return False  # verdicts are taken on the engine's signals (harness.engines.mjwarp.judge)
 
     def _measure(self) -> tuple[float, float]:
         if self.verdict_step < 0 and self.head >= len(self.commands):  # the list emptied

@@ -2,8 +2,8 @@
 
 Every kernel runs inside the captured CUDA graph of one control step (or eagerly on Warp's CPU
 device), so the control schedule stays on the device and is indexed by a device step counter:
-no host copy per step (``harness.engines.mjwarp_batch``). The signal layout is
-``harness.engines.signals``.
+no host copy per step (``harness.engines.mjwarp.batch``). The signal layout is
+``harness.engines.mjwarp.signals``.
 """
 
 from __future__ import annotations

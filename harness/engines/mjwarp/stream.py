@@ -1,9 +1,11 @@
-"""Jobs streamed through lanes (``mjwarp_lanes``) as they are planned, judged in groups.
+"""Jobs streamed through lanes (``lanes``) as they are planned, judged in groups.
 
 The caller hands jobs over while it plans more (``source``); each free lane takes the next one.
 Between two replays the host collects the jobs whose span ended and judges the previous group
-while the device steps. Finished jobs wait in a group until ``group`` of them (or the end of the
-stream): their tug ladders then run in rounds on the same stream (``WorldBatch.tug``: the rounds
+while the device steps. Finished jobs wait in a group until ``group`` of them, the end of the
+stream, ``GROUP_WAIT_S`` since the group's first, or as many as the lanes still step (so that a
+caller waiting for its outcomes before it plans more is never held back by a group that cannot
+fill): their tug ladders then run in rounds on the same stream (``WorldBatch.tug``: the rounds
 are as large as the group's tugged worlds, the device is busy with them meanwhile), and their
 slots are freed. Jobs whose span exceeds the slots' rows, and jobs whose rows or contacts did
 not fit the buffers, run afterwards as lockstep batches (``WorldBatch``: the large buffers, and
@@ -21,12 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from harness.engines.judge import judge_started
-from harness.engines.mjwarp_batch import LARGE, RungStart, WorldBatch, hold_windows
-from harness.engines.mjwarp_lanes import LaneRun
-from harness.engines.schedule import DeviceJob
-from harness.engines.signals import HoldWindow, window_steps
-from harness.engines.tug_rounds import Rung
+from harness.engines.mjwarp.batch import LARGE, RungStart, WorldBatch, hold_windows
+from harness.engines.mjwarp.judge import judge_started
+from harness.engines.mjwarp.lanes import LaneRun
+from harness.engines.mjwarp.schedule import DeviceJob
+from harness.engines.mjwarp.signals import HoldWindow, window_steps
+from harness.engines.mjwarp.tug import Rung
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import RungOutcome, validity_enabled
 
@@ -38,11 +40,16 @@ LANE_ROWS = 512
 INTERVAL_CONTROL_STEPS = 8
 # Finished jobs per tug group: the first round runs ~6 rung-worlds per tugged job.
 TUG_GROUP = 4096
+# The longest a finished job waits in a group for its tug (s). Chosen, no public source: long
+# against a tug round (~0.2 s of device time), short against an episode's planning on a pool.
+GROUP_WAIT_S = 10.0
 
 # What the caller's source gives: new (key, job) pairs, or None once no more will come. Its
 # argument: whether to wait for a job (the lanes have nothing to do until it answers); it may
 # still answer an empty list (a timeout), and is asked again.
 Source = Callable[[bool], "list[tuple[Hashable, DeviceJob]] | None"]
+# Called with each job's key and outcome as soon as it is judged.
+OnOutcome = Callable[[Hashable, PickOutcome], None]
 
 
 @dataclass
@@ -67,8 +74,15 @@ class _Tugged:
 class LaneStream:
     """One task model's jobs through ``nlane`` lanes on ``batch``'s device, slot and buffers."""
 
-    def __init__(self, batch: WorldBatch, nlane: int, group: int = TUG_GROUP) -> None:
+    def __init__(
+        self,
+        batch: WorldBatch,
+        nlane: int,
+        group: int = TUG_GROUP,
+        on_outcome: OnOutcome | None = None,
+    ) -> None:
         self.batch, self.nlane, self.group = batch, nlane, group
+        self.on_outcome = on_outcome
         self.timings = batch.timings
         self.lanes: LaneRun | None = None
         self.outcomes: dict[Hashable, PickOutcome] = {}
@@ -99,6 +113,7 @@ class LaneStream:
     def _loop(self, source: Source) -> None:
         pending: deque[tuple[Hashable, DeviceJob]] = deque()
         group: list[_Done] = []
+        group_since = 0.0  # when the group's first job finished
         tugged: list[_Tugged] = []  # judged on the host while the device steps
         closed, replay_s = False, 0.0
         while True:
@@ -107,6 +122,9 @@ class LaneStream:
             if not closed:
                 if idle and not pending:
                     self._judge(tugged)  # nothing else to do until the source answers
+                    # jobs too long for a slot or whose buffers overflowed: their callers wait
+                    # for them (a product stream ends only when its run does)
+                    self._finish_lockstep()
                 new = source(idle and not pending)
                 closed = new is None
                 pending.extend(new or [])
@@ -123,9 +141,17 @@ class LaneStream:
                     self.batch.slot.wait()
                     replay_s = time.perf_counter() - clock
                     self.timings.physics_s += replay_s
-                    group += self._collect(lanes)
+                    done = self._collect(lanes)
+                    if done and not group:
+                        group_since = time.perf_counter()
+                    group += done
             drained = closed and not pending and (lanes is None or lanes.busy == 0)
-            if group and (len(group) >= self.group or drained):
+            if group and (
+                len(group) >= self.group
+                or drained
+                or len(group) >= (lanes.busy if lanes is not None else 0)
+                or time.perf_counter() - group_since > GROUP_WAIT_S
+            ):
                 assert lanes is not None
                 tugged.append(self._tug(lanes, group))
                 group = []
@@ -203,28 +229,34 @@ class LaneStream:
                 self._rerun.append((item.key, item.job))
                 continue
             validity = validity_enabled(item.job.task.pick)
-            self.outcomes[item.key] = judge_started(
+            self._done(item.key, judge_started(
                 item.job, item.rows, item.warm, validity, tugged.windows[item.slot],
                 tugged.rungs.get(item.slot),
-            )  # fmt: skip
+            ))  # fmt: skip
         self.timings.judge_s += time.perf_counter() - clock
+
+    def _done(self, key: Hashable, outcome: PickOutcome) -> None:
+        self.outcomes[key] = outcome
+        if self.on_outcome is not None:
+            self.on_outcome(key, outcome)
 
     def _finish_lockstep(self) -> None:
         """The jobs too long for a slot (lockstep on the stream's buffers), and those that did
-        not fit them (lockstep on ``LARGE``, as a lockstep batch reruns its overflowed worlds)."""
-        for items, batch in (
-            (self._lockstep, self.batch),
-            (self._rerun, WorldBatch(self.batch.dm, buffers=LARGE, slot=self.batch.slot)),
-        ):
-            if not items:
-                continue
-            if batch is not self.batch:
-                self.timings.reruns += len(items)
-            outcomes = batch.run_held([job for _, job in items])
+        not fit them (lockstep on ``LARGE``, as a lockstep batch reruns its overflowed worlds);
+        each list is emptied as it runs."""
+        if self._lockstep:
+            items, self._lockstep = self._lockstep, []
+            outcomes = self.batch.run_held([job for _, job in items])
             for (key, _), outcome in zip(items, outcomes, strict=True):
-                self.outcomes[key] = outcome
-            if batch is not self.batch:
-                self._merge(batch)
+                self._done(key, outcome)
+        if self._rerun:
+            items, self._rerun = self._rerun, []
+            large = WorldBatch(self.batch.dm, buffers=LARGE, slot=self.batch.slot)
+            self.timings.reruns += len(items)
+            outcomes = large.run_held([job for _, job in items])
+            for (key, _), outcome in zip(items, outcomes, strict=True):
+                self._done(key, outcome)
+            self._merge(large)
 
     def _merge(self, batch: WorldBatch) -> None:
         for name in ("physics_s", "tug_s", "upload_s", "download_s", "judge_s"):

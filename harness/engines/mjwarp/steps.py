@@ -13,8 +13,8 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
-from harness.engines import mjwarp_kernels as kernels
-from harness.engines.schedule import DeviceJob, ExecutionSchedule
+from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
 
 
 @dataclass(frozen=True)

@@ -18,23 +18,18 @@ on Warp's CPU device).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
-from harness.engines import mjwarp_kernels as kernels
-from harness.engines import mjwarp_steps as steps
-from harness.engines.retirement import Segment
-from harness.engines.schedule import DeviceJob
-from harness.engines.signals import SIGNALS
-
-if TYPE_CHECKING:
-    from collections.abc import Callable
-
-    from harness.engines.mjwarp_batch import DeviceModel
-    from harness.engines.mjwarp_steps import BatchTimings, Buffers
+from harness.engines.mjwarp import kernels, steps
+from harness.engines.mjwarp.model import DeviceModel
+from harness.engines.mjwarp.retirement import Segment
+from harness.engines.mjwarp.schedule import DeviceJob
+from harness.engines.mjwarp.signals import SIGNALS
+from harness.engines.mjwarp.steps import BatchTimings, Buffers
 
 
 class MotionRun:
