@@ -57,8 +57,19 @@ def sensitivity_axes(summary: pd.DataFrame, unknowns: frozenset[str] | None = No
     return [
         column
         for column in param_columns(summary.columns)
-        if _unknown(column.removeprefix(PARAM_PREFIX), names) and summary[column].nunique() > 1
+        if _unknown(column.removeprefix(PARAM_PREFIX), names) and _distinct(summary, column) > 1
     ]
+
+
+def _distinct(frame: pd.DataFrame, column: str) -> int:
+    """How many distinct values ``column`` of ``frame`` takes (NaN not counted)."""
+    return int(pd.Series(frame[column]).nunique())
+
+
+def _varies_within_units(summary: pd.DataFrame, column: str) -> bool:
+    """``column`` takes 2+ values within some robot, arm and object (a swept setting)."""
+    counts = pd.Series(summary.groupby(GROUP_KEY)[column].nunique())
+    return bool((counts > 1).any())
 
 
 def _unknown(key: str, names: frozenset[str]) -> bool:
@@ -98,7 +109,7 @@ def judge(per_value: pd.DataFrame, axis: str, settings: list[str]) -> dict[tuple
     flips = len(best_by_value) > 1
     keys = per_value.groupby(settings, sort=False, dropna=False) if settings else [((), per_value)]
     for key, rows in keys:
-        key_tuple = key if isinstance(key, tuple) else (key,)
+        key_tuple = tuple(key) if isinstance(key, tuple) else (key,)
         if flips:
             labels[key_tuple if settings else ()] = FLIP
             continue
@@ -106,7 +117,11 @@ def judge(per_value: pd.DataFrame, axis: str, settings: list[str]) -> dict[tuple
         for lo, hi in (("wilson_lo", "wilson_hi"), ("valid_ci_low", "valid_ci_high")):
             if lo not in rows:
                 continue
-            spans = [(r[lo], r[hi]) for _, r in rows.iterrows() if r[lo] == r[lo]]
+            spans = [
+                (float(r[lo]), float(r[hi]))
+                for r in rows.to_dict("records")
+                if r[lo] == r[lo]  # NaN: no interval
+            ]
             moved |= any(not _overlap(a, b) for a in spans for b in spans)
         labels[key_tuple if settings else ()] = MOVES if moved else STABLE
     return labels
@@ -123,7 +138,7 @@ def sensitivity_tables(
         settings = [
             c
             for c in param_columns(summary.columns)
-            if c != axis and summary.groupby(GROUP_KEY)[c].nunique().max() > 1
+            if c != axis and _varies_within_units(summary, c)
         ]
         per_value = pooled(summary, [*GROUP_KEY, axis, *settings])
         values = sorted(per_value[axis].dropna().unique().tolist(), key=_order_key)
@@ -136,13 +151,14 @@ def sensitivity_tables(
             "answer",
         ]
         rows: list[list[str]] = []
-        for (robot, arm, obj), group in per_value.groupby(GROUP_KEY, sort=True):
+        for key, group in per_value.groupby(GROUP_KEY, sort=True):
+            robot, arm, obj = tuple(key)  # type: ignore[misc]
             labels = judge(group, axis, settings)
             setting_groups = (
                 group.groupby(settings, sort=True, dropna=False) if settings else [((), group)]
             )
             for key, rows_of_setting in setting_groups:
-                key_tuple = key if isinstance(key, tuple) else (key,)
+                key_tuple = tuple(key) if isinstance(key, tuple) else (key,)
                 cells = []
                 for value in values:
                     at = rows_of_setting[rows_of_setting[axis] == value]
