@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from harness.runs.scheduling import share_groups
-from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, main_module_hidden
+from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
 
 if TYPE_CHECKING:
     from harness.engines.mjwarp.service import DeviceReply, DeviceService
@@ -187,15 +187,7 @@ class DevicePool:
             args=(child, str(self.run_dir), self.record, self.share),
             daemon=True,
         )
-        blocked = hasattr(signal, "pthread_sigmask")  # see executors._ProcessPool.spawn
-        if blocked:
-            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            with main_module_hidden():
-                process.start()
-        finally:
-            if blocked:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        start_worker(process)  # SIGINT blocked while it starts (runs.spawning)
         child.close()
         worker = _Worker(process, parent)
         self.workers.append(worker)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
 from harness.runs.scheduling import share_groups, shared_order
-from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, main_module_hidden
+from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
@@ -122,19 +122,7 @@ class _ProcessPool:
             args=(child, str(self.run_dir), self.record, self.share),
             daemon=True,
         )
-        # Ctrl-C goes to the whole terminal process group. The worker ignores SIGINT once its
-        # main runs, but a signal during its start-up (imports) would kill it and look like a
-        # crash. The child inherits the signal mask across fork + exec, so start it with SIGINT
-        # blocked: only the parent ever sees Ctrl-C, and it stops the workers itself.
-        blocked = hasattr(signal, "pthread_sigmask")
-        if blocked:
-            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            with main_module_hidden():
-                process.start()
-        finally:
-            if blocked:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        start_worker(process)  # SIGINT blocked while it starts: only the parent sees Ctrl-C
         child.close()
         return _Worker(process, parent)
 

@@ -4,9 +4,11 @@ how a worker process starts, how long a busy worker may overrun, how often a cra
 from __future__ import annotations
 
 import contextlib
+import signal
 import sys
 import types
 from collections.abc import Iterator
+from typing import Any
 
 from harness.files import WRITE_TIMEOUT_S
 
@@ -38,3 +40,20 @@ def main_module_hidden() -> Iterator[None]:
     finally:
         if main is not None:
             sys.modules["__main__"] = main
+
+
+def start_worker(process: Any) -> None:
+    """Start a pool's worker ``process`` with SIGINT blocked, and the parent's ``__main__``
+    hidden (``main_module_hidden``). Ctrl-C goes to the whole terminal process group; the
+    worker ignores SIGINT once its main runs, but a signal during its start-up (imports) would
+    kill it and look like a crash. The child inherits the signal mask across fork + exec, so
+    only the parent ever sees Ctrl-C, and it stops the workers itself."""
+    blocked = hasattr(signal, "pthread_sigmask")
+    if blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        with main_module_hidden():
+            process.start()
+    finally:
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
