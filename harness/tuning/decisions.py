@@ -179,8 +179,8 @@ def verdict_line(row: Any) -> str:
             f"{row['rate']:.0%} (95% CI {row['lo']:.2f}-{row['hi']:.2f}) vs {current} = "
             f"{row['current_rate']:.0%} on fresh seeds; gain {row['gain']:+.0%} (95% CI "
             f"{row['gain_lo']:+.2f} to {row['gain_hi']:+.2f}), exact McNemar p = "
-            f"{row['p_holm']:.2g} <= {row['level']:.2g} (look {row['confirmed_at_look']}'s Holm "
-            f"level){flag}"
+            f"{row['p_holm']:.2g} <= {row['level']:.2g} "
+            f"(look {int(row['confirmed_at_look'])}'s Holm level){flag}"
         )
     if row["verdict"] == NO_SETTING_HELPS:
         return (
