@@ -85,7 +85,8 @@ def plan_lines(
         plan, label = unit.race.plan, names[(unit.task, unit.context)]
         head = f"{label['robot']} {label['arm']} {label['object']}: "
         episodes = plan.seeds * len(unit.race.racers)
-        minutes = episodes * options.seconds_each / 60.0
+        seconds = episodes * options.seconds_each
+        took = f"{seconds / 60.0:.0f} minutes" if seconds >= 90 else f"{seconds:.0f} s"
         how = (
             f"--max-seeds {options.max_seeds}"
             if options.max_seeds
@@ -94,9 +95,10 @@ def plan_lines(
         )
         line = (
             f"{head}this race needs ~{plan.seeds} seeds per contender ({how}; "
-            f"{plan.looks} looks of {plan.block}): ~{minutes:.0f} minutes on this engine "
-            f"({len(unit.race.racers)} racers, {options.seconds_each:.2f} s per screening "
-            "episode; less where racers share a seed's execution)"
+            f"{plan.looks} looks of {plan.block}): ~{took} on this engine "
+            f"({len(unit.race.racers)} racers at the screening's {options.seconds_each:.2f} s "
+            "per episode; the screening shares each seed across many settings, the race across "
+            "a few, so its episodes can cost more)"
         )
         cap = seeds_allowed(budget, racers, options.seconds_each)
         if cap is not None and cap < plan.seeds:
