@@ -65,12 +65,17 @@ def check_input(path: str | Path, max_bytes: int | None, what: str = "file") -> 
     not a regular file, over ``max_bytes``, a symlink loop or unreadable."""
     try:
         return check_regular(path, max_bytes)
-    except FileNotFoundError:
-        raise InputFileError(path, f"{what} not found") from None
-    except RefusedFileError as exc:
-        raise InputFileError(path, f"{what} {exc}") from None
     except OSError as exc:
-        raise InputFileError(path, f"cannot read {what}: {_reason(exc)}") from None
+        raise _input_error(path, what, exc) from None
+
+
+def _input_error(path: str | Path, what: str, exc: OSError) -> InputFileError:
+    """The one-line input error for ``exc`` met opening ``path`` (missing, refused, other)."""
+    if isinstance(exc, FileNotFoundError):
+        return InputFileError(path, f"{what} not found")
+    if isinstance(exc, RefusedFileError):
+        return InputFileError(path, f"{what} {exc}")
+    return InputFileError(path, f"cannot read {what}: {_reason(exc)}")
 
 
 def _reason(exc: OSError) -> str:
@@ -83,12 +88,8 @@ def read_json(path: str | Path, max_bytes: int = MAX_JSON_BYTES, what: str = "JS
     """The parsed JSON of ``path`` (regular, capped); garbage is an ``InputFileError``."""
     try:
         data = read_capped(path, max_bytes)
-    except FileNotFoundError:
-        raise InputFileError(path, f"{what} not found") from None
-    except RefusedFileError as exc:
-        raise InputFileError(path, f"{what} {exc}") from None
     except OSError as exc:
-        raise InputFileError(path, f"cannot read {what}: {_reason(exc)}") from None
+        raise _input_error(path, what, exc) from None
     try:
         return json.loads(data.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:

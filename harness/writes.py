@@ -135,13 +135,9 @@ def write_file(path: str | Path, data: bytes | str, root: Path | None = None) ->
     """Write ``data`` to ``path`` whole (temp + fsync + rename) under the rule above."""
     path = Path(path)
     payload = data.encode("utf-8") if isinstance(data, str) else data
-    check_target(path)
-    output_dir(path.parent, root)
-    try:
-        tmp, fd = _temp_path(path, "")
-    except OSError as exc:
-        raise named_error(exc, path) from None
-    try:
+    tmp, fd = _start(path, "", root)
+
+    def write() -> None:
         with os.fdopen(fd, "wb") as handle:
             injected = os.environ.get(DISK_FULL_ENV)
             if injected and injected in path.name:
@@ -151,14 +147,8 @@ def write_file(path: str | Path, data: bytes | str, root: Path | None = None) ->
             handle.write(payload)
             handle.flush()
             os.fsync(handle.fileno())
-        _replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise named_error(exc, path) from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+
+    return _commit(tmp, path, write)
 
 
 def write_through(
@@ -168,15 +158,26 @@ def write_through(
     ffmpeg), then the rename under the rule above. ``tmp`` keeps ``path``'s suffix (writers
     pick their format from it) and is a regular file this process created."""
     path = Path(path)
+    tmp, fd = _start(path, path.suffix, root)
+    os.close(fd)
+    return _commit(tmp, path, lambda: write(tmp))
+
+
+def _start(path: Path, suffix: str, root: Path | None) -> tuple[Path, int]:
+    """Check ``path`` under the rule, make its folder, and create its temp file (an open fd)."""
     check_target(path)
     output_dir(path.parent, root)
     try:
-        tmp, fd = _temp_path(path, path.suffix)
-        os.close(fd)
+        return _temp_path(path, suffix)
     except OSError as exc:
         raise named_error(exc, path) from None
+
+
+def _commit(tmp: Path, path: Path, write: Callable[[], object]) -> Path:
+    """``write()`` the temp file, then rename it over ``path``; on any failure the temp file
+    is removed, and an ``OSError`` is raised naming ``path``."""
     try:
-        write(tmp)
+        write()
         _replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
