@@ -39,6 +39,10 @@ POWER = 0.8
 MAX_SEEDS = 20_000  # the largest race a plan proposes (chosen: ~1 GPU hour per contender)
 MAX_LOOKS = 50  # a plan's looks at most; a longer plan looks every seeds / 50 (chosen: the levels
 # of 50 looks are within a few percent of continuous monitoring's; more looks only cost alpha)
+DEVICE_MAX_LOOKS = 8  # looks at most on a GPU engine (chosen: every look is a round of the tune,
+# and a round costs at least one episode span of device latency, ~10-15 s, however few seeds it
+# holds; 50 looks of a 1,000-seed race would spend ~10 minutes waiting on latency alone. Fewer
+# looks spend alpha less often, so the same power needs no more seeds)
 SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
@@ -50,9 +54,9 @@ def _pdf(z: np.ndarray) -> np.ndarray:
     return np.exp(-0.5 * z * z) / SQRT_2PI
 
 
-def plan_block(seeds: int, block: int) -> int:
-    """The look spacing of a plan: ``block``, or ``seeds / MAX_LOOKS`` rounded up when larger."""
-    return max(block, math.ceil(seeds / MAX_LOOKS))
+def plan_block(seeds: int, block: int, max_looks: int = MAX_LOOKS) -> int:
+    """The look spacing of a plan: ``block``, or ``seeds / max_looks`` rounded up when larger."""
+    return max(block, math.ceil(seeds / max_looks))
 
 
 def spent(t: float, alpha: float) -> float:
@@ -166,15 +170,21 @@ def power(
 
 @functools.lru_cache(maxsize=512)
 def seeds_for_power(
-    gain: float, discordance: float, block: int, alpha: float, target: float = POWER
+    gain: float,
+    discordance: float,
+    block: int,
+    alpha: float,
+    target: float = POWER,
+    max_looks: int = MAX_LOOKS,
 ) -> int:
-    """The smallest plan (a multiple of ``block``, looks every :func:`plan_block`) whose race has
-    ``target`` power for ``gain`` (``MAX_SEEDS`` rounded up to a block when even that is not
-    enough)."""
+    """The smallest plan (a multiple of ``block``, looks every :func:`plan_block` at most
+    ``max_looks`` times) whose race has ``target`` power for ``gain`` (``MAX_SEEDS`` rounded up
+    to a block when even that is not enough)."""
 
     def enough(blocks: int) -> bool:
         seeds = blocks * block
-        return power(seeds, plan_block(seeds, block), alpha, gain, discordance) >= target
+        spacing = plan_block(seeds, block, max_looks)
+        return power(seeds, spacing, alpha, gain, discordance) >= target
 
     top = math.ceil(MAX_SEEDS / block)
     if not enough(top):
