@@ -49,6 +49,7 @@ import mujoco
 from harness.episode.candidate_cache import CandidateCache, evaluation_key
 from harness.episode.evaluation import SeedEvaluation
 from harness.episode.execution import execute_chosen
+from harness.episode.handover import run_handover
 from harness.episode.planning import candidates, feasibility
 from harness.episode.records import EndColumns, RowRecord, WallTimeColumns, merge_records
 from harness.episode.result import EpisodeResult
@@ -160,6 +161,9 @@ def _run(
     what ``evaluation`` already knows, adds what it computes, and appends its row records."""
     if spec.task.not_runnable:
         raise EpisodeStopError("not_runnable", spec.task.not_runnable)
+    if spec.task.handover is not None:  # a handover's second pick: its phases share no cache
+        run_handover(spec, scene_cache, result, records)
+        return
     setup = reset(spec, scene_cache, result, evaluation, records)
     try:
         planning = candidates(setup)
