@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from helpers import HANDOVER_GOTO, write_handover_file
 
+from harness.config import PickConfig
 from harness.config.errors import ConfigError
 from harness.config.handover import GotoPoseConfig
 from harness.episode.handover import first_pick_task
@@ -18,9 +19,9 @@ from harness.episode.pipeline import run_episode
 from harness.episode.spec import EpisodeSpec
 from harness.interndata import load_interndata_tasks
 from harness.interndata.dependencies import Prelude, SkillRef, handover_prelude
+from harness.pick.executor_validity import judged_validity
 from harness.pick.goto_pose import CUROBO_BATCH_SIZE, goto_reached, goto_targets
-from harness.pick.outcome import ValidityMeasure, ValidityResult
-from harness.pick.release import FIRST_GRIPPER_CONTACT, released_validity
+from harness.pick.outcome import ValidityMeasure
 from harness.transforms import invert_T
 
 BOTTLE = "objects/recyclable_garbage/bottle_0/Aligned_obj.usd"
@@ -93,13 +94,22 @@ def test_goto_success_is_position_or_orientation() -> None:
 
 
 def test_a_valid_grasp_the_open_first_gripper_still_touches_is_no_handover() -> None:
-    valid = ValidityResult(True, "", "", ValidityMeasure())
-    assert released_validity(valid, (0.0, 0.0)) is valid
-    touched = released_validity(valid, (0.0, 1.5))
-    assert not touched.valid and touched.invalid_reason == FIRST_GRIPPER_CONTACT
+    """The validity term ``first_gripper_contact``: after the release the opened first
+    gripper carries no force on the object; NaN (no handover) passes."""
+    pick = PickConfig(lift_th=0.02)
+    held = ValidityMeasure(
+        ran=True, table_penetration_m=0.0, lift_height_m=0.1, closing_forces=(30.0, 30.0),
+        finger_forces=(30.0, 30.0), hold_slip_m=0.001, hold_rotation_rad=0.01, robustness_g=4.0,
+    )  # fmt: skip
+    assert judged_validity(pick, held).valid  # any other pick: NaN
+    held.first_gripper_force_n = 0.0
+    assert judged_validity(pick, held).valid
+    held.first_gripper_force_n = 1.5
+    touched = judged_validity(pick, held)
+    assert not touched.valid and touched.invalid_reason == "first_gripper_contact"
     assert "1.50 N" in touched.message
-    invalid = ValidityResult(False, "slipped_in_hold", "m", ValidityMeasure())
-    assert released_validity(invalid, (2.0, 2.0)) is invalid
+    held.hold_slip_m = 0.05  # an earlier cause wins
+    assert judged_validity(pick, held).invalid_reason == "slipped_in_hold"
 
 
 def test_goto_keys_are_checked() -> None:

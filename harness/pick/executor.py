@@ -29,11 +29,11 @@ from harness.pick.commands import (
     pose_reached,
     target_moved,
 )
-from harness.pick.executor_validity import run_validity_phase
+from harness.pick.executor_validity import judged_validity, run_validity_phase
 from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
 from harness.pick.recorder import TraceRecorder
-from harness.pick.release import RELEASE_STEPS, release_gripper, released_validity
+from harness.pick.release import RELEASE_STEPS, release_gripper
 from harness.pick.semantics import Semantics
 from harness.pick.servo import SERVO_CHUNK_S, ServoTiming
 from harness.pick.targets import PickTargets
@@ -353,8 +353,10 @@ class PickExecutor:
                 released = release_gripper(self, self.release_arm)
             run_validity_phase(self, verdict_reached=done)
             if released is not None and out.validity is not None:
-                out.validity = released_validity(out.validity, released)
                 out.first_gripper_force_n = max(released)
+                measure = out.validity.measure
+                measure.first_gripper_force_n = out.first_gripper_force_n
+                out.validity = judged_validity(self.pick, measure)  # with the release's term
                 out.sim_steps = kept_steps  # the list's steps, as for any pick
             out.validity_time_s = time.perf_counter() - clock
         if self.recorder is not None:

@@ -6,24 +6,20 @@ tasks/long_horizon/split_aloha/handover/lr/bowl.yaml 196-206; gripper_action.py:
 command held for ``wait_steps`` control steps, default 10). The second pick's validity phase
 (``harness.pick.validity``) runs after this release, so its hold and tug judge the second
 gripper alone; the opened first gripper must then carry no force on the object
-(``first_gripper_contact`` otherwise, chosen: an open hand still under the object is a
-support, not a handover).
+(the validity term ``first_gripper_contact``, harness.pick.terms; chosen: an open hand still
+under the object is a support, not a handover).
 """
 
 from __future__ import annotations
 
 from typing import Protocol
 
-import numpy as np
-
-from harness.pick.outcome import ValidityResult
 from harness.pick.servo import ServoTiming
 from harness.sim import Scene
 
 # gripper_action.py simple_generate_manip_cmds: the command repeated wait_steps (default 10)
 # times; each pops on reaching its pose, so the opening takes at least that many steps.
 RELEASE_STEPS = 10
-FIRST_GRIPPER_CONTACT = "first_gripper_contact"
 
 
 class ReleaseHost(Protocol):
@@ -58,17 +54,3 @@ def release_gripper(executor: ReleaseHost, arm: str) -> tuple[float, float]:
     forces = scene.finger_forces(arm, executor.object_name)
     executor.event(f"handover: {arm} fingers on the object {forces[0]:.2f} / {forces[1]:.2f} N")
     return forces
-
-
-def released_validity(
-    validity: ValidityResult, first_forces: tuple[float, float]
-) -> ValidityResult:
-    """The second pick's validity with the release's term: a valid grasp whose object the
-    opened first gripper still touches is not a handover."""
-    if not validity.valid or float(np.max(first_forces)) <= 0.0:
-        return validity
-    message = (
-        f"the opened first gripper still presses on the object ({first_forces[0]:.2f} / "
-        f"{first_forces[1]:.2f} N) after the release"
-    )
-    return ValidityResult(False, FIRST_GRIPPER_CONTACT, message, validity.measure)
