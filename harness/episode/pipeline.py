@@ -33,6 +33,10 @@ The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint
 trajectories, TCP poses, gripper width, finger forces, phases and events, every candidate with
 its verdict, and the planned and executed TCP paths.
 
+A handover's second pick (``TaskConfig.handover``) runs its phases instead
+(``harness.episode.handover``: the first pick and goto, then this pick from mid-air), on the
+same stages, without the candidate cache.
+
 Scenes are cached per worker in ``scene_cache`` (any dict), keyed by (robot, objects, physics):
 an episode on a cached scene only resets arrays.
 """
