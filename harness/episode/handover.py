@@ -17,7 +17,11 @@ when its commands are generated).
    validity phase (its tug would shake the object the second pick takes);
 2. ``goto_pose``: the reference's goto targets (``harness.pick.goto_pose``) tested in order with
    the planner of the first arm (object attached, ``carry`` phase), the first feasible one
-   executed with the gripper closed; then the reference's success (within 5 mm or 0.087 rad);
+   executed with the gripper closed, then the reference's idle wait. Its own success test
+   (within 5 mm or 0.087 rad, goto_pose.py 264-272) is measured (``goto_error_mm``,
+   ``goto_error_rad``), not judged: a failed goto only clears the reference's episode success,
+   its second pick still runs (simbox_dual_workflow.py 410-412), and the row is that pick's
+   verdict;
 3. the second pick on the normal path from the scene as phases 1-2 left it: candidates from the
    object's current pose in the second arm's base frame, filtered, ordered, tested and planned
    as any pick, executed and judged by its own block's reference rule (the handover files set
@@ -25,11 +29,12 @@ when its commands are generated).
    the velocities stay under 5, pick.py ``is_success`` 334-351).
 
 A failure in phase 1 or 2 ends the episode with the usual failure reason and the
-``failure_stage`` prefixed ``first_pick:`` or ``goto_pose:`` (the reference's episode fails
-there too: ``episode_success`` is cleared by the failed skill, or its planning failures stop
-it). A goto that leaves the object out of the first gripper is ``dropped`` at
-``goto_pose:execute`` (chosen: the reference would go on and let the second pick reach for the
-object wherever it fell; that is no handover).
+``failure_stage`` prefixed ``first_pick:`` or ``goto_pose:``. The reference's episode fails
+there too: a plan that cannot be made stops it (``is_feasible``), a failed verdict clears its
+success. (After a failed first-pick verdict the reference would still run the later skills on
+an object that is not held: no handover, so the harness stops there.) A goto that leaves the
+object out of the first gripper is ``dropped`` at ``goto_pose:execute`` (chosen, for the same
+reason: the reference would let the second pick reach for the object wherever it fell).
 
 The valid verdict of the second pick (``harness.pick.release``): the first gripper opens as the
 reference's next phase does, then the usual validity phase (rest, hold, tug ladder) runs with
