@@ -266,7 +266,8 @@ class EpisodeRow:
         default="",
         metadata=_doc(
             "where the episode failed: settle, warmup, filter, feasibility:<stage>, "
-            "plan:<stage>, execute:<command>; '' on success (harness.episode.location)"
+            "plan:<stage>, execute:<command>; a handover's earlier phases prefix theirs with "
+            "first_pick: or goto_pose:; '' on success (harness.episode.location)"
         ),
     )
     collision_a: str = field(
@@ -285,6 +286,25 @@ class EpisodeRow:
     ik_residual_mm: float = field(
         default=math.nan,
         metadata=_doc("an unreachable target's best IK position residual (mm); NaN otherwise"),
+    )
+    # A handover's second pick (harness.episode.handover); NaN for every other pick
+    goto_error_mm: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "handover: the first arm's end-effector distance from its goto goal after the goto "
+            "(mm; the reference's goto passes within 5 mm or 0.087 rad)"
+        ),
+    )
+    goto_error_rad: float = field(
+        default=math.nan,
+        metadata=_doc("handover: the same end effector's angle from the goto goal (rad)"),
+    )
+    first_gripper_force_n: float = field(
+        default=math.nan,
+        metadata=_doc(
+            "handover: the larger finger force of the opened first gripper on the object after "
+            "the release (N; valid needs 0, harness.pick.release)"
+        ),
     )
     harness_version: str = field(metadata=_doc("pick-harness version"))
     mujoco_version: str = field(metadata=_doc("MuJoCo version"))

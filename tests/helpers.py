@@ -292,3 +292,74 @@ def same_fields(a: object, b: object) -> bool:
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
     return a == b
+
+
+# The reference's Split ALOHA handover (InternDataEngine c4fa389,
+# workflows/simbox/core/configs/tasks/long_horizon/split_aloha/handover/lr/bowl.yaml): its robot
+# and pick-object regions (67-98), the left pick (158-168), the left goto__pose (170-181) and
+# the right pick (185-195). The task after them (grippers, place) does not change these picks.
+HANDOVER_ROBOT_REGION = [[0.0, -0.86, -0.74], [0.0, -0.86, -0.74]]
+HANDOVER_OBJECT_REGION = [[-0.5, -0.2, 0.0], [-0.1, 0.2, 0.0]]
+HANDOVER_FIRST_PICK: dict[str, Any] = {
+    "name": "pick",
+    "filter_y_dir": ["forward", 90],
+    "filter_z_dir": ["downward", 160],
+    "t_eps": 0.01,
+    "o_eps": 1,
+    "close_wait_steps": 10,
+    "post_grasp_offset_min": 0.1,
+    "post_grasp_offset_max": 0.1,
+    "constraints": ["y", 0.2, 0.3],
+}
+HANDOVER_GOTO: dict[str, Any] = {
+    "name": "goto__pose",
+    "position_constraint": "object",
+    "gripper_state": -1,
+    "position": [0.3, -0.25, 0.1],
+    "align_obj_axis": [0, 1, 0],
+    "align_ref_axis": [0, 0, 1],
+    "align_obj_tol": 30,
+    "filter_x_dir": ["forward", 70],
+    "max_noise_m": 0.05,
+    "max_noise_deg": 5,
+    "interp_nums": 1,
+}
+HANDOVER_SECOND_PICK: dict[str, Any] = {
+    "name": "pick",
+    "filter_y_dir": ["upward", 40],
+    "filter_x_dir": ["backward", 110],
+    "pre_grasp_offset": 0.1,
+    "close_wait_steps": 10,
+    "t_eps": 0.01,
+    "o_eps": 1,
+    "post_grasp_offset_min": 0.0,
+    "post_grasp_offset_max": 0.0,
+    "constraints": ["y", 0.65, 0.9],
+}
+
+
+def write_handover_file(examples: Path, folder: Path) -> Path:
+    """The example Split ALOHA single-pick file turned into the reference's handover: its
+    regions, and the skills left pick, left goto__pose, then right pick of the same object."""
+    source = examples / "tasks" / "split_aloha_left_single_pick_banana.yaml"
+    data = yaml.safe_load(source.read_text(encoding="utf-8"))
+    task = data["tasks"][0]
+    task.pop("distractors", None)
+    for region in task["regions"]:
+        is_robot = region["object"] == "split_aloha"
+        region["random_config"]["pos_range"] = (
+            HANDOVER_ROBOT_REGION if is_robot else HANDOVER_OBJECT_REGION
+        )
+        region["random_config"]["yaw_rotation"] = [0.0, 0.0]
+    target = {"objects": ["pick_object_left"]}
+    task["skills"] = [
+        {
+            "split_aloha": [
+                {"left": [HANDOVER_FIRST_PICK | target, HANDOVER_GOTO | target]},
+                {"right": [HANDOVER_SECOND_PICK | target]},
+            ]
+        }
+    ]
+    path = folder / "split_aloha_handover.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return path

@@ -220,35 +220,38 @@ def test_preflight_accepts_beside_the_table_and_refuses_only_wholly_inside(
 # Item 7: a pick that depends on earlier skills
 
 
-def _handover(examples_dir: Path, tmp_path: Path) -> Path:
-    """The Split ALOHA file turned into a handover: the left arm picks the object, then the
-    right arm picks the same object (from the left gripper, in the reference)."""
+def _pick_after_place(examples_dir: Path, tmp_path: Path) -> Path:
+    """The Split ALOHA file with a pick that depends on earlier skills and is no handover: the
+    left arm picks the object and places it, then the right arm picks it from where it lies.
+    (A handover -- the left pick, optionally its goto__pose, then the right pick -- runs:
+    tests/test_handover.py.)"""
     source = examples_dir / "tasks/split_aloha_left_single_pick_banana.yaml"
     data = yaml.safe_load(source.read_text(encoding="utf-8"))
     stage = data["tasks"][0]["skills"][0]["split_aloha"]
     pick = stage[0]["left"][0]
     right = copy.deepcopy(pick)
     right.pop("filter_y_dir", None)
-    stage[0]["left"].append({"name": "goto_pose", "objects": []})
+    stage[0]["left"].append({"name": "place", "objects": ["pick_object_left"]})
     stage.append({"right": [right]})
-    path = tmp_path / "handover.yaml"
+    path = tmp_path / "pick_after_place.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
 
 
-def test_a_handovers_second_pick_is_not_runnable_and_in_no_rate(
+def test_a_pick_after_a_place_is_not_runnable_and_in_no_rate(
     examples_dir: Path, tmp_path: Path
 ) -> None:
     subs = {"pick_object_left": _substitutes(examples_dir)["pick_object_right"]}
     first, second = load_interndata_tasks(
-        _handover(examples_dir, tmp_path), asset_root=None, objects=subs
+        _pick_after_place(examples_dir, tmp_path), asset_root=None, objects=subs
     )
     assert first.task.not_runnable is None
+    assert second.task.handover is None
     reason = second.task.not_runnable
     assert reason is not None
     assert reason.startswith(
         "tasks[0].skills[0].split_aloha[1].right[0] picks 'pick_object_left', which "
-        "tasks[0].skills[0].split_aloha[0].left[0] (pick, split_aloha left arm) handles before it"
+        "tasks[0].skills[0].split_aloha[0].left[1] (place, split_aloha left arm) handles before it"
     )
     assert any(reason in note for note in second.skipped)
     rows = []

@@ -8,6 +8,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from harness.config.errors import KeyedValueError
+from harness.config.handover import HandoverPrelude
 from harness.config.messages import suggest
 from harness.config.pick import PickConfig
 from harness.config.values import FiniteFloat, StrictModel, Vec3
@@ -217,6 +218,12 @@ class TaskConfig(StrictModel):
         description="Why this pick cannot run on its own: set by the InternData mapper for a "
         "pick whose object an earlier skill of the file handles (a handover's second pick "
         "takes it from the other gripper). Its episodes are 'not_runnable' rows, in no rate.",
+    )
+    handover: HandoverPrelude | None = Field(
+        default=None,
+        description="A handover's second pick: the other arm's pick and goto__pose run first "
+        "in the same episode, and this pick takes the object from that gripper in mid-air "
+        "(harness.episode.handover; set by the InternData mapper).",
     )
 
     @model_validator(mode="before")

@@ -39,6 +39,9 @@ class ExecutionJob:
     warmup_steps: int
     record: bool = True
     log_ctrl: bool = False
+    # A handover's second pick: the arm whose gripper opens before the validity phase
+    # (harness.pick.release); None for every other pick.
+    release_arm: str | None = None
 
 
 @dataclass

@@ -20,6 +20,7 @@ class MujocoEngine:
         executor = PickExecutor(
             scene, job.task, job.targets, job.object_init_position, job.lift_offset,
             job.checker, record=job.record, log_ctrl=job.log_ctrl, semantics=job.semantics,
+            release_arm=job.release_arm,
         )  # fmt: skip
         outcome = executor.run()
         ctrl_log = None

@@ -5,6 +5,8 @@
 - ``pipeline``: ``run_episode`` and the row's identity columns (``base_row``);
 - the stages in order: ``setup`` (reset), ``planning`` (candidates, feasibility),
   ``execution`` (the chosen candidate's plan and execution);
+- ``handover``: a handover's second pick, after the first arm's pick and goto in the same
+  scene (``TaskConfig.handover``);
 - ``result``: ``EpisodeResult``; ``trace``: the per-step record for viewers;
 - ``candidate_cache``: the per-worker memory of seed evaluations shared between points;
   ``scene_cache``: the per-worker built scenes, planners and grasp poses.

@@ -12,6 +12,7 @@ seed reuses them as they are.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -23,6 +24,7 @@ from harness.episode.planning import Choice, Planning
 from harness.episode.records import (
     ExecutionColumns,
     MotionColumns,
+    ReleaseColumns,
     RowRecord,
     TableReplayColumns,
 )
@@ -102,6 +104,7 @@ def _execute(
         scene, setup.task, targets, setup.facts.object_init_position,
         planning.poses.lift_offset, setup.planner.checker, setup.semantics, warmup_steps,
         record=True, log_ctrl=setup.spec.log_ctrl,
+        release_arm=setup.task.handover.arm if setup.task.handover is not None else None,
     )  # fmt: skip
     engine = engine_for(setup.spec.engine)
     state = None if setup.task.physics.table_contact else table_verdict.start_state(scene)
@@ -133,7 +136,9 @@ def _execute(
         result.timings["table_replay_s"] = time.perf_counter() - clock
     judged, replayed = table_verdict.physical_verdict(setup.task, outcome.validity, replay)
     validity = validity_columns(execution.validity, outcome.table_penetration_m, judged)
-    measured = (execution_columns, TableReplayColumns(replayed))
+    measured: tuple[RowRecord, ...] = (execution_columns, TableReplayColumns(replayed))
+    if not math.isnan(outcome.first_gripper_force_n):  # a handover's release ran
+        measured = (*measured, ReleaseColumns(outcome.first_gripper_force_n))
     stop = (outcome.failure_reason, outcome.message) if outcome.failure_reason else None
     if stop is None:
         return (*measured, validity), stop

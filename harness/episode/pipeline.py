@@ -33,6 +33,10 @@ The per-step record (``EpisodeResult.trace``) carries what a viewer needs: joint
 trajectories, TCP poses, gripper width, finger forces, phases and events, every candidate with
 its verdict, and the planned and executed TCP paths.
 
+A handover's second pick (``TaskConfig.handover``) runs its phases instead
+(``harness.episode.handover``: the first pick and goto, then this pick from mid-air), on the
+same stages, without the candidate cache.
+
 Scenes are cached per worker in ``scene_cache`` (any dict), keyed by (robot, objects, physics):
 an episode on a cached scene only resets arrays.
 """
@@ -49,6 +53,7 @@ import mujoco
 from harness.episode.candidate_cache import CandidateCache, evaluation_key
 from harness.episode.evaluation import SeedEvaluation
 from harness.episode.execution import execute_chosen
+from harness.episode.handover import run_handover
 from harness.episode.planning import candidates, feasibility
 from harness.episode.records import EndColumns, RowRecord, WallTimeColumns, merge_records
 from harness.episode.result import EpisodeResult
@@ -160,6 +165,9 @@ def _run(
     what ``evaluation`` already knows, adds what it computes, and appends its row records."""
     if spec.task.not_runnable:
         raise EpisodeStopError("not_runnable", spec.task.not_runnable)
+    if spec.task.handover is not None:  # a handover's second pick: its phases share no cache
+        run_handover(spec, scene_cache, result, records)
+        return
     setup = reset(spec, scene_cache, result, evaluation, records)
     try:
         planning = candidates(setup)

@@ -123,6 +123,22 @@ class FailureLocationColumns:
 
 
 @dataclass(frozen=True)
+class GotoColumns:
+    """A handover's goto (``harness.episode.handover``): how far the first arm ended from the
+    goal the reference's goto test judges (within 5 mm or 0.087 rad, goto_pose.py 264-272)."""
+
+    goto_error_mm: float
+    goto_error_rad: float
+
+
+@dataclass(frozen=True)
+class ReleaseColumns:
+    """A handover's release after the second pick (``harness.pick.release``)."""
+
+    first_gripper_force_n: float
+
+
+@dataclass(frozen=True)
 class EndColumns:
     """How the episode ended (the pipeline's own record)."""
 
@@ -151,6 +167,8 @@ ROW_RECORDS: tuple[type, ...] = (
     TableReplayColumns,
     PlacementColumns,
     FailureLocationColumns,
+    GotoColumns,
+    ReleaseColumns,
     EndColumns,
     WallTimeColumns,
 )

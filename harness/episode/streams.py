@@ -34,6 +34,10 @@ CANDIDATE_STREAM = 1
 LIFT_STREAM = 2
 PLANNER_STREAM = 3
 EXECUTION_STREAM = 4
+# A handover's later phases (harness.episode.handover): the goto's draws, and every stream of the
+# second pick, apart from the first pick's (which uses the purposes above).
+GOTO_STREAM = 5
+SECOND_PICK_STREAM = 6
 
 
 @dataclass(frozen=True)
@@ -64,3 +68,17 @@ class EpisodeStreams:
     def execution(self, pose_index: int) -> np.random.Generator:
         """The executed plan of the chosen grasp ``pose_index``."""
         return self._stream(EXECUTION_STREAM, pose_index)
+
+
+@dataclass(frozen=True)
+class HandoverStreams(EpisodeStreams):
+    """The streams of a handover's goto and second pick: the second pick's purposes live under
+    ``SECOND_PICK_STREAM``, so they differ from the first pick's of the same seed."""
+
+    def _stream(self, *key: int) -> np.random.Generator:
+        spawn_key = (SECOND_PICK_STREAM, *key)
+        return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=spawn_key))
+
+    def goto(self) -> np.random.Generator:
+        """The goto's rotations, position noise and planner seeds."""
+        return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=(GOTO_STREAM,)))

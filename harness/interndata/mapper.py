@@ -135,6 +135,8 @@ class TaskMapper(TaskResolver):
             "pick": block,
             "source": self.where.file,
         }
+        if pick.prelude_pick is not None:
+            data["handover"] = self.handover(pick, origin)
         if pick.not_runnable:
             data["not_runnable"] = pick.not_runnable
             self.note(f"not runnable in isolation: {pick.not_runnable}")
@@ -146,6 +148,40 @@ class TaskMapper(TaskResolver):
             return TaskConfig.model_validate(data)
         except ValidationError as exc:
             raise self.translate(exc, origin) from None
+
+    def handover(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
+        """A handover's second pick: the first arm's pick block, home and goto__pose, replayed
+        first in each episode (``TaskConfig.handover``, ``harness.episode.handover``)."""
+        first = pick.prelude_pick
+        assert first is not None
+        first_origin: dict[KeyPath, KeyPath] = {}
+        block = self.pick_block(first, first_origin)
+        origin[("handover", "pick")] = first.path
+        for sub, src in first_origin.items():
+            origin[("handover", *sub)] = src
+        home, std, home_path, std_path = self.home(first.robot, first.arm)
+        origin[("handover", "home")] = home_path
+        origin[("handover", "home_noise_std")] = std_path
+        data: dict[str, Any] = {
+            "arm": first.arm,
+            "home": home,
+            "home_noise_std": std,
+            "pick": block,
+            "first_key": self.key(first.path),
+        }
+        steps = f"{self.key(first.path)} (pick)"
+        if pick.prelude_goto is not None:
+            goto, goto_path = pick.prelude_goto
+            data["goto_pose"] = dict(goto)
+            data["goto_key"] = self.key(goto_path)
+            origin[("handover", "goto_pose")] = goto_path
+            steps += f" and {self.key(goto_path)} (goto__pose)"
+        self.note(
+            f"{self.key(pick.path)} takes the object from the {first.arm} gripper: each episode "
+            f"runs {steps} first, from the same reset, then this pick from the object's pose "
+            "in mid-air (a handover; docs/interndata.md)"
+        )
+        return data
 
     def distractors(self, block: Any, objects: dict[str, ObjectEntry]) -> list[dict[str, Any]]:
         """The ``distractors`` block's rigid objects (``harness.interndata.distractors``)."""

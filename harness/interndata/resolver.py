@@ -17,7 +17,12 @@ from harness.config.errors import ConfigError
 from harness.config.messages import suggest
 from harness.config.yamlio import KeyPath, format_key_path
 from harness.interndata.categories import CATEGORY_ORIENTATIONS
-from harness.interndata.dependencies import SkillRef, not_runnable_reason, skill_target
+from harness.interndata.dependencies import (
+    SkillRef,
+    handover_prelude,
+    not_runnable_reason,
+    skill_target,
+)
 from harness.interndata.errors import Located
 from harness.interndata.keys import REGION_SAMPLER, ROBOT_KEYS_IGNORED, TABLE_NAME
 from harness.interndata.orientations import (
@@ -63,6 +68,10 @@ class PickSkill:
     phase: int
     skill_index: int
     not_runnable: str | None = None  # harness.interndata.dependencies
+    # A handover's second pick: the other arm's pick and its goto__pose (block, path), replayed
+    # first in the same episode (harness.interndata.dependencies.handover_prelude).
+    prelude_pick: PickSkill | None = None
+    prelude_goto: tuple[dict[str, Any], KeyPath] | None = None
 
 
 class TaskResolver:
@@ -345,6 +354,7 @@ class TaskResolver:
         picks: list[PickSkill] = []
         refs: list[SkillRef] = []
         skipped: dict[str, int] = {}
+        blocks: dict[str, tuple[dict[str, Any], KeyPath]] = {}
         for stage, stage_block in enumerate(self.sequence(task["skills"], path, "skills")):
             spath = (*path, stage)
             stage_block = self.mapping(stage_block, spath, "{robot name: [phases]}")
@@ -372,6 +382,7 @@ class TaskResolver:
                             kpath = (*apath, k)
                             skill = self.mapping(skill, kpath, "a skill")
                             name = skill.get("name")
+                            blocks[self.key(kpath)] = (skill, kpath)
                             refs.append(
                                 SkillRef(
                                     *(stage, robot.name, phase, str(arm), k),
@@ -396,8 +407,14 @@ class TaskResolver:
                                 f"skipped {self.key(kpath)}: skill {name!r} (pick-harness runs "
                                 "pick skills only; each pick starts from the initial scene)"
                             )
+        by_key = {self.key(pick.path): pick for pick in picks}
         for pick, ref in zip(picks, [r for r in refs if r.name == "pick"], strict=True):
             pick.not_runnable = not_runnable_reason(ref, refs)
+            prelude = handover_prelude(ref, refs)
+            if prelude is not None:
+                pick.prelude_pick = by_key[prelude.pick.key]
+                if prelude.goto is not None:
+                    pick.prelude_goto = blocks[prelude.goto.key]
         for name, count in skipped.items():
             log.warning(
                 "%s: skipping %d %r skill(s); pick-harness runs pick skills only",

@@ -29,10 +29,11 @@ from harness.pick.commands import (
     pose_reached,
     target_moved,
 )
-from harness.pick.executor_validity import run_validity_phase
+from harness.pick.executor_validity import judged_validity, run_validity_phase
 from harness.pick.outcome import PickOutcome
 from harness.pick.penetration import TablePenetration
 from harness.pick.recorder import TraceRecorder
+from harness.pick.release import RELEASE_STEPS, release_gripper
 from harness.pick.semantics import Semantics
 from harness.pick.servo import SERVO_CHUNK_S, ServoTiming
 from harness.pick.targets import PickTargets
@@ -64,8 +65,11 @@ class PickExecutor:
         record: bool = True,
         log_ctrl: bool = False,
         semantics: Semantics | None = None,
+        release_arm: str | None = None,
     ) -> None:
         self.scene = scene
+        # A handover's second pick: this arm's gripper opens before the validity phase.
+        self.release_arm = release_arm
         self.data = scene.data
         # (steps, ctrl) per physics chunk, for replaying the same physics without the harness.
         self.ctrl_log: list[tuple[int, np.ndarray]] | None = [] if log_ctrl else None
@@ -93,6 +97,8 @@ class PickExecutor:
         if self.validity:
             capacity += FINISH_STEPS * len(self.chunk_sizes)
             capacity += phase_steps(task.pick.hold_time, self.control_dt)
+            if release_arm is not None:
+                capacity += 4 * RELEASE_STEPS  # the ramp (at most 2 x) and the wait
         self.recorder = (
             TraceRecorder(scene, self.arm, self.object_name, capacity) if record else None
         )
@@ -341,7 +347,17 @@ class PickExecutor:
             self._event(f"verdict: {'success' if out.success else out.failure_reason}")
         if self.validity:
             clock = time.perf_counter()
+            released = None
+            kept_steps = out.sim_steps
+            if self.release_arm is not None and done:
+                released = release_gripper(self, self.release_arm)
             run_validity_phase(self, verdict_reached=done)
+            if released is not None and out.validity is not None:
+                out.first_gripper_force_n = max(released)
+                measure = out.validity.measure
+                measure.first_gripper_force_n = out.first_gripper_force_n
+                out.validity = judged_validity(self.pick, measure)  # with the release's term
+                out.sim_steps = kept_steps  # the list's steps, as for any pick
             out.validity_time_s = time.perf_counter() - clock
         if self.recorder is not None:
             out.trace = self.recorder.finish()

@@ -34,6 +34,9 @@ class ValidityMeasure:
     tug_message: str = ""  # the first rung that failed
     object_speed: float = NAN  # object speed at the end of the hold (m/s)
     joint_speed: float = NAN  # max |robot joint speed| at the end of the hold
+    # A handover's second pick: the opened first gripper's larger finger force on the object
+    # after the release (N, harness.pick.release); NaN for every other pick.
+    first_gripper_force_n: float = NAN
     trace: ValidityTrace | None = None
 
     @property
@@ -101,3 +104,6 @@ class PickOutcome:
     table_penetration_m: float = 0.0
     validity: ValidityResult | None = None  # None when the phase is off
     validity_time_s: float = 0.0  # wall time of the validity phase
+    # A handover's second pick: the opened first gripper's larger finger force on the object
+    # after the release (harness.pick.release); NaN for every other pick.
+    first_gripper_force_n: float = math.nan

@@ -38,6 +38,7 @@ ADVICE = {
     "slipped_in_hold": "the object slips in the hold: check friction and grip force",
     "lost_in_tug": "the grasp does not survive a 0.5 g tug: check friction and grip force",
     "not_lifted": "the object was not lifted in the validity phase",
+    "first_gripper_contact": "a handover: the opened first gripper still presses on the object",
 }
 
 

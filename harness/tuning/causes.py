@@ -33,6 +33,7 @@ FACTS: dict[str, str] = {
     "slipped_in_hold": "the object slips in the fingers during the hold",
     "lost_in_tug": "the grasp does not survive a 0.5 g tug",
     "not_lifted": "the object is not lifted off the table",
+    "first_gripper_contact": "the opened first gripper still holds the handed-over object",
 }
 
 
