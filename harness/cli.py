@@ -237,6 +237,7 @@ def _add_tune(sub: Subparsers) -> None:
         "files", nargs="*", metavar="TASK_OR_SWEEP", help="task or sweep YAML files to tune"
     )
     p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
+    p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
     p.add_argument("--episodes", type=EPISODES, help="screening seeds per setting (default 10)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
