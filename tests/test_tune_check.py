@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from statsmodels.stats.multitest import multipletests
@@ -88,8 +89,14 @@ def test_holm_over_the_units_matches_statsmodels_and_sets_the_verdicts() -> None
     ]
     table = check_table(units, outcomes)
     raw = table["p"].iloc[:4].tolist()
-    expected = multipletests(raw, alpha=0.05, method="holm")[1]
-    assert table["p_holm"].iloc[:4].tolist() == pytest.approx(list(expected))
+    expected = np.asarray(multipletests(raw, alpha=0.05, method="holm")[1], float).tolist()
+    assert table["p_holm"].iloc[:4].tolist() == pytest.approx(expected)
+    # by hand: raw 2/2**12, 2 * 386/1024, 2/2**9, 2/2**9; Holm multiplies the smallest by 4,
+    # the next two by 3 and 2 (monotone: both 3 * 2/2**9), the largest by 1
+    assert raw == pytest.approx([2 / 4096, 772 / 1024, 2 / 512, 2 / 512])
+    assert table["p_holm"].iloc[:4].tolist() == pytest.approx(
+        [8 / 4096, 772 / 1024, 6 / 512, 6 / 512]
+    )
     assert math.isnan(table["p_holm"].iloc[4]) and math.isnan(table["rate"].iloc[4])
     assert table["verdict"].tolist() == [CONFIRMED, NOT_CONFIRMED, MISSED_GAIN, HELD, NO_CHALLENGER]
     # the decided setting's fresh rate (tuned 52/100 for the switch, current 40/100 for the

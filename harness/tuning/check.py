@@ -47,6 +47,7 @@ from harness.config import SweepConfig
 from harness.errors import HarnessError
 from harness.markdown import markdown_table
 from harness.report.finish import finish_run
+from harness.report.frames import frame_of
 from harness.report.stats import mcnemar_exact
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir
@@ -162,8 +163,10 @@ def refuse_overlap(seed: int, seeds: dict[str, int], tune_dir: Path) -> None:
 
 def _best_challenger(race: pd.DataFrame, task: str, context: str) -> int | None:
     """The screening rank of the race's best challenger of a unit (None: it had none)."""
-    rows = race[(race["task"] == task) & (race["context"] == context)]
-    rows = rows[~rows["current"].astype(bool) & ~rows["fallback"].astype(bool) & (rows["n"] > 0)]
+    rows = frame_of(race[(race["task"] == task) & (race["context"] == context)])
+    rows = frame_of(
+        rows[~rows["current"].astype(bool) & ~rows["fallback"].astype(bool) & (rows["n"] > 0)]
+    )
     if rows.empty:
         return None
     rate = rows["successes"] / rows["n"]
