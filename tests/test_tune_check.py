@@ -19,6 +19,7 @@ from statsmodels.stats.multitest import multipletests
 from harness.cli import main as cli_main
 from harness.errors import HarnessError
 from harness.report.tables import load_episodes
+from harness.runs.executors import RunStats
 from harness.tuning.check import (
     CHECK_SEED_OFFSET,
     CONFIRMED,
@@ -148,7 +149,9 @@ def test_a_missing_or_garbage_decisions_file_is_one_line_naming_it(
 
 
 @pytest.mark.slow
-def test_check_of_a_tiny_real_tune_counts_the_stored_episodes(tmp_path: Path, capsys) -> None:
+def test_check_of_a_tiny_real_tune_counts_the_stored_episodes(
+    tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch
+) -> None:
     tune_dir = tmp_path / "tune"
     options = TuneOptions(screen_seeds=2, top=1, block=4, max_seeds=4, coarse=False)
     tune([FR3], step=90, bands=0, out=tune_dir, options=options, backend="serial")
@@ -156,7 +159,15 @@ def test_check_of_a_tiny_real_tune_counts_the_stored_episodes(tmp_path: Path, ca
     message = capsys.readouterr().err.strip()
     assert refused != 0 and "race" in message and len(message.splitlines()) == 1
     check = ["tune", "--check", str(tune_dir), "--seed", "777777", "--episodes", "3"]
-    assert cli_main([*check, "--workers", "1"]) == 0
+    with monkeypatch.context() as patch:  # Ctrl-C during the check: it decides nothing
+        patch.setattr(
+            "harness.tuning.race.executor_for",
+            lambda *_: lambda *_args, **_kw: RunStats(interrupted=True),
+        )
+        assert cli_main([*check, "--workers", "1"]) == 130
+    assert "decides nothing" in capsys.readouterr().out
+    assert not (tune_dir / "check" / "check.csv").exists()
+    assert cli_main([*check, "--workers", "1"]) == 0  # the same command continues it
     assert "fr3 left cube" in capsys.readouterr().out
     check_dir = tune_dir / "check"
     table = pd.read_csv(check_dir / "check.csv")
@@ -181,6 +192,8 @@ def test_check_of_a_tiny_real_tune_counts_the_stored_episodes(tmp_path: Path, ca
     wins = episodes.pivot_table(index="seed", columns="point_id", values="valid", aggfunc="first")
     differ = int((wins.iloc[:, 0].astype(bool) != wins.iloc[:, 1].astype(bool)).sum())
     assert differ == row["only_new"] + row["only_current"]
+    page = (tune_dir / "screen" / "report.html").read_text()
+    assert "checked on fresh seeds" in page and str(row["verdict"]) in page
     # a rerun reuses every stored episode and writes the same table
     assert cli_main([*check, "--workers", "1"]) == 0
     assert len(load_episodes(check_dir)) == len(episodes)

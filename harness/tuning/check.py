@@ -46,9 +46,11 @@ import pandas as pd
 from harness.config import SweepConfig
 from harness.errors import HarnessError
 from harness.markdown import markdown_table
+from harness.report.build import build_report
 from harness.report.finish import finish_run
 from harness.report.frames import frame_of
 from harness.report.stats import mcnemar_exact
+from harness.report.tune_link import check_rows
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir
 from harness.tuning.decide import SWITCH, Racer, UnitRace, holm
@@ -385,6 +387,9 @@ def run_check(
     header = _header(tune_dir, seed, episodes, engine, options.objective)
     csv = write_file(out / "check.csv", table.to_csv(index=False), root=out)
     md = write_file(out / "check.md", check_markdown(table, header), root=out)
+    page = tune_dir / "screen" / "report.html"
+    if out.resolve() == (tune_dir / CHECK_DIR).resolve() and page.is_file():
+        build_report(page.parent, objective=options.objective)  # the tune's page shows it
     return CheckResult(out, False, table, csv, md)
 
 
@@ -404,45 +409,6 @@ def _header(tune_dir: Path, seed: int, episodes: int, engine: str, objective: st
         f"McNemar on the discordant seeds, Holm over the units at {ALPHA}; rates with exact 95% "
         "intervals, the gain with Newcombe's paired interval.",
     ]
-
-
-def _fraction(k: Any, n: Any, lo: Any, hi: Any) -> str:
-    return f"{int(k)}/{int(n)} ({float(lo):.2f}-{float(hi):.2f})" if int(n) else "-"
-
-
-def check_rows(table: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
-    """The check's compact table (header, rows) for the terminal and ``check.md``."""
-    header = [
-        "unit",
-        "tune",
-        "tested",
-        "current",
-        "tested rate",
-        "+/-",
-        "p (Holm)",
-        "verdict",
-        "in tune CI",
-    ]
-    rows = []
-    for row in table.to_dict("records"):
-        inside = row["inside_tune_interval"]
-        p = row["p_holm"]
-        rows.append(
-            [
-                f"{row['robot']} {row['arm']} {row['object']}",
-                str(row["tune_verdict"]),
-                str(row["setting"]) or "-",
-                _fraction(row["current_successes"], row["n"], row["current_lo"], row["current_hi"]),
-                _fraction(row["successes"], row["n"], row["lo"], row["hi"])
-                if row["setting"]
-                else "-",
-                f"+{row['only_new']}/-{row['only_current']}",
-                "-" if p != p else f"{p:.2g}",
-                str(row["verdict"]),
-                "-" if inside is None or inside != inside else ("yes" if inside else "no"),
-            ]
-        )
-    return header, rows
 
 
 def check_markdown(table: pd.DataFrame, header_lines: list[str]) -> str:
