@@ -30,6 +30,7 @@ from harness.tuning.check import (
     NOT_CONFIRMED,
     CheckUnit,
     check_table,
+    check_units,
     check_verdict,
     paired_stats,
     read_decisions,
@@ -37,6 +38,7 @@ from harness.tuning.check import (
     run_check,
 )
 from harness.tuning.decide import KEEP, SWITCH, UNDECIDED
+from harness.tuning.planning import unit_key
 from harness.tuning.run import TuneOptions, tune
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -200,3 +202,38 @@ def test_check_of_a_tiny_real_tune_counts_the_stored_episodes(
     assert pd.read_csv(check_dir / "check.csv").equals(table)
     changed = cli_main([*check[:-1], "5"])
     assert changed != 0 and "--episodes 3" in capsys.readouterr().err
+
+
+def _decision(verdict: str, approach: str = '["downward", 90.0]') -> dict[str, object]:
+    return {
+        "task": "fr3_pick", "context": "{}", "robot": "fr3", "arm": "left", "object": "cube",
+        "verdict": verdict, "approach": approach, "facing": '["forward", 180.0]',
+        "current_approach": '["downward", 140.0]', "current_facing": '["forward", 90.0]',
+        "lo": 0.7, "hi": 0.9, "current_lo": 0.5, "current_hi": 0.8,
+    }  # fmt: skip
+
+
+def test_a_keep_is_checked_against_the_best_challenger_that_never_fell_back(
+    tmp_path: Path,
+) -> None:
+    """Best challenger: the highest rate on the race's seeds, fallback racers excluded; its
+    filters come from tune.json's plan by screening rank."""
+    race = pd.DataFrame(
+        {
+            "task": ["fr3_pick"] * 4, "context": ["{}"] * 4,
+            "current": [True, False, False, False], "screen_rank": [0, 1, 2, 3],
+            "n": [20, 20, 20, 10], "successes": [10, 20, 12, 7],
+            "fallback": [False, True, False, False],
+        }
+    )  # fmt: skip
+    chosen = [["a1", "f1"], ["a2", "f2"], ['["downward", 120.0]', '["forward", 150.0]']]
+    options = TuneOptions(plans={unit_key("fr3_pick", "{}"): {"challengers": chosen}})
+    (unit,) = check_units(pd.DataFrame([_decision(KEEP)]), race, options, tmp_path)
+    assert unit.candidate == ('["downward", 120.0]', '["forward", 150.0]')  # 7/10 beats 12/20
+    assert unit.role == "best challenger" and unit.tune_interval == (0.5, 0.8)
+    (switch,) = check_units(pd.DataFrame([_decision(SWITCH)]), race, options, tmp_path)
+    assert switch.candidate == ('["downward", 90.0]', '["forward", 180.0]')
+    assert switch.tune_interval == (0.7, 0.9)
+    with pytest.raises(HarnessError) as error:
+        check_units(pd.DataFrame([_decision(SWITCH, "downward 90")]), race, options, tmp_path)
+    assert "decisions.csv" in str(error.value) and "'downward 90'" in str(error.value)

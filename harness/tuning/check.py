@@ -35,6 +35,7 @@ interrupted check decides nothing (its rows are kept; the same command continues
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -202,10 +203,24 @@ def check_units(
                     f"{tune_dir / OPTIONS_FILE}: unit {unit_key(task, context)!r} has no "
                     f"challenger of screening rank {rank} (race.csv names it)"
                 )
+        for setting in (current, candidate or current):
+            _check_setting(setting, tune_dir, task)
         units.append(
             CheckUnit(task, context, names, str(row["verdict"]), current, candidate, role, interval)
         )
     return units
+
+
+def _check_setting(setting: tuple[str, str], tune_dir: Path, task: str) -> None:
+    """One line when a stored setting is not the JSON of a filter value (a hand-edited file)."""
+    for text in setting:
+        try:
+            json.loads(text)
+        except ValueError:
+            raise HarnessError(
+                f"{tune_dir / 'tune' / 'decisions.csv'}: task {task!r}: setting {text!r} is not "
+                "a filter value (JSON, as the tune writes it)"
+            ) from None
 
 
 def paired_stats(current: list[bool], candidate: list[bool]) -> dict[str, Any]:
