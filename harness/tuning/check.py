@@ -361,7 +361,8 @@ def run_check(
     seed = seed if seed is not None else seeds["screen"] + CHECK_SEED_OFFSET
     refuse_overlap(seed, seeds, tune_dir)
     out = out or tune_dir / CHECK_DIR
-    check_outputs(out, CHECK_OUTPUTS) if out.exists() else None
+    if out.exists():  # a planted link or special file: refused before any episode
+        check_outputs(out, CHECK_OUTPUTS)
     _refuse_changed(out, seed, episodes)
     units = check_units(decisions, race, options, tune_dir)
     screen = RunDir(tune_dir / "screen")
