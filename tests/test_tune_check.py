@@ -19,6 +19,7 @@ from statsmodels.stats.multitest import multipletests
 from harness.cli import main as cli_main
 from harness.errors import HarnessError
 from harness.report.tables import load_episodes
+from harness.report.tune_link import check_rows
 from harness.runs.executors import RunStats
 from harness.tuning.check import (
     CHECK_SEED_OFFSET,
@@ -105,6 +106,9 @@ def test_holm_over_the_units_matches_statsmodels_and_sets_the_verdicts() -> None
     # the decided setting's fresh rate (tuned 52/100 for the switch, current 40/100 for the
     # keep) against the tune's interval (0.6, 0.9): outside both
     assert table["inside_tune_interval"].tolist()[:3] == [False, False, False]
+    header, rows = check_rows(table)  # the printed table: one unit label per task file
+    assert len(header) == len(rows[0]) and rows[0][0] == "fr3 left cube (fr3_pick)"
+    assert rows[0][5] == "+12/-0" and rows[4][4] == "-" and rows[4][7] == NO_CHALLENGER
 
 
 def test_the_verdict_rules() -> None:

@@ -211,12 +211,15 @@ def check_rows(table: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
         "in tune CI",
     ]
     rows = []
-    for row in series_rows(table):
+    units = [f"{r['robot']} {r['arm']} {r['object']}" for r in series_rows(table)]
+    for unit, row in zip(units, series_rows(table), strict=True):
+        if units.count(unit) > 1:  # two task files of one robot, arm and object
+            unit = f"{unit} ({row['task']})"
         inside, p = row["inside_tune_interval"], _number(row["p_holm"])
         tested = "" if _blank(row["setting"]) else str(row["setting"])
         rows.append(
             [
-                f"{row['robot']} {row['arm']} {row['object']}",
+                unit,
                 str(row["tune_verdict"]),
                 tested or "-",
                 _fraction(row["current_successes"], row["n"], row["current_lo"], row["current_hi"]),
