@@ -317,6 +317,8 @@ def check_table(
 class CheckRunner(RaceRunner):
     """The race's runner on the check's sweep seed: same points, same executor, other seeds."""
 
+    round_label = "tune check"
+
     def __init__(self, run_dir: Path, screen: SweepConfig, seed: int, **kwargs: Any) -> None:
         super().__init__(run_dir, screen, **kwargs)
         data = self.sweep.model_dump(mode="json")
