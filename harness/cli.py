@@ -237,7 +237,8 @@ def _add_tune(sub: Subparsers) -> None:
         "files", nargs="*", metavar="TASK_OR_SWEEP", help="task or sweep YAML files to tune"
     )
     p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
-    p.add_argument("--episodes", type=EPISODES, help="screening seeds per setting (default 10)")
+    p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
+    p.add_argument("--episodes", type=EPISODES, help="seeds per setting (10; --check: 100)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
     p.add_argument(
@@ -259,7 +260,7 @@ def _add_tune(sub: Subparsers) -> None:
         metavar="N|Ns",
         help="race episodes (N) or episode-seconds (Ns, e.g. 300s) the race may use at most",
     )
-    p.add_argument("--seed", type=SEED, help="screening sweep seed (default: the sweep's, else 0)")
+    p.add_argument("--seed", type=SEED, help="sweep seed (the sweep's, else 0; --check: +200000)")
     p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
     p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
     p.add_argument("--write", metavar="DIR", help="write tuned task files (keys merged) and diffs")

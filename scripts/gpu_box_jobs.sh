@@ -135,6 +135,20 @@ for job in "$@"; do
     demo_gpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu" --no-progress --record none ;;
+    tune_canon_gpu)  # issue 35: the default (power-sized) tune of the canonical tasks
+      python3 -m harness.cli tune tasks/sweeps/canonical.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/tune_canon" --write "$R/tune_canon/written" ;;
+    check_canon_gpu)  # its decisions on 200 fresh paired seeds (sweep seed 777777)
+      python3 -m harness.cli tune --check "$R/tune_canon" --seed 777777 --episodes 200 \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" ;;
+    tune_canon_cpu_capped)  # the CPU engine, a small grid and a race capped by --budget
+      # (800 screening + at most 1600 race episodes: about 4 minutes on 16 cores, estimated)
+      python3 -m harness.cli tune tasks/sweeps/canonical.yaml --directions canonical \
+        --step 30 --bands 0 --episodes 5 --budget 1600 --workers "$(nproc)" \
+        --out "$R/tune_canon_cpu" --write "$R/tune_canon_cpu/written" ;;
+    check_canon_cpu)  # its decisions on 40 fresh paired seeds
+      python3 -m harness.cli tune --check "$R/tune_canon_cpu" --seed 777777 --episodes 40 \
+        --workers "$(nproc)" ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 from harness.commands.console import make_console, styled
 from harness.errors import HarnessError
@@ -36,8 +37,46 @@ def _options(args: argparse.Namespace) -> TuneOptions:
     return TuneOptions(**{**base, **{k: v for k, v in given.items() if v is not None}})
 
 
+def _check(args: argparse.Namespace, console: Any) -> int:
+    """``harness tune --check DIR``: the tune's decisions on fresh paired seeds."""
+    from harness.runs.engine_check import check_engine
+    from harness.runs.sweep import default_workers
+    from harness.tuning.check import DEFAULT_EPISODES, check_lines, run_check
+
+    if args.files or args.analyse:
+        raise HarnessError("--check DIR takes no task files and no --analyse")
+    check_engine(args.engine)
+    result = run_check(
+        Path(args.check),
+        seed=args.seed,
+        episodes=args.episodes or DEFAULT_EPISODES,
+        engine=args.engine,
+        workers=args.workers or default_workers(),
+        out=Path(args.out) if args.out else None,
+        progress=True,
+    )
+    if result.interrupted:
+        console.print(
+            styled(
+                "[yellow]interrupted[/]: the check decides nothing; finished episodes are kept "
+                "in {run_dir}: run the same command to continue",
+                run_dir=result.run_dir,
+            )
+        )
+        return 130
+    check_lines(
+        result.table,
+        lambda line: console.print(line, highlight=False, markup=False, soft_wrap=True),
+    )
+    for label, path in (("check", result.csv), ("report", result.md), ("run", result.run_dir)):
+        console.print(f"  {label:9s} {path}", soft_wrap=True, highlight=False)
+    return 0
+
+
 def main(args: argparse.Namespace) -> int:
     console = make_console()
+    if args.check:
+        return _check(args, console)
     write = Path(args.write) if args.write else None
     Budget.parse(args.budget)  # one line for a garbage, zero or negative --budget
     if args.analyse:

@@ -58,6 +58,7 @@ from harness.report.tables import (
     summarize,
 )
 from harness.report.tune_link import (
+    check_table,
     decisions_table,
     own_tune,
     related_tunes,
@@ -143,6 +144,8 @@ def first_screen(
                 "Tune decisions: which setting, how sure, why the rest fail",
             )
         )  # fmt: skip
+        checked = check_table(tune)  # the decisions on fresh seeds, when checked
+        tables.extend([checked] if checked is not None else [])
         tables.append(
             answer_table(answers, objective, "Screening candidates (chosen on these seeds)")
         )

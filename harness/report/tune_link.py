@@ -25,6 +25,7 @@ from harness.report.objective import DEFAULT_OBJECTIVE, REFERENCE, other
 from harness.report.sections import Table
 
 OPTIONS_FILE, DECISIONS = "tune.json", Path("tune") / "decisions.csv"
+CHECK = Path("check") / "check.csv"  # harness tune --check, in its default directory
 RUN_PARTS = ("screen", "confirm")  # the tune's run directories
 MAX_SIBLINGS = 200  # tune folders looked at next to a run, at most
 
@@ -189,4 +190,65 @@ def decisions_table(tune: Tune) -> Table:
         [[_format(v) for v in row.tolist()] for row in series_rows(frame)],
         f"{tune.path / DECISIONS}: rates on the race's fresh seeds only (objective "
         f"{tune.objective}); docs/tune.md explains each column.",
+    )
+
+
+def _fraction(k: Any, n: Any, lo: Any, hi: Any) -> str:
+    return f"{int(k)}/{int(n)} ({float(lo):.2f}-{float(hi):.2f})" if int(n) else "-"
+
+
+def check_rows(table: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
+    """The check's compact table (header, rows) for the terminal and ``check.md``."""
+    header = [
+        "unit",
+        "tune",
+        "tested",
+        "current",
+        "tested rate",
+        "+/-",
+        "p (Holm)",
+        "verdict",
+        "in tune CI",
+    ]
+    rows = []
+    units = [f"{r['robot']} {r['arm']} {r['object']}" for r in series_rows(table)]
+    for unit, row in zip(units, series_rows(table), strict=True):
+        if units.count(unit) > 1:  # two task files of one robot, arm and object
+            unit = f"{unit} ({row['task']})"
+        inside, p = row["inside_tune_interval"], _number(row["p_holm"])
+        tested = "" if _blank(row["setting"]) else str(row["setting"])
+        rows.append(
+            [
+                unit,
+                str(row["tune_verdict"]),
+                tested or "-",
+                _fraction(row["current_successes"], row["n"], row["current_lo"], row["current_hi"]),
+                _fraction(row["successes"], row["n"], row["lo"], row["hi"]) if tested else "-",
+                f"+{row['only_new']}/-{row['only_current']}",
+                "-" if math.isnan(p) else f"{p:.2g}",
+                str(row["verdict"]),
+                "-" if _blank(inside) else ("yes" if str(inside) == "True" else "no"),
+            ]
+        )
+    return header, rows
+
+
+def check_table(tune: Tune) -> Table | None:
+    """The tune's decisions tested on fresh seeds (``harness tune --check`` in its default
+    directory, ``<tune>/check``), when it ran."""
+    path = tune.path / CHECK
+    try:
+        frame = pd.read_csv(path) if path.is_file() else None
+        header, rows = check_rows(frame) if frame is not None else ([], [])
+    except (OSError, ValueError, KeyError, pd.errors.EmptyDataError):
+        return None
+    if not rows:
+        return None
+    return Table(
+        "Tune decisions checked on fresh seeds (harness tune --check)",
+        header,
+        rows,
+        f"{path}: the current setting against the tuned one (switch) or the race's best "
+        "challenger, on seeds neither the screening nor the race used; exact McNemar, Holm over "
+        "the units (docs/tune.md).",
     )

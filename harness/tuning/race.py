@@ -110,6 +110,8 @@ def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
 class RaceRunner:
     """Builds and runs the episodes of the rounds in ``run_dir`` (reusing stored rows)."""
 
+    round_label = "race round"  # the progress line's name of a round
+
     def __init__(
         self,
         run_dir: Path,
@@ -204,7 +206,7 @@ class RaceRunner:
             log.missing = True
             return False
         if todo:
-            label = f"race round {log.rounds + 1}"
+            label = f"{self.round_label} {log.rounds + 1}"
             with SweepProgress(len(todo), 0, self.progress, label=label) as on_row:
 
                 def store(row: dict[str, Any]) -> None:
