@@ -206,9 +206,7 @@ class DeviceStreams:
         self._spans: list[tuple[float, float]] = []
         self._seen: set[tuple[str, StreamKey]] = set()
         self._threads = [
-            threading.Thread(
-                target=self._serve, args=(d,), name=f"mjwarp-{d}-{k}", daemon=True
-            )
+            threading.Thread(target=self._serve, args=(d,), name=f"mjwarp-{d}-{k}", daemon=True)
             for d in devices
             for k in range(self.per_device[d])
         ]
@@ -322,9 +320,7 @@ class DeviceStreams:
     def _starved(self, key: StreamKey) -> bool:
         """(Holding the condition) another key's jobs wait, no device serves it, and no
         device can start a stream for it: streams should make way."""
-        waiting = any(
-            k != key and q and self._serving(k) == 0 for k, q in self._queues.items()
-        )
+        waiting = any(k != key and q and self._serving(k) == 0 for k, q in self._queues.items())
         return waiting and not any(self._can_start(d) for d in self.devices)
 
     def _pick(self, device: str) -> tuple[StreamKey, int] | None:
