@@ -469,3 +469,46 @@ def test_a_ray_sweep_on_loopback_streams_to_the_device_actor(
             outcome.success, outcome.failure_reason or "",
         )  # fmt: skip
         assert row["lift_height_m"] == pytest.approx(outcome.lift_height_m, abs=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_two_task_models_streamed_side_by_side_give_the_verdicts_of_one_at_a_time(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Warp's CPU device, real lane streams: an FR3 cube job and its twin of another stream key
+    (a longer hold: another validity window) run as two streams at once on one device (each
+    its own slot, the host lock passed between them) and give, field by field, the outcomes
+    the same jobs get one stream at a time."""
+    from helpers import same_fields
+
+    from harness.engines.mjwarp.devices import DeviceStreams
+
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    jobs = [fr3_jobs[0], _keyed(fr3_jobs[0], 1)]
+
+    def run(per_device: int) -> tuple[list[PickOutcome | None], Any]:
+        streams = DeviceStreams(["cpu"], lanes=1, per_device=per_device)
+        outcomes: list[PickOutcome | None] = [None, None]
+        errors: list[str] = []
+
+        def answer(k: int, outcome: PickOutcome | None, error: str | None) -> None:
+            outcomes[k] = outcome
+            if error:
+                errors.append(error)
+
+        for k, job in enumerate(jobs):
+            streams.submit(k, job, lambda o, e, k=k: answer(k, o, e))
+        streams.close()
+        assert not errors and not streams.stats.errors, errors
+        return outcomes, streams.stats
+
+    alone, alone_stats = run(1)
+    together, together_stats = run(2)
+    assert alone_stats.concurrent == 1 and together_stats.concurrent == 2
+    assert together_stats.streams == 2 and together_stats.jobs == 2
+    assert all(o is not None for o in alone + together)
+    for one, both in zip(alone, together, strict=True):
+        assert same_fields(one, both)
