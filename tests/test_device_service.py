@@ -317,7 +317,7 @@ def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
-    from harness.engines.mjwarp.devices import default_lanes
+    from harness.engines.mjwarp.lane_sizes import default_lanes
 
     monkeypatch.delenv("HARNESS_LANES", raising=False)
     assert default_lanes("cuda:0", 3000) == 1024  # the best of 1,024 / 2,048 / 8,192 measured

@@ -22,8 +22,6 @@ The bench's lockstep batches (``BENCH_BATCH``...) are ``harness.benchmarks.engin
 
 from __future__ import annotations
 
-import math
-import os
 import sys
 import threading
 import time
@@ -34,26 +32,20 @@ from typing import Any
 
 from harness.engines.mjwarp.busy_time import union_length
 from harness.engines.mjwarp.engine import CPU_DEVICE_NOTE
+from harness.engines.mjwarp.lane_sizes import (
+    CPU_LANES,
+    CUDA_DEVICE_LANES,
+    MIN_CUDA_LANES,
+    default_lanes,
+    env_int,
+    is_cuda,
+    streams_per_device,
+)
 from harness.pick.outcome import PickOutcome
 
 # How long a stream keeps its slot while another key's jobs wait for one (s). Chosen, no public
 # source: long against a stream's start (a graph capture, ~1 s), short against a sweep.
 QUANTUM_S = 30.0
-# Lanes per stream: CUDA devices step 8,192 worlds at 2.6-3.2 M world-steps/s on an H100
-# (docs/engines.md, "Lanes"); Warp's CPU device is a test device (~60 world-steps/s on this
-# project's 2-core machine), a few lanes. ``HARNESS_LANES`` overrides both.
-CUDA_LANES = 8192
-CPU_LANES = 4
-# Lane streams in flight at once on one CUDA device (``HARNESS_STREAMS_PER_DEVICE`` overrides).
-# Chosen, no public source: a sweep's task models (the demo has ten) mostly fit; each stream
-# holds its lanes' data and 4 job slots per lane (~0.2 GB at 1,024 FR3 lanes). Warp's CPU device
-# has no streams (its slots take turns): one.
-CUDA_STREAMS = 8
-CPU_STREAMS = 1
-# The lanes of all of a CUDA device's streams together (``HARNESS_DEVICE_LANES`` overrides).
-# Chosen, no public source: the physics tops out near 16,384-32,768 worlds on an H100
-# (3.04-3.21 M world-steps/s, docs/engines.md "Lanes"); more lanes only queue behind them.
-CUDA_DEVICE_LANES = 2 * CUDA_LANES
 # The stream key's first entries: the task model (``task_key``).
 TASK_KEY_LENGTH = 4
 
@@ -82,35 +74,6 @@ def stream_key(job: Any) -> StreamKey:
     )  # fmt: skip
 
 
-# The fewest lanes a CUDA stream gets (a step of fewer worlds is no faster; with several streams
-# on a device, a stream's lanes add to the others' and the device's budget). Chosen, no public
-# source.
-MIN_CUDA_LANES = 64
-# Episodes per lane a stream needs before more lanes pay: every lane steps whether busy or not,
-# and a stream's first outcome comes one episode span (~9-12 s on an H100) after its start. On
-# one H100, issue 34's 3,000-episode FR3 sweep (one stream) took 46.8 s with 1,024 lanes, 50.7 s
-# with 2,048 and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs.
-EPISODES_PER_LANE = 3
-
-
-def _is_cuda(device: str) -> bool:
-    return device.startswith("cuda")
-
-
-def _env_int(name: str) -> int | None:
-    chosen = os.environ.get(name)
-    return max(1, int(chosen)) if chosen else None
-
-
-def streams_per_device(device: str) -> int:
-    """``HARNESS_STREAMS_PER_DEVICE``, else ``CUDA_STREAMS`` on a CUDA device, else
-    ``CPU_STREAMS``."""
-    chosen = _env_int("HARNESS_STREAMS_PER_DEVICE")
-    if chosen:
-        return chosen
-    return CUDA_STREAMS if _is_cuda(device) else CPU_STREAMS
-
-
 def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
     """``task``'s scene from ``scenes``, built once per ``scene_key`` (under ``lock``)."""
     from harness.sim import Scene, scene_key
@@ -120,21 +83,6 @@ def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
         if key not in scenes:
             scenes[key] = Scene.for_task(task)
         return scenes[key]
-
-
-def default_lanes(device: str, episodes: int | None = None) -> int:
-    """``HARNESS_LANES``, else on the CPU ``CPU_LANES``, else on a CUDA device the power of
-    two nearest above ``episodes / EPISODES_PER_LANE`` between ``MIN_CUDA_LANES`` and
-    ``CUDA_LANES`` (``CUDA_LANES`` when the stream's size is not known)."""
-    chosen = _env_int("HARNESS_LANES")
-    if chosen:
-        return chosen
-    if not _is_cuda(device):
-        return CPU_LANES
-    if episodes is None:
-        return CUDA_LANES
-    wanted = max(1, math.ceil(episodes / EPISODES_PER_LANE))
-    return max(MIN_CUDA_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
 
 
 @dataclass
@@ -234,7 +182,7 @@ class DeviceStreams:
         a stream (what the planning pool keeps fed)."""
         total = 0
         for device in self.devices:
-            if self.lanes or _env_int("HARNESS_LANES") or not self.expected:
+            if self.lanes or env_int("HARNESS_LANES") or not self.expected:
                 each = [self.lanes or default_lanes(device, self.episodes)] * len(
                     self.expected or [0]
                 )
@@ -275,23 +223,23 @@ class DeviceStreams:
     # ---- lanes
 
     def _fixed_lanes(self) -> int | None:
-        return self.lanes or _env_int("HARNESS_LANES")
+        return self.lanes or env_int("HARNESS_LANES")
 
     def _budget(self, device: str) -> int:
         """The lanes of all the device's streams together."""
         fixed = self._fixed_lanes()
         if fixed:
             return fixed * self.per_device[device]
-        if not _is_cuda(device):
+        if not is_cuda(device):
             return CPU_LANES * self.per_device[device]
-        return _env_int("HARNESS_DEVICE_LANES") or CUDA_DEVICE_LANES
+        return env_int("HARNESS_DEVICE_LANES") or CUDA_DEVICE_LANES
 
     def _floor(self, device: str) -> int:
         """The fewest lanes a stream of the device starts with."""
         fixed = self._fixed_lanes()
         if fixed:
             return fixed
-        return MIN_CUDA_LANES if _is_cuda(device) else CPU_LANES
+        return MIN_CUDA_LANES if is_cuda(device) else CPU_LANES
 
     def lanes_for(self, device: str, key: StreamKey) -> int:
         """(Holding the condition) a new stream's lanes: fixed (``lanes``, ``HARNESS_LANES``),
