@@ -49,6 +49,14 @@ QUANTUM_S = 30.0
 # The stream key's first entries: the task model (``task_key``).
 TASK_KEY_LENGTH = 4
 
+# The engines (their device models) and scenes of the real devices outlive one run: a tune's
+# race runs a pool, and so a ``DeviceStreams``, per round, and would otherwise build every task
+# model's scene and device model again each round.
+_ENGINES: dict[str, Any] = {}
+_ENGINE_LOCK = threading.Lock()
+_SCENES: dict[Any, Any] = {}
+_SCENE_LOCK = threading.Lock()
+
 # Called with (outcome, None) or (None, why the device could not run the job).
 Answer = Callable[[PickOutcome | None, str | None], None]
 
@@ -146,11 +154,12 @@ class DeviceStreams:
         self._taken: dict[tuple[Any, ...], int] = {}  # jobs streams took, per task key
         self._cond = threading.Condition()
         self._closed = False
-        self._engines: dict[str, Any] = {}
-        self._engine_lock = threading.Lock()
+        shared = make_engine is None  # the real engines: kept for the process's next run
+        self._engines: dict[str, Any] = _ENGINES if shared else {}
+        self._engine_lock = _ENGINE_LOCK if shared else threading.Lock()
         self._local = threading.local()  # a thread's device slot (its CUDA stream)
-        self._scenes: dict[Any, Any] = {}
-        self._scene_lock = threading.Lock()
+        self._scenes: dict[Any, Any] = _SCENES if shared else {}
+        self._scene_lock = _SCENE_LOCK if shared else threading.Lock()
         self._spans: list[tuple[float, float]] = []
         self._seen: set[tuple[str, StreamKey]] = set()
         self._threads = [
