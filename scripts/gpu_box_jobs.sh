@@ -149,6 +149,18 @@ for job in "$@"; do
     check_canon_cpu)  # its decisions on 40 fresh paired seeds
       python3 -m harness.cli tune --check "$R/tune_canon_cpu" --seed 777777 --episodes 40 \
         --workers "$(nproc)" ;;
+    demo_gpu_one_stream)  # the same, one lane stream per device at a time (before issue 34's streams)
+      HARNESS_STREAMS_PER_DEVICE=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_one_stream" \
+        --no-progress --record none ;;
+    compile_canon)
+      python3 -m harness.cli compile tasks/sweeps/canonical.yaml ;;
+    canon_cpu)
+      python3 -m harness.cli sweep tasks/sweeps/canonical.yaml --workers "$(nproc)" \
+        --out "$R/canon_cpu" --no-progress --record none ;;
+    canon_gpu)
+      python3 -m harness.cli sweep tasks/sweeps/canonical.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/canon_gpu" --no-progress --record none ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -164,6 +164,91 @@ def test_two_devices_each_run_a_stream_of_the_same_key(fr3_jobs) -> None:
     assert sorted(service.stats.by_device) == ["cuda:0", "cuda:1"]
 
 
+def _keyed(job: Any, k: int) -> Any:
+    """``job`` as a job of another stream key (its hold time differs)."""
+    pick = job.task.pick.model_copy(update={"hold_time": job.task.pick.hold_time + 0.25 * k})
+    return dataclasses.replace(job, task=job.task.model_copy(update={"pick": pick}))
+
+
+class _Concurrent(_Streams):
+    """Stub streams that count how many run at once (and with how many lanes)."""
+
+    def __init__(self, barrier: threading.Barrier | None = None, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.barrier = barrier
+        self.running = 0
+        self.most = 0
+        self.lanes: list[int] = []
+
+    def __call__(self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+        with self.lock:
+            self.running += 1
+            self.most = max(self.most, self.running)
+            self.lanes.append(lanes)
+        try:
+            if self.barrier is not None:
+                self.barrier.wait(timeout=60)  # fewer streams at once would time out here
+            time.sleep(0.1)
+            super().__call__(engine, scene, source, on_outcome, lanes)
+        finally:
+            with self.lock:
+                self.running -= 1
+
+
+def test_the_task_models_of_a_run_stream_side_by_side_on_one_device(fr3_jobs) -> None:
+    """Three stream keys, three streams per device: all three streams run at once (each holds
+    its first job until the other two have started), each answers its own key's jobs."""
+    jobs = [_keyed(fr3_jobs[0], k) for k in range(3)]
+    assert len({stream_key(j) for j in jobs}) == 3
+    stub = _Concurrent(threading.Barrier(3))
+    service = DeviceService(["stub"], make_engine=lambda d: d, run_stream=stub, per_device=3)
+    replies = _answers(service, jobs * 2)
+    assert all(r.outcome is not None for r in replies), [r.error for r in replies]
+    assert stub.most == 3 and service.stats.concurrent == 3
+    assert service.stats.jobs == 6
+    for stream in stub.streams:  # one key per stream
+        assert len({stream_key(job) for _, job in stream}) == 1
+
+
+def test_more_task_models_than_streams_wait_their_turn(fr3_jobs) -> None:
+    """Five keys, two streams per device: never more than two at once, every job answered
+    exactly once; an idle stream makes way for a waiting key (it does not wait for close)."""
+    jobs = [_keyed(fr3_jobs[0], k) for k in range(5)]
+    stub = _Concurrent()
+    service = DeviceService(["stub"], make_engine=lambda d: d, run_stream=stub, per_device=2)
+    replies = _answers(service, jobs * 3)
+    assert all(r.outcome is not None for r in replies), [r.error for r in replies]
+    assert sorted(r.track for r in replies) == list(range(15))
+    assert stub.most == 2 and service.stats.concurrent == 2
+    assert sum(len(s) for s in stub.streams) == 15 == service.stats.jobs
+    assert service.stats.streams >= 5
+
+
+def test_a_streams_lanes_follow_its_task_models_jobs(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Lanes per key from the jobs the run expects of it (``expect``): 3,000 FR3 jobs get
+    1,024 lanes (the measured best for one stream), 300 get 128; within the device's budget."""
+    from harness.engines.mjwarp.devices import DeviceStreams
+
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    monkeypatch.delenv("HARNESS_DEVICE_LANES", raising=False)
+    big, small = fr3_jobs[0], _keyed(fr3_jobs[0], 1)
+    stub = _Concurrent(threading.Barrier(2))
+    streams = DeviceStreams(["cuda:0"], make_engine=lambda d: d, run_stream=stub, per_device=2)
+    streams.expect([big.task] * 3000 + [small.task] * 300)
+    assert streams.planned_lanes() == 1024 + 128
+    done = threading.Semaphore(0)
+    for tag, job in enumerate([big, small]):
+        streams.submit(tag, job, lambda outcome, error: done.release())
+    for _ in range(2):
+        assert done.acquire(timeout=60)
+    streams.close()
+    assert sorted(stub.lanes) == [128, 1024]
+    monkeypatch.setenv("HARNESS_DEVICE_LANES", "512")  # the budget caps the sum
+    assert streams.planned_lanes() == 512
+
+
 def test_the_wait_for_the_device_is_not_the_episodes_time() -> None:
     with episode_budget(0.2, 10):
         with budget_paused():
@@ -232,11 +317,12 @@ def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
-    from harness.engines.mjwarp.devices import default_lanes
+    from harness.engines.mjwarp.lane_sizes import default_lanes
 
     monkeypatch.delenv("HARNESS_LANES", raising=False)
     assert default_lanes("cuda:0", 3000) == 1024  # the best of 1,024 / 2,048 / 8,192 measured
-    assert default_lanes("cuda:0", 10) == 256
+    assert default_lanes("cuda:0", 10) == 64  # the floor: a stream's lanes add to the others'
+    assert default_lanes("cuda:0", 300) == 128
     assert default_lanes("cuda:0", 65536) == default_lanes("cuda:0") == 8192
     assert default_lanes("cpu", 3000) == 4
     monkeypatch.setenv("HARNESS_LANES", "64")
@@ -383,3 +469,46 @@ def test_a_ray_sweep_on_loopback_streams_to_the_device_actor(
             outcome.success, outcome.failure_reason or "",
         )  # fmt: skip
         assert row["lift_height_m"] == pytest.approx(outcome.lift_height_m, abs=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_two_task_models_streamed_side_by_side_give_the_verdicts_of_one_at_a_time(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Warp's CPU device, real lane streams: an FR3 cube job and its twin of another stream key
+    (a longer hold: another validity window) run as two streams at once on one device (each
+    its own slot, the host lock passed between them) and give, field by field, the outcomes
+    the same jobs get one stream at a time."""
+    from helpers import same_fields
+
+    from harness.engines.mjwarp.devices import DeviceStreams
+
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    jobs = [fr3_jobs[0], _keyed(fr3_jobs[0], 1)]
+
+    def run(per_device: int) -> tuple[list[PickOutcome | None], Any]:
+        streams = DeviceStreams(["cpu"], lanes=1, per_device=per_device)
+        outcomes: list[PickOutcome | None] = [None, None]
+        errors: list[str] = []
+
+        def answer(k: int, outcome: PickOutcome | None, error: str | None) -> None:
+            outcomes[k] = outcome
+            if error:
+                errors.append(error)
+
+        for k, job in enumerate(jobs):
+            streams.submit(k, job, lambda o, e, k=k: answer(k, o, e))
+        streams.close()
+        assert not errors and not streams.stats.errors, errors
+        return outcomes, streams.stats
+
+    alone, alone_stats = run(1)
+    together, together_stats = run(2)
+    assert alone_stats.concurrent == 1 and together_stats.concurrent == 2
+    assert together_stats.streams == 2 and together_stats.jobs == 2
+    assert all(o is not None for o in alone + together)
+    for one, both in zip(alone, together, strict=True):
+        assert same_fields(one, both)

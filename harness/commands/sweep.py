@@ -83,7 +83,8 @@ def main(args: argparse.Namespace) -> int:
         )
         console.print(
             f"device: {device.jobs} job(s) in {device.streams} lane stream(s){spread} of "
-            f"{device.lanes} lanes, {device.device_s:.1f} s"
+            f"up to {device.lanes} lanes, {max(1, device.concurrent)} at once per "
+            f"device, {device.device_s:.1f} s"
             + (f"; {len(device.errors)} failed stream(s)" if device.errors else "")
         )
     print_summary(outcome.run_dir, console)

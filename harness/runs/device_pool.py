@@ -157,8 +157,6 @@ class DevicePool:
     ) -> None:
         import multiprocessing as mp
 
-        from harness.engines.mjwarp.devices import default_lanes
-
         self.context = mp.get_context("spawn")
         self.run_dir, self.record, self.share = run_dir, record, share
         self.on_result, self.stats = on_result, stats
@@ -174,8 +172,11 @@ class DevicePool:
             service = DeviceService()
         self.device = service
         service.streams.episodes = len(episodes)
-        lanes = sum(default_lanes(d, len(episodes)) for d in service.devices)
-        self.depth = depth_for(lanes, 1, self.count)
+        try:  # each task model's stream gets lanes for its own jobs
+            service.streams.expect(e.task for e in episodes)
+        except Exception:  # a task that cannot be read fails as its episode's row
+            service.streams.expected = {}
+        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers

@@ -123,7 +123,7 @@ def run_on_ray_device(
     error_row: Callable[[Any, str], dict[str, Any]],
 ) -> None:
     """The episodes on planning actors feeding the nodes' device actors (module docstring)."""
-    from harness.engines.mjwarp.devices import default_lanes
+    from harness.engines.mjwarp.lane_sizes import default_lanes
     from harness.runs.device_pool import depth_for
 
     devices = device_actors(ray, len(episodes))

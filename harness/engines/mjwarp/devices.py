@@ -3,40 +3,59 @@
 ``DeviceStreams`` is what ``harness sweep|tune --engine mjwarp`` (through the pool's
 ``harness.engines.mjwarp.service.DeviceService``) and the engines bench (``BENCH_LANES``) run:
 jobs are queued per *stream key* (``stream_key``: one device model and one timing, so every
-approach cone of a task model shares a stream); one thread per device runs one lane stream at a
-time (``harness.engines.mjwarp.stream.LaneStream``), taking the key with the most jobs waiting;
-each outcome is handed back as soon as it is judged. A stream ends when no more jobs will come,
-or, while another key waits for the device, once it has nothing left to take or has held the
-device for ``QUANTUM_S`` (its remaining jobs wait for its next turn). Several devices (every CUDA
-device, or the comma-separated ``HARNESS_WARP_DEVICE``) each run a stream; two may serve one key.
+approach cone of a task model shares a stream); each device runs up to ``streams_per_device``
+lane streams at once (``harness.engines.mjwarp.stream.LaneStream``), one per key, each on a CUDA
+stream of its own (``harness.engines.mjwarp.slot``: one host lock for every Warp call, released
+while a stream's replay runs, so the other streams issue theirs). A small lane count is
+latency-bound (an episode's span, ~3,600 physics steps, takes ~9-12 s on a stream whatever its
+lanes), so the task models of a sweep stepping side by side cost about one span each instead of
+one after another. A new stream takes the waiting key no device serves yet, the longest queue
+first; its lanes are sized to the key's jobs (``lanes_for``), within the device's lane budget
+(``device_lanes``). Each outcome is handed back as soon as it is judged. A stream ends when no
+more jobs will come, or, while a key waits that no device can start (every stream slot taken or
+the lane budget spent), once it has nothing left to take or has held its slot for ``QUANTUM_S``
+(its remaining jobs wait for its next turn). Several devices (every CUDA device, or the
+comma-separated ``HARNESS_WARP_DEVICE``) each run their own streams; two may serve one key.
 
 The bench's lockstep batches (``BENCH_BATCH``...) are ``harness.benchmarks.engines_batches``.
 """
 
 from __future__ import annotations
 
-import math
-import os
 import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 from harness.engines.mjwarp.busy_time import union_length
 from harness.engines.mjwarp.engine import CPU_DEVICE_NOTE
+from harness.engines.mjwarp.lane_sizes import (
+    CPU_LANES,
+    CUDA_DEVICE_LANES,
+    MIN_CUDA_LANES,
+    default_lanes,
+    env_int,
+    is_cuda,
+    streams_per_device,
+)
 from harness.pick.outcome import PickOutcome
 
-# How long a stream keeps the device while another key's jobs wait (s). Chosen, no public
+# How long a stream keeps its slot while another key's jobs wait for one (s). Chosen, no public
 # source: long against a stream's start (a graph capture, ~1 s), short against a sweep.
 QUANTUM_S = 30.0
-# Lanes per stream: CUDA devices step 8,192 worlds at 2.6-3.2 M world-steps/s on an H100
-# (docs/engines.md, "Lanes"); Warp's CPU device is a test device (~60 world-steps/s on this
-# project's 2-core machine), a few lanes. ``HARNESS_LANES`` overrides both.
-CUDA_LANES = 8192
-CPU_LANES = 4
+# The stream key's first entries: the task model (``task_key``).
+TASK_KEY_LENGTH = 4
+
+# The engines (their device models) and scenes of the real devices outlive one run: a tune's
+# race runs a pool, and so a ``DeviceStreams``, per round, and would otherwise build every task
+# model's scene and device model again each round.
+_ENGINES: dict[str, Any] = {}
+_ENGINE_LOCK = threading.Lock()
+_SCENES: dict[Any, Any] = {}
+_SCENE_LOCK = threading.Lock()
 
 # Called with (outcome, None) or (None, why the device could not run the job).
 Answer = Callable[[PickOutcome | None, str | None], None]
@@ -45,25 +64,22 @@ Answer = Callable[[PickOutcome | None, str | None], None]
 StreamKey = tuple[Any, ...]
 
 
+def task_key(task: Any) -> tuple[Any, ...]:
+    """The task-model part of a stream key: the device model (scene, arm, target) and the hold
+    time (what a task gives before its job's schedule exists)."""
+    from harness.sim import scene_key
+
+    return (scene_key(task), task.arm, task.target_object.name, float(task.pick.hold_time))
+
+
 def stream_key(job: Any) -> StreamKey:
     """Jobs of one key share a lane stream: one device model (scene, arm, target) and one
     timing (the lanes take their window and servo chunks from the stream's first job)."""
-    from harness.sim import scene_key
-
-    task, schedule = job.task, job.schedule
+    schedule = job.schedule
     return (
-        scene_key(task), task.arm, task.target_object.name, float(task.pick.hold_time),
+        *task_key(job.task),
         float(schedule.control_dt), tuple(schedule.chunk_sizes), int(schedule.warmup_steps),
     )  # fmt: skip
-
-
-# The fewest lanes a CUDA stream gets for a small run (a step of fewer worlds is no faster).
-MIN_CUDA_LANES = 256
-# Episodes per lane a run needs before more lanes pay: every lane steps whether busy or not,
-# and a stream's first outcome comes one episode span (~9-12 s on an H100) after its start. On
-# one H100, issue 34's 3,000-episode FR3 sweep took 46.8 s with 1,024 lanes, 50.7 s with 2,048
-# and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs.
-EPISODES_PER_LANE = 3
 
 
 def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
@@ -77,26 +93,11 @@ def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
         return scenes[key]
 
 
-def default_lanes(device: str, episodes: int | None = None) -> int:
-    """``HARNESS_LANES``, else on the CPU ``CPU_LANES``, else on a CUDA device the power of
-    two nearest above ``episodes / EPISODES_PER_LANE`` between ``MIN_CUDA_LANES`` and
-    ``CUDA_LANES`` (``CUDA_LANES`` when the run's size is not known)."""
-    chosen = os.environ.get("HARNESS_LANES")
-    if chosen:
-        return max(1, int(chosen))
-    if device == "cpu":
-        return CPU_LANES
-    if episodes is None:
-        return CUDA_LANES
-    wanted = max(1, math.ceil(episodes / EPISODES_PER_LANE))
-    return max(MIN_CUDA_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
-
-
 @dataclass
 class StreamStats:
     """What the devices did: jobs, lane streams run, the most lanes of one, seconds with a
     stream on a device (the union over devices), streams per device, the first-use compile
-    (s) per (device, key), failures."""
+    (s) per (device, key), failures, the most streams in flight on one device at once."""
 
     jobs: int = 0
     streams: int = 0
@@ -106,6 +107,7 @@ class StreamStats:
     compile_s: dict[str, float] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
     timings: Any = None  # the streams' BatchTimings, summed (bench figures)
+    concurrent: int = 0
 
     # the names the sweep's summary line reads (it predates lane streams)
     @property
@@ -122,7 +124,7 @@ def _log(message: str) -> None:
 
 
 class DeviceStreams:
-    """Lane streams on ``devices``, one at a time per device (see the module docstring)."""
+    """Lane streams on ``devices``, several at once per device (see the module docstring)."""
 
     def __init__(
         self,
@@ -131,33 +133,74 @@ class DeviceStreams:
         make_engine: Callable[[str], Any] | None = None,
         run_stream: Callable[..., None] | None = None,
         log: Callable[[str], None] = _log,
+        per_device: int | None = None,
     ) -> None:
-        """``lanes`` per stream (default ``default_lanes``); ``make_engine(device)`` the
-        engine of a device (default ``MjwarpEngine``); ``run_stream(engine, scene, jobs_source,
-        on_outcome, lanes)`` runs one stream instead of ``LaneStream`` (tests)."""
+        """``lanes`` per stream (default ``lanes_for``); ``make_engine(device)`` the engine of
+        a device (default ``MjwarpEngine``); ``run_stream(engine, scene, jobs_source,
+        on_outcome, lanes)`` runs one stream instead of ``LaneStream`` (tests); ``per_device``:
+        streams at once per device (default ``streams_per_device``)."""
         self.devices = devices
         self.lanes = lanes
         self.episodes: int | None = None  # the run's size, when known (``default_lanes``)
+        self.expected: dict[tuple[Any, ...], int] = {}  # jobs per task key (``expect``)
         self.stats = StreamStats()
+        self.per_device = {d: per_device or streams_per_device(d) for d in devices}
         self._make_engine = make_engine
         self._run_stream = run_stream or self._lane_stream
         self._log = log
         self._queues: dict[StreamKey, deque[tuple[Hashable, Any, Answer]]] = {}
-        self._active: dict[StreamKey, int] = {}
+        self._on: dict[str, dict[StreamKey, int]] = {d: {} for d in devices}  # key: lanes
+        self._idle: dict[str, int] = {d: 0 for d in devices}  # threads waiting for a key
+        self._taken: dict[tuple[Any, ...], int] = {}  # jobs streams took, per task key
         self._cond = threading.Condition()
         self._closed = False
-        self._scenes: dict[Any, Any] = {}
-        self._scene_lock = threading.Lock()
+        shared = make_engine is None  # the real engines: kept for the process's next run
+        self._engines: dict[str, Any] = _ENGINES if shared else {}
+        self._engine_lock = _ENGINE_LOCK if shared else threading.Lock()
+        self._local = threading.local()  # a thread's device slot (its CUDA stream)
+        self._scenes: dict[Any, Any] = _SCENES if shared else {}
+        self._scene_lock = _SCENE_LOCK if shared else threading.Lock()
         self._spans: list[tuple[float, float]] = []
         self._seen: set[tuple[str, StreamKey]] = set()
         self._threads = [
-            threading.Thread(target=self._serve, args=(d,), name=f"mjwarp-{d}", daemon=True)
+            threading.Thread(target=self._serve, args=(d,), name=f"mjwarp-{d}-{k}", daemon=True)
             for d in devices
+            for k in range(self.per_device[d])
         ]
         if "cpu" in devices:
             log(CPU_DEVICE_NOTE)
         for thread in self._threads:
             thread.start()
+
+    def expect(self, tasks: Iterable[Any]) -> None:
+        """The run's jobs will be of these tasks (one per episode): a stream's lanes are sized
+        to the jobs its key still expects (``lanes_for``)."""
+        counts: dict[tuple[Any, ...], int] = {}
+        # a sweep point's episodes share its task object (held here, so no id is reused)
+        known: dict[int, tuple[Any, tuple[Any, ...]]] = {}
+        for task in tasks:
+            if id(task) not in known:
+                known[id(task)] = (task, task_key(task))
+            key = known[id(task)][1]
+            counts[key] = counts.get(key, 0) + 1
+        with self._cond:
+            self.expected = counts
+
+    def planned_lanes(self) -> int:
+        """The lanes every device's streams will hold at once when each expected task model has
+        a stream (what the planning pool keeps fed)."""
+        total = 0
+        for device in self.devices:
+            if self.lanes or env_int("HARNESS_LANES") or not self.expected:
+                each = [self.lanes or default_lanes(device, self.episodes)] * len(
+                    self.expected or [0]
+                )
+            else:
+                each = sorted(
+                    (default_lanes(device, n) for n in self.expected.values()), reverse=True
+                )
+            total += min(self._budget(device), sum(each[: self.per_device[device]]))
+        return total
 
     def submit(self, tag: Hashable, job: Any, answer: Answer) -> None:
         """Queue ``job`` for its key's stream; ``answer`` is called (from a device thread)."""
@@ -186,46 +229,107 @@ class DeviceStreams:
                 jobs.clear()
         self.close(wait_s=5.0)
 
+    # ---- lanes
+
+    def _fixed_lanes(self) -> int | None:
+        return self.lanes or env_int("HARNESS_LANES")
+
+    def _budget(self, device: str) -> int:
+        """The lanes of all the device's streams together."""
+        fixed = self._fixed_lanes()
+        if fixed:
+            return fixed * self.per_device[device]
+        if not is_cuda(device):
+            return CPU_LANES * self.per_device[device]
+        return env_int("HARNESS_DEVICE_LANES") or CUDA_DEVICE_LANES
+
+    def _floor(self, device: str) -> int:
+        """The fewest lanes a stream of the device starts with."""
+        fixed = self._fixed_lanes()
+        if fixed:
+            return fixed
+        return MIN_CUDA_LANES if is_cuda(device) else CPU_LANES
+
+    def lanes_for(self, device: str, key: StreamKey) -> int:
+        """(Holding the condition) a new stream's lanes: fixed (``lanes``, ``HARNESS_LANES``),
+        else ``default_lanes`` of the jobs its key still has: those waiting, or those its task
+        model is expected to send (``expect``) less those already taken, whichever is more
+        (the run's episodes when nothing is expected)."""
+        fixed = self._fixed_lanes()
+        if fixed:
+            return fixed
+        if not self.expected:
+            return default_lanes(device, self.episodes)
+        tkey = key[:TASK_KEY_LENGTH]
+        left = self.expected.get(tkey, 0) - self._taken.get(tkey, 0)
+        return default_lanes(device, max(len(self._queues.get(key, ())), left))
+
     # ---- device threads
 
-    def _pick(self) -> StreamKey | None:
-        """(Holding the condition) the key to serve next, waiting for one; None once closed
-        and nothing is queued. A key no other device serves first, the longest queue first."""
+    def _serving(self, key: StreamKey) -> int:
+        return sum(key in on for on in self._on.values())
+
+    def _can_start(self, device: str) -> bool:
+        """(Holding the condition) an idle thread of ``device`` could start a stream now."""
+        left = self._budget(device) - sum(self._on[device].values())
+        return self._idle[device] > 0 and left >= self._floor(device)
+
+    def _starved(self, key: StreamKey) -> bool:
+        """(Holding the condition) another key's jobs wait, no device serves it, and no
+        device can start a stream for it: streams should make way."""
+        waiting = any(k != key and q and self._serving(k) == 0 for k, q in self._queues.items())
+        return waiting and not any(self._can_start(d) for d in self.devices)
+
+    def _pick(self, device: str) -> tuple[StreamKey, int] | None:
+        """(Holding the condition) the key this thread of ``device`` serves next and its lanes,
+        waiting for one; None once closed and nothing is queued that it could take. A key no
+        device serves first, then the longest queue; never a key this device already serves."""
         while True:
-            waiting = [k for k, jobs in self._queues.items() if jobs]
-            if waiting:
-                return max(
-                    waiting, key=lambda k: (self._active.get(k, 0) == 0, len(self._queues[k]))
-                )
-            if self._closed:
+            on = self._on[device]
+            waiting = [k for k, jobs in self._queues.items() if jobs and k not in on]
+            left = self._budget(device) - sum(on.values())
+            if waiting and left >= self._floor(device):
+                key = max(waiting, key=lambda k: (self._serving(k) == 0, len(self._queues[k])))
+                lanes = max(self._floor(device), min(self.lanes_for(device, key), left))
+                on[key] = lanes
+                self.stats.concurrent = max(self.stats.concurrent, len(on))
+                return key, lanes
+            if self._closed and not waiting:
                 return None
-            self._cond.wait(0.1)
+            self._idle[device] += 1
+            try:
+                self._cond.wait(0.1)
+            finally:
+                self._idle[device] -= 1
 
     def _serve(self, device: str) -> None:
-        engine: Any = None
         while True:
             with self._cond:
-                key = self._pick()
-                if key is None:
+                picked = self._pick(device)
+                if picked is None:
                     return
-                self._active[key] = self._active.get(key, 0) + 1
+                key, lanes = picked
             try:
-                if engine is None:
-                    engine = self._engine(device)
-                self._one_stream(engine, device, key)
+                engine = self._engine(device)
+                self._one_stream(engine, device, key, lanes)
             except Exception as exc:  # the device could not even start: answer what waits
                 self._fail(key, f"{type(exc).__name__}: {exc}")
             finally:
                 with self._cond:
-                    self._active[key] -= 1
+                    self._on[device].pop(key, None)
                     self._cond.notify_all()
 
     def _engine(self, device: str) -> Any:
-        if self._make_engine is not None:
-            return self._make_engine(device)
-        from harness.engines.mjwarp.engine import MjwarpEngine
+        """The device's engine, one per device, shared by its streams."""
+        with self._engine_lock:
+            if device not in self._engines:
+                if self._make_engine is not None:
+                    self._engines[device] = self._make_engine(device)
+                else:
+                    from harness.engines.mjwarp.engine import MjwarpEngine
 
-        return MjwarpEngine(device)
+                    self._engines[device] = MjwarpEngine(device)
+            return self._engines[device]
 
     def _fail(self, key: StreamKey, message: str) -> None:
         with self._cond:
@@ -239,31 +343,31 @@ class DeviceStreams:
         """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
         return scene_for(task, self._scenes, self._scene_lock)
 
-    def _one_stream(self, engine: Any, device: str, key: StreamKey) -> None:
+    def _one_stream(self, engine: Any, device: str, key: StreamKey, lanes: int) -> None:
         """One stream of ``key``'s jobs on ``engine`` until it ends; every job it took is
         answered, with its outcome or the stream's error."""
         taken: dict[Hashable, Answer] = {}
         started = time.perf_counter()
-        first = (device, key) not in self._seen
-        self._seen.add((device, key))
+        tkey = key[:TASK_KEY_LENGTH]
+        with self._cond:
+            first = (device, key) not in self._seen
+            self._seen.add((device, key))
 
         def source(block: bool) -> list[tuple[Hashable, Any]] | None:
             with self._cond:
                 while True:
                     jobs = self._queues[key]
-                    others = any(
-                        k != key and q and self._active.get(k, 0) == 0
-                        for k, q in self._queues.items()
-                    )
-                    turn_over = others and time.perf_counter() - started > QUANTUM_S
+                    starved = self._starved(key)
+                    turn_over = starved and time.perf_counter() - started > QUANTUM_S
                     if jobs and not turn_over:
                         out = []
                         while jobs:
                             tag, job, answer = jobs.popleft()
                             taken[tag] = answer
                             out.append((tag, job))
+                        self._taken[tkey] = self._taken.get(tkey, 0) + len(out)
                         return out
-                    if self._closed or others:
+                    if self._closed or starved:
                         return None
                     if not block:
                         return []
@@ -274,22 +378,23 @@ class DeviceStreams:
 
         def on_outcome(tag: Hashable, outcome: PickOutcome) -> None:
             answer = taken.pop(tag, None)
-            if first and label not in self.stats.compile_s:
-                spent = time.perf_counter() - started
-                self.stats.compile_s[label] = spent
-                self._log(f"{label}: first outcome after {spent:.1f} s (kernels ready)")
             with self._cond:
                 self.stats.jobs += 1
+                said = label in self.stats.compile_s
+                if first and not said:
+                    self.stats.compile_s[label] = time.perf_counter() - started
+            if first and not said:
+                spent = self.stats.compile_s[label]
+                self._log(f"{label}: first outcome after {spent:.1f} s (kernels ready)")
             if answer is not None:
                 answer(outcome, None)
 
         if first:
             self._log(
-                f"{label}: first stream of this task model; Warp compiles its kernels unless "
-                "they are in Warp's kernel cache (minutes on first use, seconds after)"
+                f"{label}: first stream of this task model ({lanes} lanes); Warp compiles its "
+                "kernels unless they are in Warp's kernel cache (minutes on first use, seconds "
+                "after)"
             )
-        lanes = self.lanes or default_lanes(device, self.episodes)
-        scene = None
         try:
             with self._cond:
                 head = self._queues[key][0][1] if self._queues[key] else None
@@ -298,10 +403,10 @@ class DeviceStreams:
             scene = self._scene(head.task)
             self._run_stream(engine, scene, source, on_outcome, lanes)
         except Exception as exc:
-            message = f"lane stream on {device} failed: {type(exc).__name__}: {exc}"
+            message = f"lane stream of {label} failed: {type(exc).__name__}: {exc}"
             with self._cond:
                 self.stats.errors.append(message)
-            for answer in taken.values():
+            for answer in list(taken.values()):
                 answer(None, message)
             taken.clear()
         finally:
@@ -313,12 +418,23 @@ class DeviceStreams:
                 self.stats.lanes = max(self.stats.lanes, lanes)
                 self.stats.by_device[device] = self.stats.by_device.get(device, 0) + 1
         for answer in taken.values():  # a stream that ended without judging a job it took
-            answer(None, "the lane stream ended without the job's outcome")
+            answer(None, f"the lane stream of {label} ended without the job's outcome")
+
+    def _slot(self, engine: Any) -> Any:
+        """This thread's device slot: a CUDA stream of its own on the engine's device, made
+        once per thread (under the host lock: Warp's current device is process-wide)."""
+        slot = getattr(self._local, "slot", None)
+        if slot is None:
+            from harness.engines.mjwarp.slot import HOST_LOCK
+
+            with HOST_LOCK:
+                slot = self._local.slot = engine.slots(1)[0]
+        return slot
 
     def _lane_stream(
         self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int
     ) -> None:
-        from harness.engines.mjwarp.stream import LaneStream
+        from harness.engines.mjwarp.stream import TUG_GROUP, LaneStream
 
         # the task of the stream's first job: its device model (arm, target) and buffers
         head = source(True)
@@ -326,8 +442,11 @@ class DeviceStreams:
             head = source(True)
         if head is None:
             return
-        batch = engine.batch(scene, head[0][1].task)
-        stream = LaneStream(batch, nlane=lanes, on_outcome=on_outcome)
+        batch = engine.batch(scene, head[0][1].task, self._slot(engine))
+        # a tug group flushes once it holds as many jobs as the lanes step, so a group of more
+        # than twice the lanes never fills; fewer job slots, less memory per stream
+        group = min(TUG_GROUP, 2 * lanes)
+        stream = LaneStream(batch, nlane=lanes, group=group, on_outcome=on_outcome)
         given = [head]
 
         def replay_first(block: bool) -> Any:

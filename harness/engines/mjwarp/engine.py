@@ -104,8 +104,10 @@ class MjwarpEngine:
         key = (id(scene.model), task.arm, task.target_object.name)
         dm = self._models.get(key)
         if dm is None:
-            with slot:
-                dm = self._models[key] = DeviceModel(scene, task, self.device)
+            with slot:  # two streams of the device may ask at once: one makes it
+                dm = self._models.get(key)
+                if dm is None:
+                    dm = self._models[key] = DeviceModel(scene, task, self.device)
         buffers = Buffers(*self.buffers) if self.buffers else SMALL
         if self.retire is None:
             return WorldBatch(dm, buffers=buffers, slot=slot)

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import TracebackType
 from typing import Any
 
@@ -64,6 +66,17 @@ class DeviceSlot:
         wp.set_device(self.device)
         if self.stream is not None:
             wp.set_stream(self.stream, self.device)
+
+    @contextmanager
+    def released(self) -> Iterator[None]:
+        """(Holding the lock) let the other slots have it meanwhile: for host work that issues no
+        Warp call (judging, waiting for jobs); held again, with this slot current, afterwards."""
+        self.lock.release()
+        try:
+            yield
+        finally:
+            self.lock.acquire()
+            self._make_current()
 
     def wait(self) -> None:
         """Wait (holding the lock on entry and on return) until this slot's queued work is done;

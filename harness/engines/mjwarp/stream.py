@@ -125,7 +125,12 @@ class LaneStream:
                     # jobs too long for a slot or whose buffers overflowed: their callers wait
                     # for them (a product stream ends only when its run does)
                     self._finish_lockstep()
-                new = source(idle and not pending)
+                block = idle and not pending
+                if block:  # the other streams of the device issue theirs meanwhile
+                    with self.batch.slot.released():
+                        new = source(True)
+                else:
+                    new = source(False)
                 closed = new is None
                 pending.extend(new or [])
             if self.lanes is None and pending:
@@ -219,6 +224,11 @@ class LaneStream:
     def _judge(self, ready: list[_Tugged], budget_s: float = math.inf) -> None:
         """Judge the tugged groups' jobs on the host, for at most about ``budget_s`` (the rest
         stays in ``ready`` for the next call: a large group is judged over several replays)."""
+        if ready:  # host work only: the other streams of the device issue theirs meanwhile
+            with self.batch.slot.released():
+                self._judge_ready(ready, budget_s)
+
+    def _judge_ready(self, ready: list[_Tugged], budget_s: float) -> None:
         clock = time.perf_counter()
         while ready and time.perf_counter() - clock < budget_s:
             tugged = ready[0]

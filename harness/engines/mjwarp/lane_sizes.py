@@ -1,0 +1,73 @@
+"""How many lane streams a device runs at once and how many lanes each gets.
+
+A stream's lanes all step whether busy or not, and its first outcome comes one episode span
+(~3,600 physics steps, ~9-12 s on an H100 whatever the lanes) after its start: a stream gets
+lanes for its own task model's jobs (``default_lanes``), and a device runs several streams side
+by side (``streams_per_device``) within a budget of lanes (``CUDA_DEVICE_LANES``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+# Lanes per stream: CUDA devices step 8,192 worlds at 2.6-3.2 M world-steps/s on an H100
+# (docs/engines.md, "Lanes"); Warp's CPU device is a test device (~60 world-steps/s on this
+# project's 2-core machine), a few lanes. ``HARNESS_LANES`` overrides both.
+CUDA_LANES = 8192
+CPU_LANES = 4
+# Lane streams in flight at once on one CUDA device (``HARNESS_STREAMS_PER_DEVICE`` overrides).
+# Chosen, no public source: a sweep's task models (the demo has ten) mostly fit; each stream
+# holds its lanes' data and up to 4 job slots per lane (memory not yet measured on a GPU).
+# Warp's CPU device has no streams (its slots take turns): one.
+CUDA_STREAMS = 8
+CPU_STREAMS = 1
+# The lanes of all of a CUDA device's streams together (``HARNESS_DEVICE_LANES`` overrides).
+# Chosen, no public source: the physics tops out near 16,384-32,768 worlds on an H100
+# (3.04-3.21 M world-steps/s, docs/engines.md "Lanes"); more lanes only queue behind them.
+CUDA_DEVICE_LANES = 2 * CUDA_LANES
+
+# The fewest lanes a CUDA stream gets (a step of fewer worlds is no faster; with several streams
+# on a device, a stream's lanes add to the others' and the device's budget). Chosen, no public
+# source.
+MIN_CUDA_LANES = 64
+# Episodes per lane a stream needs before more lanes pay: every lane steps whether busy or not,
+# and a stream's first outcome comes one episode span (~9-12 s on an H100) after its start. On
+# one H100, issue 34's 3,000-episode FR3 sweep (one stream) took 46.8 s with 1,024 lanes, 50.7 s
+# with 2,048 and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs.
+EPISODES_PER_LANE = 3
+
+
+def is_cuda(device: str) -> bool:
+    """A CUDA device's name (``cuda:0``), by its name alone (no Warp import: the stubs)."""
+    return device.startswith("cuda")
+
+
+def env_int(name: str) -> int | None:
+    """The positive integer an environment variable sets, else None."""
+    chosen = os.environ.get(name)
+    return max(1, int(chosen)) if chosen else None
+
+
+def streams_per_device(device: str) -> int:
+    """``HARNESS_STREAMS_PER_DEVICE``, else ``CUDA_STREAMS`` on a CUDA device, else
+    ``CPU_STREAMS``."""
+    chosen = env_int("HARNESS_STREAMS_PER_DEVICE")
+    if chosen:
+        return chosen
+    return CUDA_STREAMS if is_cuda(device) else CPU_STREAMS
+
+
+def default_lanes(device: str, episodes: int | None = None) -> int:
+    """``HARNESS_LANES``, else on the CPU ``CPU_LANES``, else on a CUDA device the power of
+    two nearest above ``episodes / EPISODES_PER_LANE`` between ``MIN_CUDA_LANES`` and
+    ``CUDA_LANES`` (``CUDA_LANES`` when the stream's size is not known)."""
+    chosen = env_int("HARNESS_LANES")
+    if chosen:
+        return chosen
+    if not is_cuda(device):
+        return CPU_LANES
+    if episodes is None:
+        return CUDA_LANES
+    wanted = max(1, math.ceil(episodes / EPISODES_PER_LANE))
+    return max(MIN_CUDA_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
