@@ -161,6 +161,23 @@ for job in "$@"; do
     canon_gpu)
       python3 -m harness.cli sweep tasks/sweeps/canonical.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/canon_gpu" --no-progress --record none ;;
+    fr3_objects_yaml)  # issue 34's tune target: one arm (FR3) x every object of tasks/objects
+      printf '%s\n' 'name: fr3_objects' 'tasks:' "  - $PWD/tasks/pick/fr3.yaml" 'axes:' \
+        '  object.mesh: [ball, banana, book, bottle, box, can, cube, mug, plate]' \
+        'episodes_per_point: 40' 'seed: 0' 'record: none' > /tmp/fr3_objects.yaml
+      cat /tmp/fr3_objects.yaml ;;
+    compile_fr3_objects)
+      python3 -m harness.cli compile /tmp/fr3_objects.yaml ;;
+    tune_fr3_objects_gpu)  # a race of up to 1,000 seeds per contender (looks of 125 on the GPU)
+      python3 -m harness.cli tune /tmp/fr3_objects.yaml --engine mjwarp --directions canonical \
+        --step 15 --bands 1 --max-seeds 1000 --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/tune_fr3_objects" ;;
+    demo100_cpu)  # the five-arm agreement set: the demo sweep at 100 seeds a point (3,000 rows)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --episodes-per-point 100 \
+        --workers "$(nproc)" --out "$R/demo100_cpu" --no-progress --record none ;;
+    demo100_gpu)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --episodes-per-point 100 --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/demo100_gpu" --no-progress --record none ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
