@@ -7,8 +7,8 @@ distribution p(r) integrated as M = mu * integral of p(r) r dA:
 
 - Hertzian pressure p(r) = p0 sqrt(1 - r^2 / a^2), N = (2/3) pi a^2 p0:
   M = (3 pi / 16) mu a N (K. L. Johnson, Contact Mechanics, 1985, torsion of a Hertzian contact;
-  V. L. Popov, Contact Mechanics and Friction, 2010, section 8.2.4; the model of Gazebo/ODE's
-  ``<torsional>`` friction with ``patch_radius``);
+  V. L. Popov, Contact Mechanics and Friction, 2010, section 8.2.4, whose derivation the OSRF
+  "Torsional Friction" notebook behind Gazebo's torsional friction follows);
 - uniform pressure p = N / (pi a^2): M = (2/3) mu a N.
 
 MuJoCo's condim-4 contact takes this as its torsional coefficient mu_t = M / N (m). The pad's
