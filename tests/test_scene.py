@@ -236,3 +236,7 @@ def test_object_contacts_use_the_average_friction() -> None:
         other = 1.0  # the table's and the FR3 pads' sliding friction
         assert first == "table" or "finger" in first or "_pad" in first or "_col" in first
         assert friction[0] == pytest.approx((0.2 + other) / 2)
+        # torsion: the table pair averages MuJoCo's default 0.005; an object-pad pair takes the
+        # FR3 pad patch's 0.00515 m (robots/fr3/robot.yaml) at the pair's sliding friction
+        torsion = 0.005 if first == "table" else 0.00515 * (0.2 + other) / 2 / other
+        assert friction[2] == pytest.approx(torsion)

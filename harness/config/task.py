@@ -109,13 +109,24 @@ class ObjectConfig(StrictModel):
 
 
 class PhysicsConfig(StrictModel):
-    """MuJoCo options. Elliptic cones with impratio 10 keep friction grasps from creeping."""
+    """MuJoCo options. Elliptic cones with impratio 10 and the noslip pass keep friction grasps
+    from creeping.
+
+    ``noslip_iterations`` 10: MuJoCo's soft friction lets a held object turn or slide slowly
+    under any load inside its friction limit (each friction row is regularised, R > 0; with
+    elliptic cones a torsional row's R is the sliding row's times (mu_slide / mu_torsion)^2,
+    engine_core_constraint.c, so the pads' torsion is the softest). The noslip pass re-solves
+    the friction rows with R = 0 after the main solver (MuJoCo docs, Computation > Solver
+    settings: "When contact slip is a problem ... enable the Noslip solver"), so an object
+    sticks inside the limit and slips beyond it. MuJoCo Warp runs the same pass
+    (``mujoco_warp`` ``solver.noslip``). 10 is chosen (5 already stops the creep of
+    docs/interndata.md's example bottle); 0 restores the soft model."""
 
     timestep: FiniteFloat = Field(default=0.002, gt=0.0, le=0.05)
     integrator: Literal["implicitfast", "implicit", "euler", "rk4"] = "implicitfast"
     cone: Literal["elliptic", "pyramidal"] = "elliptic"
     impratio: FiniteFloat = Field(default=10.0, ge=1.0, le=1000.0)
-    noslip_iterations: int = Field(default=0, ge=0, le=100)
+    noslip_iterations: int = Field(default=10, ge=0, le=100)
     solver_iterations: int = Field(default=100, ge=1, le=10_000)
     gravity: Vec3 = (0.0, 0.0, -9.81)
     table_contact: bool = Field(

@@ -27,8 +27,10 @@ named ``<link>_col<i>`` / ``<finger>_pad``.
 Scene-level options that make grasps hold (they belong to the scene, because after
 ``scene.attach(spec, frame=..., prefix="robot/")`` the parent's options apply): timestep 0.002,
 ``integrator = implicitfast``, **``cone = elliptic`` with ``impratio = 10``** (pyramidal cones
-or impratio 1 let a held box creep by mm/s; elliptic + 10 brings it to ~0.1 mm/s), optionally
-``noslip_iterations`` (no creep, ~25% slower). ``configure_contact_options(spec)`` sets them;
+or impratio 1 let a held box creep by mm/s; elliptic + 10 brings it to ~0.1 mm/s). Tasks add
+MuJoCo's noslip pass (``PhysicsConfig.noslip_iterations``, default 10: no creep inside the
+friction limit, docs/robots.md); ``configure_contact_options`` leaves it off (the soft model the
+numbers below measure). ``configure_contact_options(spec)`` sets them;
 the robot spec itself keeps MuJoCo's defaults so attaching it raises no option conflicts (call
 it on the robot spec only to simulate the robot on its own). Measured with these options: a
 4 cm, 0.1 kg cube held at 5 N per pad creeps 0.12-0.17 mm/s (tests/test_robot_mujoco.py).

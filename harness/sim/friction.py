@@ -6,8 +6,13 @@ same outcomes, issue 16 item 4). The reference simulates in Isaac Sim / PhysX, w
 friction combine mode is the *average* of the two materials' coefficients. This module makes
 every object-pad and object-table contact an explicit MuJoCo contact pair whose friction is that
 average (sliding, torsional and rolling each), with the pad's contact stiffness for object-pad
-contacts. An explicit pair replaces the dynamic contact of the same two geoms, so nothing is
-counted twice. Object-object contacts keep MuJoCo's rule (the larger coefficient).
+contacts. The torsional coefficient of an object-pad pair is the pad's contact patch instead
+(``pad_pair_friction``): PhysX has no torsional material coefficient (a patch resists a twist
+through its area), and a patch's torsional limit is (3 pi / 16) mu a N
+(``harness.robots.contact_patch``), so the pad's ``pad_torsion`` (derived at its own sliding
+friction) is scaled to the pair's averaged sliding friction. An explicit pair replaces the
+dynamic contact of the same two geoms, so nothing is counted twice. Object-object contacts keep
+MuJoCo's rule (the larger coefficient).
 """
 
 from __future__ import annotations
@@ -26,6 +31,15 @@ def combined_friction(a: Sequence[float], b: Sequence[float]) -> list[float]:
     return [slide, slide, spin, roll, roll]
 
 
+def pad_pair_friction(obj: Sequence[float], pad: Sequence[float]) -> list[float]:
+    """An object-pad pair: the averages of ``combined_friction``, except the torsional
+    coefficient, the pad patch's torsion at the pair's sliding friction
+    (pad torsion x pair sliding / pad sliding; the patch limit is proportional to mu)."""
+    friction = combined_friction(obj, pad)
+    friction[2] = float(pad[1]) * friction[0] / float(pad[0])
+    return friction
+
+
 def add_object_contact_pairs(
     spec: mujoco.MjSpec, object_geoms: Iterable[str], pad_geoms: Iterable[str], table_geom: str
 ) -> int:
@@ -42,7 +56,7 @@ def add_object_contact_pairs(
                 geomname1=pad.name,
                 geomname2=name,
                 condim=PAIR_CONDIM,
-                friction=combined_friction(obj.friction, pad.friction),
+                friction=pad_pair_friction(obj.friction, pad.friction),
                 solref=list(pad.solref),
             )
             added += 1
