@@ -46,14 +46,16 @@ StreamKey = tuple[Any, ...]
 
 
 def stream_key(job: Any) -> StreamKey:
-    """Jobs of one key share a lane stream: one device model (scene, arm, target) and one
-    timing (the lanes take their window and servo chunks from the stream's first job)."""
+    """Jobs of one key share a lane stream: one device model (scene, arm, target, contact
+    bits: the table verdict's replay is a model of its own) and one timing (the lanes take
+    their window and servo chunks from the stream's first job)."""
     from harness.sim import scene_key
 
     task, schedule = job.task, job.schedule
     return (
         scene_key(task), task.arm, task.target_object.name, float(task.pick.hold_time),
         float(schedule.control_dt), tuple(schedule.chunk_sizes), int(schedule.warmup_steps),
+        job.contact_key,
     )  # fmt: skip
 
 
@@ -66,15 +68,27 @@ MIN_CUDA_LANES = 256
 EPISODES_PER_LANE = 3
 
 
-def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
-    """``task``'s scene from ``scenes``, built once per ``scene_key`` (under ``lock``)."""
+def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock, contact: Any = None) -> Any:
+    """``task``'s scene from ``scenes``, built once per ``scene_key`` (under ``lock``); with
+    ``contact`` (a job's contact bits) other than its model's, a variant of it with those bits
+    (``harness.engines.mjwarp.contact.scene_with_contact``), made once per bits."""
+    import numpy as np
+
+    from harness.engines.mjwarp.contact import contact_key, scene_with_contact
     from harness.sim import Scene, scene_key
+    from harness.sim.masks import contact_bits
 
     key = scene_key(task)
     with lock:
         if key not in scenes:
             scenes[key] = Scene.for_task(task)
-        return scenes[key]
+        scene = scenes[key]
+        if contact is None or np.array_equal(contact, contact_bits(scene.model)):
+            return scene
+        variant = (key, contact_key(contact))
+        if variant not in scenes:
+            scenes[variant] = scene_with_contact(scene, contact)
+        return scenes[variant]
 
 
 def default_lanes(device: str, episodes: int | None = None) -> int:
@@ -235,9 +249,10 @@ class DeviceStreams:
         for _, _, answer in jobs:
             answer(None, message)
 
-    def _scene(self, task: Any) -> Any:
-        """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
-        return scene_for(task, self._scenes, self._scene_lock)
+    def _scene(self, job: Any) -> Any:
+        """The job's scene, built as the workers build theirs (one per ``scene_key``), with the
+        job's contact bits."""
+        return scene_for(job.task, self._scenes, self._scene_lock, job.contact)
 
     def _one_stream(self, engine: Any, device: str, key: StreamKey) -> None:
         """One stream of ``key``'s jobs on ``engine`` until it ends; every job it took is
@@ -295,7 +310,7 @@ class DeviceStreams:
                 head = self._queues[key][0][1] if self._queues[key] else None
             if head is None:
                 return
-            scene = self._scene(head.task)
+            scene = self._scene(head)
             self._run_stream(engine, scene, source, on_outcome, lanes)
         except Exception as exc:
             message = f"lane stream on {device} failed: {type(exc).__name__}: {exc}"
@@ -326,7 +341,7 @@ class DeviceStreams:
             head = source(True)
         if head is None:
             return
-        batch = engine.batch(scene, head[0][1].task)
+        batch = engine.batch(scene, head[0][1].task, contact=head[0][1].contact)
         stream = LaneStream(batch, nlane=lanes, on_outcome=on_outcome)
         given = [head]
 
