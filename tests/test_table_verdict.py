@@ -75,3 +75,23 @@ def test_a_pick_through_the_table_is_valid_only_if_it_holds_on_a_physical_table(
     assert fails["success"] and fails["table_penetration_m"] > 0.002
     assert fails["table_replay"] == "no_contact"
     assert not fails["valid"] and fails["invalid_reason"] == "table_penetration"
+
+
+def test_compile_prepares_the_table_physical_model_where_picks_may_replay() -> None:
+    """``harness compile`` (``harness.runs.warm.model_jobs``): FR3 (robot-table contact
+    non-physical) gets its job and the same job with the table-physical contact bits, a stream
+    of its own (MJWarp compiles other collision kernels for it); Split ALOHA (contact physical)
+    only its job."""
+    from harness.engines.mjwarp.devices import stream_key
+    from harness.episode import EpisodeSpec
+    from harness.runs.warm import model_jobs
+
+    fr3 = harness.load_task(FR3)
+    base, replay = model_jobs([EpisodeSpec(task=fr3, seed=s) for s in range(2)])
+    assert stream_key(base) != stream_key(replay)
+    robot = base.contact[1] != replay.contact[1]
+    assert robot.any() and np.all(replay.contact[1][robot] == base.contact[1][robot] | TABLE_BIT)
+    assert np.array_equal(base.contact[0], replay.contact[0])
+    assert replay.schedule is base.schedule and replay.state is base.state
+    aloha = harness.load_task(PROJECT_ROOT / "tasks" / "pick" / "split_aloha_right.yaml")
+    assert len(model_jobs([EpisodeSpec(task=aloha, seed=s) for s in range(4)])) == 1
