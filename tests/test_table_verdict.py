@@ -5,6 +5,9 @@ where contact is physical, the depth is reported and does not judge."""
 
 from __future__ import annotations
 
+import dataclasses
+import importlib.util
+
 import numpy as np
 import pytest
 from helpers import PROJECT_ROOT
@@ -20,6 +23,7 @@ from harness.episode.table_verdict import (
 from harness.pick.outcome import ValidityMeasure, ValidityResult
 from harness.sim.masks import TABLE_BIT
 
+HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
 FR3 = PROJECT_ROOT / "tasks" / "pick" / "fr3.yaml"
 # `harness run tasks/pick/fr3.yaml --set object.mesh=banana --episodes 8 --seed 500`: both are
 # reference successes whose fingers go 3.8 / 5.4 mm into the (non-physical) table; with the
@@ -95,3 +99,34 @@ def test_compile_prepares_the_table_physical_model_where_picks_may_replay() -> N
     assert replay.schedule is base.schedule and replay.state is base.state
     aloha = harness.load_task(PROJECT_ROOT / "tasks" / "pick" / "split_aloha_right.yaml")
     assert len(model_jobs([EpisodeSpec(task=aloha, seed=s) for s in range(4)])) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_mjwarp_replays_on_a_table_physical_device_model_as_the_cpu_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The FR3 banana pick that closes on nothing once the table is physical, on both engines
+    (MJWarp in process on Warp's CPU device): each measures its own depth into the
+    non-physical table, replays on the physical one, and the rows' ``table_replay``, ``valid``
+    and ``invalid_reason`` are the same. On MJWarp the replay ran on a second device model,
+    made with the table's contact bit on the robot's geoms (a replay on the first model would
+    repeat the first execution and hold)."""
+    from harness import engines
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode import EpisodeSpec, run_episode
+
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    engine = MjwarpEngine("cpu")
+    monkeypatch.setitem(engines._ENGINES, "mjwarp", engine)
+    spec = EpisodeSpec(task=_banana(), seed=NO_CONTACT_SEED)
+    cache: dict = {}
+    cpu = run_episode(spec, cache).row
+    gpu = run_episode(dataclasses.replace(spec, engine="mjwarp"), cache).row
+    assert cpu["table_replay"] == "no_contact"
+    assert gpu["success"] and gpu["table_penetration_m"] > 0.0  # the device's own depth
+    for column in ("table_replay", "valid", "invalid_reason"):
+        assert gpu[column] == cpu[column], column
+    assert len({key[:3] for key in engine._models}) == 1
+    assert len({key[3] for key in engine._models}) == 2  # the task's bits, the physical ones
