@@ -4,12 +4,12 @@ Warp compiles MuJoCo Warp's kernels (and this engine's) the first time a task mo
 device (NVRTC on a GPU: 200-290 s for the first FR3 model on an H100; Warp's CPU compiler: a
 few minutes on 2 cores) and keeps them in its kernel cache (``WARP_CACHE_PATH``, default
 ``~/.cache/warp``), from which later runs load them in seconds. ``warm`` plans one episode of
-each task model among the given episodes (its job: ``plan_job``; and the same job on the table-
-physical variant the table verdict replays on, ``harness.episode.table_verdict``), runs it on
-every device as a lockstep batch (the batch and tug kernels) and through a one-lane stream (the
-lanes' kernels, and a captured graph), and says per model how long that took. A sweep started
-afterwards starts stepping at once; the episode wall limit never counts compile time either way
-(the device wait is not the episode's: ``harness.engines.mjwarp.service``).
+each task model among the given episodes (its job: ``plan_job``; and the same job on the
+table-physical variant the table verdict replays on, ``harness.episode.table_verdict``), runs
+it on every device as a lockstep batch (the batch and tug kernels) and through a one-lane
+stream (the lanes' kernels, and a captured graph), and says per model how long that took. A
+sweep started afterwards starts stepping at once; the episode wall limit never counts compile
+time either way (the device wait is not the episode's: ``harness.engines.mjwarp.service``).
 """
 
 from __future__ import annotations
