@@ -254,6 +254,17 @@ class DeviceStreams:
         job's contact bits."""
         return scene_for(job.task, self._scenes, self._scene_lock, job.contact)
 
+    def _variant(self, key: StreamKey) -> str:
+        """A log label's note for a stream whose contact bits are not its task model's own
+        (the table verdict's replay): ``" (contact bits <key>)"``, else ''."""
+        with self._cond:
+            jobs = self._queues.get(key)
+            head = jobs[0][1] if jobs else None
+        if head is None:
+            return ""
+        base = self._scene(head) is scene_for(head.task, self._scenes, self._scene_lock)
+        return "" if base else f" (contact bits {key[-1]})"
+
     def _one_stream(self, engine: Any, device: str, key: StreamKey) -> None:
         """One stream of ``key``'s jobs on ``engine`` until it ends; every job it took is
         answered, with its outcome or the stream's error."""
@@ -285,7 +296,7 @@ class DeviceStreams:
                     self._cond.wait(0.05)
                     block = False  # once: the caller asks again
 
-        label = f"{device} {key[1]} {key[2]}"
+        label = f"{device} {key[1]} {key[2]}{self._variant(key)}"
 
         def on_outcome(tag: Hashable, outcome: PickOutcome) -> None:
             answer = taken.pop(tag, None)
