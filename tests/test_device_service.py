@@ -13,8 +13,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
-from helpers import fr3_device_jobs
+from helpers import fr3_device_jobs, same_fields
 
 from harness.config import load_task
 from harness.engines.mjwarp import service as service_module
@@ -23,7 +24,7 @@ from harness.engines.mjwarp.service import Baton, DeviceReply, DeviceService
 from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError
 from harness.objects.assets import repo_root
-from harness.pick.outcome import PickOutcome
+from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
 from harness.runs import device_pool
 from harness.runs.executors import run_process_pool
 from harness.sim.budget import budget_paused, check_deadline, episode_budget
@@ -359,6 +360,123 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     assert len(executed) == stats.device.jobs >= 4
     assert sum(len(s) for s in stub.streams) == stats.device.jobs
     assert all(r["engine"] == "mjwarp" for r in rows)
+
+
+def _held_measure(depth: float) -> ValidityMeasure:
+    """A grasp that passes every validity term but the table's (at ``depth`` > 2 mm)."""
+    return ValidityMeasure(
+        ran=True, table_penetration_m=depth, lift_height_m=0.1, closing_forces=(5.0, 5.0),
+        finger_forces=(5.0, 5.0), hold_slip_m=0.001, hold_rotation_rad=0.01, robustness_g=4.0,
+        object_speed=0.0, joint_speed=0.0,
+    )  # fmt: skip
+
+
+class _TableStreams:
+    """A stand-in device for the table verdict's replay. Jobs of the task's own contact bits:
+    it holds all three, then answers each with a reference success whose row identifies it
+    (``lift_height_m`` 0.10, 0.11, 0.12 by the object's start x); the first two went 3 mm
+    into the (non-physical) table, the third did not touch it. Jobs of any other bits (the
+    replay): the first one holds (a valid grasp), the second closes on nothing."""
+
+    def __init__(self, base_key: str) -> None:
+        self.base_key = base_key
+        self.streams: list[list[Any]] = []
+        self.rank: dict[bytes, int] = {}  # object start position -> rank of its base job
+
+    def __call__(self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+        from harness.sim.masks import contact_bits
+
+        mine: list[Any] = []
+        self.streams.append(mine)
+        held: list[tuple[Any, Any]] = []
+        while (items := source(True)) is not None:
+            for _, job in items:  # the stream's scene has the job's bits (its own model)
+                assert np.array_equal(contact_bits(scene.model), job.contact)
+            mine.extend(job for _, job in items)
+            held.extend(items)
+            if held and held[0][1].contact_key != self.base_key:
+                for tag, job in held:
+                    on_outcome(tag, self._replayed(job))
+                held = []
+            elif len(held) == 3:
+                held.sort(key=lambda item: float(item[1].object_init_position[0]))
+                for rank, (tag, job) in enumerate(held):
+                    self.rank[job.object_init_position.tobytes()] = rank
+                    depth = 0.003 if rank < 2 else 0.0
+                    measure = _held_measure(depth)
+                    validity = ValidityResult(
+                        depth == 0.0, "" if depth == 0.0 else "table_penetration", "", measure
+                    )
+                    on_outcome(
+                        tag,
+                        PickOutcome(
+                            success=True, control_steps=1, lift_height_m=0.10 + 0.01 * rank,
+                            table_penetration_m=depth, validity=validity,
+                        ),
+                    )  # fmt: skip
+                held = []
+
+    def _replayed(self, job: Any) -> PickOutcome:
+        if self.rank[job.object_init_position.tobytes()] == 0:
+            validity = ValidityResult(True, "", "", _held_measure(0.0))
+            return PickOutcome(success=True, control_steps=1, lift_height_m=0.1, validity=validity)
+        return PickOutcome(
+            failure_reason="no_contact", message="closed on nothing", control_steps=1
+        )
+
+
+def test_a_pool_replays_a_pick_through_the_table_on_a_table_physical_model(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """FR3 (robot-table contact non-physical), three episodes on a stub device: the two whose
+    fingers went into the table get a second device job of the same episode, with the
+    table-physical contact bits (a stream key and a device scene of their own), from the same
+    start state and schedule; their rows' ``table_replay`` and ``valid`` are the second
+    outcome's (``harness.episode.table_verdict.physical_verdict``); the third gets one job."""
+    from harness.engines.mjwarp.contact import contact_key
+    from harness.episode.scene_cache import get_scene
+    from harness.episode.table_verdict import table_physical
+    from harness.sim.masks import TABLE_BIT, contact_bits
+
+    scene = get_scene(fr3(), {}).scene
+    base_bits = contact_bits(scene.model)
+    with table_physical(scene):
+        physical_bits = contact_bits(scene.model)
+    robot = scene.robot_geom & (base_bits[1] != 0)
+    assert not np.any(base_bits[1][robot] & TABLE_BIT)
+    assert np.all(physical_bits[1][robot] & TABLE_BIT)
+    stub = _TableStreams(contact_key(base_bits))
+    _stub_service(monkeypatch, stub)  # type: ignore[arg-type]
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
+    episodes = [
+        dataclasses.replace(EpisodeSpec(task=fr3(), seed=s, episode_index=s), engine="mjwarp")
+        for s in range(3)
+    ]
+    rows: list[dict[str, Any]] = []
+    stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
+    assert stats.finished == 3 and not stats.crashed and not stats.device.errors
+    jobs = [job for stream in stub.streams for job in stream]
+    base = [j for j in jobs if j.contact_key == contact_key(base_bits)]
+    replays = [j for j in jobs if j.contact_key == contact_key(physical_bits)]
+    assert (len(base), len(replays), stats.device.jobs) == (3, 2, 5)
+    for stream in stub.streams:  # the two variants never share a stream
+        assert len({job.contact_key for job in stream}) == 1
+    assert stream_key(replays[0]) != stream_key(base[0])
+    for replay in replays:  # the same episode, from the same start state, on the same schedule
+        (first,) = [
+            j for j in base if np.array_equal(j.object_init_position, replay.object_init_position)
+        ]
+        assert stub.rank[first.object_init_position.tobytes()] < 2
+        assert same_fields(first.schedule, replay.schedule)
+        assert all(np.array_equal(first.state[k], replay.state[k]) for k in first.state)
+    by_rank = {round((r["lift_height_m"] - 0.10) / 0.01): r for r in rows}
+    held, dropped, clean = by_rank[0], by_rank[1], by_rank[2]
+    assert (held["table_replay"], held["valid"], held["invalid_reason"]) == ("held", True, "")
+    assert held["table_penetration_m"] == dropped["table_penetration_m"] == 0.003
+    assert (dropped["table_replay"], dropped["valid"]) == ("no_contact", False)
+    assert dropped["invalid_reason"] == "table_penetration"
+    assert (clean["table_replay"], clean["valid"], clean["table_penetration_m"]) == ("", True, 0.0)
+    assert all(r["success"] and r["engine"] == "mjwarp" for r in rows)
 
 
 @pytest.mark.slow

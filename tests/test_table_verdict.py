@@ -5,6 +5,9 @@ where contact is physical, the depth is reported and does not judge."""
 
 from __future__ import annotations
 
+import dataclasses
+import importlib.util
+
 import numpy as np
 import pytest
 from helpers import PROJECT_ROOT
@@ -20,6 +23,7 @@ from harness.episode.table_verdict import (
 from harness.pick.outcome import ValidityMeasure, ValidityResult
 from harness.sim.masks import TABLE_BIT
 
+HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
 FR3 = PROJECT_ROOT / "tasks" / "pick" / "fr3.yaml"
 # `harness run tasks/pick/fr3.yaml --set object.mesh=banana --episodes 8 --seed 500`: both are
 # reference successes whose fingers go 3.8 / 5.4 mm into the (non-physical) table; with the
@@ -75,3 +79,63 @@ def test_a_pick_through_the_table_is_valid_only_if_it_holds_on_a_physical_table(
     assert fails["success"] and fails["table_penetration_m"] > 0.002
     assert fails["table_replay"] == "no_contact"
     assert not fails["valid"] and fails["invalid_reason"] == "table_penetration"
+
+
+def test_compile_prepares_the_table_physical_model_where_picks_may_replay() -> None:
+    """``harness compile`` (``harness.runs.warm.model_jobs``): FR3 (robot-table contact
+    non-physical) gets its job and the same job with the table-physical contact bits, a stream
+    of its own (MJWarp compiles other collision kernels for it); Split ALOHA (contact physical)
+    only its job."""
+    from harness.engines.mjwarp.devices import stream_key
+    from harness.episode import EpisodeSpec
+    from harness.runs.warm import model_jobs
+
+    fr3 = harness.load_task(FR3)
+    base, replay = model_jobs([EpisodeSpec(task=fr3, seed=s) for s in range(2)])
+    assert stream_key(base) != stream_key(replay)
+    robot = base.contact[1] != replay.contact[1]
+    assert robot.any() and np.all(replay.contact[1][robot] == base.contact[1][robot] | TABLE_BIT)
+    assert np.array_equal(base.contact[0], replay.contact[0])
+    assert replay.schedule is base.schedule and replay.state is base.state
+    aloha = harness.load_task(PROJECT_ROOT / "tasks" / "pick" / "split_aloha_right.yaml")
+    assert len(model_jobs([EpisodeSpec(task=aloha, seed=s) for s in range(4)])) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_mjwarp_replays_on_a_table_physical_device_model_as_the_cpu_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The FR3 banana pick that still holds once the table is physical, on both engines
+    (MJWarp in process on Warp's CPU device): each measures its own depth into the
+    non-physical table (3.8 mm on the CPU, 3.3 mm on the device), replays the job on the
+    physical one, and the rows' ``table_replay``, ``valid`` and ``invalid_reason`` are the
+    same. On MJWarp the replay ran on a second device model, made with the table's contact bit
+    on the robot's geoms. (``NO_CONTACT_SEED`` does not agree: docs/engines.md, "The table
+    verdict's replay".)"""
+    from harness import engines
+    from harness.engines.mjwarp.contact import contact_key
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.episode import EpisodeSpec, run_episode
+    from harness.episode.scene_cache import get_scene
+    from harness.sim.masks import contact_bits
+
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")
+    engine = MjwarpEngine("cpu")
+    monkeypatch.setitem(engines._ENGINES, "mjwarp", engine)
+    spec = EpisodeSpec(task=_banana(), seed=HELD_SEED)
+    cache: dict = {}
+    cpu = run_episode(spec, cache).row
+    gpu = run_episode(dataclasses.replace(spec, engine="mjwarp"), cache).row
+    assert cpu["table_replay"] == HELD
+    assert gpu["success"] and gpu["table_penetration_m"] > 0.002  # the device's own depth
+    for column in ("table_replay", "valid", "invalid_reason"):
+        assert gpu[column] == cpu[column], column
+    scene = get_scene(spec.task, cache).scene
+    with table_physical(scene):
+        physical = contact_bits(scene.model)
+    assert len({key[:3] for key in engine._models}) == 1  # one scene, arm, target
+    assert {key[3] for key in engine._models} == {  # the task's bits, the physical ones
+        contact_key(contact_bits(scene.model)), contact_key(physical),
+    }  # fmt: skip

@@ -79,7 +79,7 @@ class GpuDevices:
         return union_length(self.busy)
 
     def _scene(self, job: Any) -> Any:
-        return scene_for(job.task, self.scenes, self.lock)
+        return scene_for(job.task, self.scenes, self.lock, job.contact)
 
     def load(self, jobs: list[Any]) -> None:
         """Load (compile) the kernels of each task model among ``jobs``, off the clock."""
@@ -97,7 +97,7 @@ class GpuDevices:
         from harness.engines.mjwarp.stream import LaneStream
 
         for engine in self.engines:
-            batch = engine.batch(self._scene(job), job.task)
+            batch = engine.batch(self._scene(job), job.task, contact=job.contact)
             items: list[Any] = [[(0, job)], None]
             LaneStream(batch, nlane=1, group=1).run(lambda block, items=items: items.pop(0))
 

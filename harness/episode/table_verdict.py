@@ -68,14 +68,18 @@ def start_state(scene: Scene) -> np.ndarray:
     return state
 
 
+def may_replay(task: TaskConfig) -> bool:
+    """Whether ``task``'s picks can be replayed on a physical table: reference semantics with
+    robot-table contact non-physical (``harness compile`` also compiles that variant)."""
+    return task.pick.semantics == "reference" and not task.physics.table_contact
+
+
 def needs_replay(task: TaskConfig, outcome: PickOutcome | None) -> bool:
     """A reference success under reference semantics, robot-table contact non-physical, with a
     robot geom below the table top during its execution."""
     if outcome is None or outcome.validity is None or not outcome.success:
         return False
-    if task.pick.semantics != "reference" or task.physics.table_contact:
-        return False
-    return outcome.table_penetration_m > 0.0
+    return may_replay(task) and outcome.table_penetration_m > 0.0
 
 
 def replay_on_physical_table(

@@ -4,11 +4,12 @@ Warp compiles MuJoCo Warp's kernels (and this engine's) the first time a task mo
 device (NVRTC on a GPU: 200-290 s for the first FR3 model on an H100; Warp's CPU compiler: a
 few minutes on 2 cores) and keeps them in its kernel cache (``WARP_CACHE_PATH``, default
 ``~/.cache/warp``), from which later runs load them in seconds. ``warm`` plans one episode of
-each task model among the given episodes (its job: ``plan_job``), runs it on every device as a
-lockstep batch (the batch and tug kernels) and through a one-lane stream (the lanes' kernels,
-and a captured graph), and says per model how long that took. A sweep started afterwards
-starts stepping at once; the episode wall limit never counts compile time either way (the
-device wait is not the episode's: ``harness.engines.mjwarp.service``).
+each task model among the given episodes (its job: ``plan_job``; and the same job on the
+table-physical variant the table verdict replays on, ``harness.episode.table_verdict``), runs
+it on every device as a lockstep batch (the batch and tug kernels) and through a one-lane
+stream (the lanes' kernels, and a captured graph), and says per model how long that took. A
+sweep started afterwards starts stepping at once; the episode wall limit never counts compile
+time either way (the device wait is not the episode's: ``harness.engines.mjwarp.service``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ import dataclasses
 import time
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from harness.engines.base import Execution, ExecutionJob
 from harness.pick.outcome import PickOutcome
@@ -56,9 +59,15 @@ def plan_job(spec: Any, scenes: dict[Any, Any]) -> tuple[dict[str, Any], Any]:
 
 def model_jobs(episodes: list[Any], seeds: int = 8) -> list[Any]:
     """One planned job per stream key (task model and timing) among ``episodes``: the first
-    of up to ``seeds`` episodes of each that reaches its execution."""
+    of up to ``seeds`` episodes of each that reaches its execution; and, where the task's
+    picks can be replayed on a physical table (``table_verdict.may_replay``), the same job
+    with the table-physical contact bits (that model collides other geom pairs: MJWarp
+    compiles kernels of its own for it)."""
     from harness.engines.mjwarp.devices import stream_key
+    from harness.episode.scene_cache import get_scene
+    from harness.episode.table_verdict import may_replay, table_physical
     from harness.sim import scene_key
+    from harness.sim.masks import contact_bits
 
     scenes: dict[Any, Any] = {}
     by_model: dict[Any, list[Any]] = {}
@@ -71,6 +80,12 @@ def model_jobs(episodes: list[Any], seeds: int = 8) -> list[Any]:
             _, job = plan_job(spec, scenes)
             if job is not None:
                 jobs.setdefault(stream_key(job), job)
+                if may_replay(job.task):
+                    scene = get_scene(job.task, scenes).scene
+                    with table_physical(scene):
+                        bits = contact_bits(scene.model)
+                    replay = dataclasses.replace(job, contact=bits)
+                    jobs.setdefault(stream_key(replay), replay)
                 break
     return list(jobs.values())
 
@@ -81,6 +96,7 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
     from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.engines.mjwarp.stream import LaneStream
     from harness.episode.scene_cache import get_scene
+    from harness.sim.masks import contact_bits
 
     scenes: dict[Any, Any] = {}
     spent: dict[str, float] = {}
@@ -91,13 +107,16 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
         for job in jobs:
             k += 1
             task = job.task
-            name = f"{task.robot} {task.arm} {task.target_object.name} on {device}"
+            scene = get_scene(task, scenes).scene
+            physical = (
+                "" if np.array_equal(job.contact, contact_bits(scene.model)) else ", table physical"
+            )
+            name = f"{task.robot} {task.arm} {task.target_object.name}{physical} on {device}"
             say(f"[{k}/{total}] {name}: compiling or loading its kernels ...")
             clock = time.perf_counter()
-            scene = get_scene(task, scenes).scene
             engine.execute_many(scene, [job])
             items: list[Any] = [[(0, job)], None]
-            LaneStream(engine.batch(scene, task), nlane=1, group=1).run(
+            LaneStream(engine.batch(scene, task, contact=job.contact), nlane=1, group=1).run(
                 lambda block, items=items: items.pop(0)
             )
             spent[name] = time.perf_counter() - clock

@@ -24,3 +24,17 @@ def refresh_body_masks(model: mujoco.MjModel) -> None:
     np.bitwise_or.at(conaffinity, model.geom_bodyid, model.geom_conaffinity)
     model.body_contype[:] = contype
     model.body_conaffinity[:] = conaffinity
+
+
+def contact_bits(model: mujoco.MjModel) -> np.ndarray:
+    """Every geom's contact bits as they are now: (2, ngeom) int32, ``geom_contype`` then
+    ``geom_conaffinity`` (the body masks follow from them, ``refresh_body_masks``)."""
+    return np.stack((model.geom_contype, model.geom_conaffinity)).astype(np.int32)
+
+
+def set_contact_bits(model: mujoco.MjModel, bits: np.ndarray) -> None:
+    """Give every geom the contact bits ``bits`` (as ``contact_bits`` returns them) and
+    refresh the body masks."""
+    model.geom_contype[:] = bits[0]
+    model.geom_conaffinity[:] = bits[1]
+    refresh_body_masks(model)

@@ -73,24 +73,38 @@ def task_key(task: Any) -> tuple[Any, ...]:
 
 
 def stream_key(job: Any) -> StreamKey:
-    """Jobs of one key share a lane stream: one device model (scene, arm, target) and one
-    timing (the lanes take their window and servo chunks from the stream's first job)."""
+    """Jobs of one key share a lane stream: one device model (scene, arm, target, contact
+    bits: the table verdict's replay is a model of its own) and one timing (the lanes take
+    their window and servo chunks from the stream's first job)."""
     schedule = job.schedule
     return (
         *task_key(job.task),
         float(schedule.control_dt), tuple(schedule.chunk_sizes), int(schedule.warmup_steps),
+        job.contact_key,
     )  # fmt: skip
 
 
-def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock) -> Any:
-    """``task``'s scene from ``scenes``, built once per ``scene_key`` (under ``lock``)."""
+def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock, contact: Any = None) -> Any:
+    """``task``'s scene from ``scenes``, built once per ``scene_key`` (under ``lock``); with
+    ``contact`` (a job's contact bits) other than its model's, a variant of it with those bits
+    (``harness.engines.mjwarp.contact.scene_with_contact``), made once per bits."""
+    import numpy as np
+
+    from harness.engines.mjwarp.contact import contact_key, scene_with_contact
     from harness.sim import Scene, scene_key
+    from harness.sim.masks import contact_bits
 
     key = scene_key(task)
     with lock:
         if key not in scenes:
             scenes[key] = Scene.for_task(task)
-        return scenes[key]
+        scene = scenes[key]
+        if contact is None or np.array_equal(contact, contact_bits(scene.model)):
+            return scene
+        variant = (key, contact_key(contact))
+        if variant not in scenes:
+            scenes[variant] = scene_with_contact(scene, contact)
+        return scenes[variant]
 
 
 @dataclass
@@ -339,9 +353,21 @@ class DeviceStreams:
         for _, _, answer in jobs:
             answer(None, message)
 
-    def _scene(self, task: Any) -> Any:
-        """The task's scene, built as the workers build theirs (one per ``scene_key``)."""
-        return scene_for(task, self._scenes, self._scene_lock)
+    def _scene(self, job: Any) -> Any:
+        """The job's scene, built as the workers build theirs (one per ``scene_key``), with the
+        job's contact bits."""
+        return scene_for(job.task, self._scenes, self._scene_lock, job.contact)
+
+    def _variant(self, key: StreamKey) -> str:
+        """A log label's note for a stream whose contact bits are not its task model's own
+        (the table verdict's replay): ``" (contact bits <key>)"``, else ''."""
+        with self._cond:
+            jobs = self._queues.get(key)
+            head = jobs[0][1] if jobs else None
+        if head is None:
+            return ""
+        base = self._scene(head) is scene_for(head.task, self._scenes, self._scene_lock)
+        return "" if base else f" (contact bits {key[-1]})"
 
     def _one_stream(self, engine: Any, device: str, key: StreamKey, lanes: int) -> None:
         """One stream of ``key``'s jobs on ``engine`` until it ends; every job it took is
@@ -374,7 +400,7 @@ class DeviceStreams:
                     self._cond.wait(0.05)
                     block = False  # once: the caller asks again
 
-        label = f"{device} {key[1]} {key[2]}"
+        label = f"{device} {key[1]} {key[2]}{self._variant(key)}"
 
         def on_outcome(tag: Hashable, outcome: PickOutcome) -> None:
             answer = taken.pop(tag, None)
@@ -400,7 +426,7 @@ class DeviceStreams:
                 head = self._queues[key][0][1] if self._queues[key] else None
             if head is None:
                 return
-            scene = self._scene(head.task)
+            scene = self._scene(head)
             self._run_stream(engine, scene, source, on_outcome, lanes)
         except Exception as exc:
             message = f"lane stream of {label} failed: {type(exc).__name__}: {exc}"
@@ -442,7 +468,7 @@ class DeviceStreams:
             head = source(True)
         if head is None:
             return
-        batch = engine.batch(scene, head[0][1].task, self._slot(engine))
+        batch = engine.batch(scene, head[0][1].task, self._slot(engine), contact=head[0][1].contact)
         # a tug group flushes once it holds as many jobs as the lanes step, so a group of more
         # than twice the lanes never fills; fewer job slots, less memory per stream
         group = min(TUG_GROUP, 2 * lanes)

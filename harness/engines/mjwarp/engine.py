@@ -19,6 +19,8 @@ import contextlib
 import os
 from typing import Any
 
+import numpy as np
+
 from harness.config import TaskConfig
 from harness.engines.base import Execution, ExecutionJob
 from harness.engines.mjwarp.schedule import DeviceJob, device_job
@@ -26,6 +28,7 @@ from harness.errors import HarnessError
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
 from harness.sim import Scene
+from harness.sim.masks import contact_bits
 
 _NOTED = False  # the CPU device's note is said once per process
 CPU_DEVICE_NOTE = (
@@ -67,7 +70,8 @@ def default_device() -> str:
 
 
 class MjwarpEngine:
-    """Batched MuJoCo Warp worlds; one ``DeviceModel`` per task model, kept between calls."""
+    """Batched MuJoCo Warp worlds; one ``DeviceModel`` per task model and contact bits (the
+    table verdict's replay runs with robot-table contact on), kept between calls."""
 
     name = "mjwarp"
 
@@ -84,7 +88,7 @@ class MjwarpEngine:
         self.device = device or default_device()
         self.buffers = buffers
         self.retire = retire
-        self._models: dict[tuple[int, str, str], Any] = {}
+        self._models: dict[tuple[int, str, str, str], Any] = {}
         global _NOTED
         if self.device == "cpu" and not _NOTED:
             import sys
@@ -92,26 +96,40 @@ class MjwarpEngine:
             print(f"mjwarp: {CPU_DEVICE_NOTE}", file=sys.stderr, flush=True)
             _NOTED = True
 
-    def batch(self, scene: Scene, task: TaskConfig, slot: Any = None) -> Any:
-        """A ``WorldBatch`` on the device model of ``scene`` (made once per model), on ``slot``
-        (a ``DeviceSlot``: its stream and its device's lock) when given."""
+    def batch(
+        self, scene: Scene, task: TaskConfig, slot: Any = None, contact: np.ndarray | None = None
+    ) -> Any:
+        """A ``WorldBatch`` on the device model of ``scene`` with the contact bits ``contact``
+        (default: its model's now; made once per model, arm, target and bits, from a copy of
+        the model with those bits: ``harness.engines.mjwarp.contact``), on ``slot`` (a
+        ``DeviceSlot``: its stream and its device's lock) when given."""
         from harness.engines.mjwarp.batch import SMALL, Buffers, WorldBatch
+        from harness.engines.mjwarp.contact import scene_with_contact
         from harness.engines.mjwarp.model import DeviceModel
         from harness.engines.mjwarp.slot import DeviceSlot
 
         slot = slot if slot is not None else DeviceSlot(self.device)
-        # One scene serves both arms of a two-arm robot: the arm and target pick the signals.
-        key = (id(scene.model), task.arm, task.target_object.name)
+        bits = contact_bits(scene.model) if contact is None else contact
+        key = self._key(scene, task, bits)
         dm = self._models.get(key)
         if dm is None:
             with slot:  # two streams of the device may ask at once: one makes it
                 dm = self._models.get(key)
                 if dm is None:
-                    dm = self._models[key] = DeviceModel(scene, task, self.device)
+                    variant = scene_with_contact(scene, bits)
+                    dm = self._models[key] = DeviceModel(variant, task, self.device)
         buffers = Buffers(*self.buffers) if self.buffers else SMALL
         if self.retire is None:
             return WorldBatch(dm, buffers=buffers, slot=slot)
         return WorldBatch(dm, buffers=buffers, slot=slot, retire=self.retire)
+
+    @staticmethod
+    def _key(scene: Scene, task: TaskConfig, bits: np.ndarray) -> tuple[int, str, str, str]:
+        """A device model's key: one scene serves both arms of a two-arm robot (the arm and
+        target pick the signals), and each set of contact bits is a model of its own."""
+        from harness.engines.mjwarp.contact import contact_key
+
+        return (id(scene.model), task.arm, task.target_object.name, contact_key(bits))
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""
@@ -135,16 +153,18 @@ class MjwarpEngine:
         from harness.sim.budget import budget_paused
 
         packed = device_job(job)
-        first = (id(job.scene.model), job.task.arm, job.task.target_object.name) not in self._models
+        first = self._key(job.scene, job.task, packed.contact) not in self._models
         paused = budget_paused() if first or self.device == "cpu" else contextlib.nullcontext()
         with paused:
-            outcome = self.batch(job.scene, job.task).run([packed])[0]
+            outcome = self.batch(job.scene, job.task, contact=packed.contact).run([packed])[0]
         return Execution.of_batch(outcome, validity_enabled(job.task.pick))
 
     def execute_many(
         self, scene: Scene, jobs: list[DeviceJob], slot: Any = None
     ) -> tuple[list[PickOutcome], Any]:
-        """Jobs of ``scene``'s task model in one batch (on ``slot`` when given); the outcomes
-        and the batch's timings."""
-        batch = self.batch(scene, jobs[0].task, slot)
+        """Jobs of ``scene``'s task model and of one set of contact bits in one batch (on
+        ``slot`` when given); the outcomes and the batch's timings."""
+        if len({job.contact_key for job in jobs}) > 1:
+            raise ValueError("one batch runs jobs of one set of contact bits")
+        batch = self.batch(scene, jobs[0].task, slot, contact=jobs[0].contact)
         return batch.run(jobs), batch.timings

@@ -29,11 +29,13 @@ import numpy as np
 
 from harness.config import TaskConfig
 from harness.engines.base import ExecutionJob
+from harness.engines.mjwarp.contact import contact_key
 from harness.pick.executor import PickExecutor
 from harness.pick.penetration import TablePenetration
 from harness.pick.semantics import Semantics
 from harness.pick.verdict import VerdictTerm
 from harness.sim import Scene
+from harness.sim.masks import contact_bits
 from harness.sim.queries import T_from_pos_mat
 
 
@@ -185,7 +187,10 @@ def build_schedule(job: ExecutionJob, lean: bool = True) -> ExecutionSchedule:
 @dataclass
 class DeviceJob:
     """An execution job in plain arrays (picklable: planning workers send it to the process that
-    owns the device): the start state, the schedule, and what the verdicts need of the plan."""
+    owns the device): the start state, the schedule, what the verdicts need of the plan, and
+    the contact bits of every geom the job runs with (``harness.sim.masks.contact_bits``: the
+    table verdict's replay runs the job again with robot-table contact on;
+    ``harness.engines.mjwarp.contact``)."""
 
     task: TaskConfig
     semantics: Semantics
@@ -195,10 +200,17 @@ class DeviceJob:
     tcp_offset: float
     state: dict[str, np.ndarray]
     schedule: ExecutionSchedule
+    contact: np.ndarray
+
+    @property
+    def contact_key(self) -> str:
+        """The name of the job's contact bits: jobs of one model variant share it."""
+        return contact_key(self.contact)
 
 
 def device_job(job: ExecutionJob) -> DeviceJob:
-    """The job's start state and schedule (``build_schedule``) as a ``DeviceJob``."""
+    """The job's start state, schedule (``build_schedule``) and contact bits (the scene's
+    model's as they are at the call) as a ``DeviceJob``."""
     d = job.scene.data
     convention = job.scene.robot.convention
     state = {
@@ -209,4 +221,5 @@ def device_job(job: ExecutionJob) -> DeviceJob:
         job.task, job.semantics, np.asarray(job.object_init_position, dtype=float),
         job.targets.T_world_grasp.copy(), int(convention.approach_index),
         float(job.task.pick.tcp_offset or convention.tcp_offset), state, build_schedule(job),
+        contact_bits(job.scene.model),
     )  # fmt: skip
