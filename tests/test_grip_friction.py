@@ -19,6 +19,7 @@ from harness.robots.contact_patch import (
 )
 from harness.robots.mujoco_spec import build_robot_spec, finger_pad_geoms
 from harness.sim.composition import _set_options
+from tests.helpers import ROBOTS
 
 
 def _moment_factor(pressure: np.ndarray, r: np.ndarray) -> float:
@@ -37,7 +38,7 @@ def test_patch_torsion_factors_are_the_integrals_of_the_pressure() -> None:
     assert patch_torsion(0.8, 0.01) == pytest.approx(0.8 * 0.01 * 3.0 * math.pi / 16.0)
 
 
-@pytest.mark.parametrize("name", ["fr3", "split_aloha", "lift2"])
+@pytest.mark.parametrize("name", ROBOTS)
 def test_pad_torsion_is_the_patch_of_the_pad_face(name: str) -> None:
     """Every bundled robot's pad_torsion is (3 pi / 16) x pad_friction x half the narrower side
     of its fingertip pad's face (the face normal to the finger's slide), within the 3 digits
