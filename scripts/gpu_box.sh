@@ -31,7 +31,7 @@ case "${1:-}" in
     ;;
   env)
     export PYTHONPATH="$SITE:$SITE/cmeel.prefix/lib/python3.12/site-packages:$PWD"
-    export WARP_CACHE_PATH=/tmp/warpcache MUJOCO_GL=egl PYTHONUNBUFFERED=1
+    export WARP_CACHE_PATH=/tmp/warpcache MUJOCO_GL=disable PYTHONUNBUFFERED=1  # the box has no EGL
     ;;
   *)
     echo "usage: $0 stash DIR | setup | env" >&2
