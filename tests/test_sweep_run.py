@@ -13,7 +13,7 @@ import yaml
 from harness.config import load_sweep
 from harness.report.finish import finish_run
 from harness.runs.expansion import expand
-from harness.runs.sweep import run_sweep
+from harness.runs.sweep import SweepOutcome, run_sweep
 from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,13 +75,14 @@ def clean_rows(tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
 
 
 @pytest.fixture(scope="module")
-def crashed_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, str]:
+def crashed_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[SweepOutcome, str]:
     """``write_sweep(episodes=2)`` by two workers, the second episode's worker segfaulting on
     every attempt: the outcome and the victim's episode id (read by the segfault test; the
     retry test resumes a copy of its folder)."""
     tmp = tmp_path_factory.mktemp("crashed")
     sweep_path = write_sweep(tmp, episodes=2)
     victim = expand(load_sweep(sweep_path), sweep_path)[1].episode_id
+    assert victim is not None
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv(FAULT_ENV, victim)
         outcome = run_sweep(sweep_path, out=tmp / "run", workers=2, progress=False)
@@ -140,7 +141,7 @@ def test_interrupted_then_resumed_equals_uninterrupted(tmp_path: Path, clean_row
 
 
 @pytest.mark.slow
-def test_segfaulting_worker_becomes_an_error_row(crashed_run: tuple[Any, str]):
+def test_segfaulting_worker_becomes_an_error_row(crashed_run: tuple[SweepOutcome, str]):
     outcome, victim = crashed_run
     # Retried once (CRASH_RETRIES), crashed again: one error row, nothing lost or doubled.
     assert outcome.stats.crashed == 1 and outcome.stats.finished == 4
@@ -162,6 +163,7 @@ def test_a_one_off_worker_crash_is_retried_not_an_error(
     sweep_path = write_sweep(tmp_path, episodes=2)
     episodes = expand(load_sweep(sweep_path), sweep_path)
     victim = episodes[1].episode_id
+    assert victim is not None
     markers = tmp_path / "markers"
     markers.mkdir()
     monkeypatch.setenv(FAULT_ENV, victim)
@@ -283,7 +285,7 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
 
 @pytest.mark.slow
 def test_resume_with_retry_errors_reruns_only_the_error_rows(
-    tmp_path: Path, crashed_run: tuple[Any, str]
+    tmp_path: Path, crashed_run: tuple[SweepOutcome, str]
 ):
     """Issue 15 finding 6: ``--resume`` never retried ``error`` rows. (A copy of the crashed
     run's folder is resumed, without the fault: the segfault test reads the original.)"""
