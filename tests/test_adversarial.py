@@ -739,9 +739,13 @@ def test_a_long_settle_is_interrupted_at_the_deadline() -> None:
 def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Issue 26 class 6: the pool had no per-episode kill. One episode hangs in a way neither
+    """Issue 26 class 6: the pool had no per-episode kill. An episode hangs in a way neither
     the deadline check nor SIGALRM reaches (SIGALRM blocked, sleeping); its worker is killed
-    past limit + grace, its row is ``timeout`` and the other episodes' rows are all there."""
+    past limit + grace, its row is ``timeout`` and the other episodes' rows are all there.
+
+    The hanging episodes are the two of a point with a 1 s limit (killed 3 s after they start,
+    not at the 62 s of the 60 s limit the honest episodes keep); they run first, so the honest
+    ones run on the workers started after the kills."""
     from harness.config import load_sweep
     from harness.runs import executors
     from harness.runs.expansion import expand
@@ -751,19 +755,22 @@ def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
     monkeypatch.setattr(executors, "KILL_GRACE_S", 2.0)
     sweep = write_yaml(
         tmp_path / "s.yaml",
-        sweep_data(episodes_per_point=3, axes={"limits.wall_time_s": [60.0]}),
+        sweep_data(episodes_per_point=2, axes={"limits.wall_time_s": [1.0, 60.0]}),
     )
     episodes = expand(load_sweep(sweep), sweep)
-    victim = episodes[1].resolved_id
-    monkeypatch.setenv(HANG_ENV, victim)
+    victims = [e.resolved_id for e in episodes if e.task.limits.wall_time_s == 1.0]
+    assert len(victims) == 2 and episodes[0].resolved_id in victims
+    monkeypatch.setenv(HANG_ENV, ",".join(victims))
     start = time.monotonic()
     outcome = run_sweep(sweep, out=tmp_path / "run", backend="process", workers=1, progress=False)
-    assert time.monotonic() - start < 400  # the victim is killed at 62 s, not never
+    assert time.monotonic() - start < 400  # the victims are killed at 3 s each, not never
     rows = {row["episode_id"]: row for row in _jsonl(outcome.run_dir)}
     assert sorted(rows) == sorted(e.resolved_id for e in episodes)
-    assert rows[victim]["failure_reason"] == "timeout"
-    assert "was killed" in rows[victim]["error_message"]
-    others = [row for key, row in rows.items() if key != victim]
+    for victim in victims:
+        assert rows[victim]["failure_reason"] == "timeout"
+        assert "was killed" in rows[victim]["error_message"]
+    others = [row for key, row in rows.items() if key not in victims]
+    assert len(others) == 2
     assert all(row["failure_reason"] not in ("error", "timeout") for row in others), others
 
 

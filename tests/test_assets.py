@@ -4,7 +4,10 @@ grasp-file naming, default objects and the ``harness objects`` commands."""
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 import pytest
@@ -18,6 +21,8 @@ from harness.objects.assets import ObjectAsset, find_grasp_file, resolve_mesh
 from harness.objects.decomposition import CoacdParams
 from harness.objects.meshes import load_mesh, triangulate
 from harness.robots.facts import max_jaw_opening
+
+T = TypeVar("T")
 
 
 @pytest.fixture(autouse=True)
@@ -50,13 +55,23 @@ def test_example_objects_load_from_usd_in_metres(example_objects: list[Path]) ->
         assert np.all(points >= lo - 1e-3) and np.all(points <= hi + 1e-3), folder
 
 
+def load_two_at_a_time(load: Callable[[T], ObjectAsset], items: list[T]) -> list[ObjectAsset]:
+    """``load`` of every item, two at a time, in order. Each fresh load runs CoACD in its own
+    child process (``run_coacd_bounded``; ~140 s of CPU for the eight examples, 66 s of it
+    obj_10's), so two threads keep both cores busy; every load decomposes into the test's own
+    cache, so the pieces are the ones one load at a time would give."""
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        return list(pool.map(load, items))
+
+
 @pytest.mark.slow
 def test_example_objects_full_asset_load(example_objects: list[Path]) -> None:
     """Every example through ObjectAsset.load: CoACD pieces inside the bounds, sane inertia."""
-    for folder in example_objects:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # obj_10 is not closed
-            asset = ObjectAsset.load(folder / "Aligned_obj.usd")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # obj_10 is not closed
+        usds = [folder / "Aligned_obj.usd" for folder in example_objects]
+        assets_ = load_two_at_a_time(ObjectAsset.load, usds)
+    for folder, asset in zip(example_objects, assets_, strict=True):
         assert asset.grasp_path == folder / "Aligned_grasp_sparse.npy"
         assert asset.grasp_count == 3000
         assert 1 <= len(asset.collision_pieces) <= asset.coacd_params.max_convex_hull
@@ -349,9 +364,11 @@ def test_build_reproduces_committed_cube(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_every_default_object_loads_as_asset() -> None:
-    for name in assets.list_default_objects():
-        info = assets.load_object_info(name)
-        asset = ObjectAsset.load(resolve_mesh(name, Path(".")), mass=info["mass"])
+    def load(name: str) -> ObjectAsset:
+        mass = assets.load_object_info(name)["mass"]
+        return ObjectAsset.load(resolve_mesh(name, Path(".")), mass=mass)
+
+    for asset in load_two_at_a_time(load, assets.list_default_objects()):
         assert 1 <= len(asset.collision_pieces) <= asset.coacd_params.max_convex_hull
         assert asset.grasp_count == 3000
         assert np.all(np.linalg.eigvalsh(asset.inertia) > 0)

@@ -13,7 +13,7 @@ import yaml
 from harness.config import load_sweep
 from harness.report.finish import finish_run
 from harness.runs.expansion import expand
-from harness.runs.sweep import run_sweep
+from harness.runs.sweep import SweepOutcome, run_sweep
 from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -63,6 +63,32 @@ def rows(run_dir: Path) -> pd.DataFrame:
     return frame.sort_values("episode_id").reset_index(drop=True)
 
 
+@pytest.fixture(scope="module")
+def clean_rows(tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
+    """The rows of ``write_sweep(episodes=2)`` run once by a process pool of two workers, with no
+    fault injected: the uninterrupted, crash-free reference the resume, retry and Ray tests
+    compare their rows with (it was run by each of them)."""
+    tmp = tmp_path_factory.mktemp("clean")
+    outcome = run_sweep(write_sweep(tmp, episodes=2), out=tmp / "run", workers=2, progress=False)
+    assert outcome.stats.finished == 4 and outcome.stats.crashed == 0
+    return rows(outcome.run_dir)
+
+
+@pytest.fixture(scope="module")
+def crashed_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[SweepOutcome, str]:
+    """``write_sweep(episodes=2)`` by two workers, the second episode's worker segfaulting on
+    every attempt: the outcome and the victim's episode id (read by the segfault test; the
+    retry test resumes a copy of its folder)."""
+    tmp = tmp_path_factory.mktemp("crashed")
+    sweep_path = write_sweep(tmp, episodes=2)
+    victim = expand(load_sweep(sweep_path), sweep_path)[1].episode_id
+    assert victim is not None
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(FAULT_ENV, victim)
+        outcome = run_sweep(sweep_path, out=tmp / "run", workers=2, progress=False)
+    return outcome, victim
+
+
 @pytest.mark.slow
 def test_process_pool_sweep_writes_every_file(tmp_path: Path):
     sweep_path = write_sweep(tmp_path, episodes=3)
@@ -100,14 +126,13 @@ def test_process_pool_sweep_writes_every_file(tmp_path: Path):
 
 
 @pytest.mark.slow
-def test_interrupted_then_resumed_equals_uninterrupted(tmp_path: Path):
+def test_interrupted_then_resumed_equals_uninterrupted(tmp_path: Path, clean_rows: pd.DataFrame):
     sweep_path = write_sweep(tmp_path, episodes=2)
-    full = run_sweep(sweep_path, out=tmp_path / "full", backend="serial", progress=False)
     part = run_sweep(sweep_path, out=tmp_path / "part", backend="serial", progress=False, limit=1)
     assert part.stats.finished == 1
     resumed = run_sweep(resume_dir=tmp_path / "part", workers=2, progress=False)
     assert resumed.skipped_existing == 1 and resumed.stats.finished == 3
-    a, b = rows(full.run_dir), rows(resumed.run_dir)
+    a, b = clean_rows, rows(resumed.run_dir)
     assert len(b) == 4 and b["episode_id"].is_unique  # nothing lost, nothing twice
     pd.testing.assert_frame_equal(a[DETERMINISTIC], b[DETERMINISTIC])
     # Resuming a complete run runs nothing.
@@ -116,12 +141,8 @@ def test_interrupted_then_resumed_equals_uninterrupted(tmp_path: Path):
 
 
 @pytest.mark.slow
-def test_segfaulting_worker_becomes_an_error_row(tmp_path: Path, monkeypatch):
-    sweep_path = write_sweep(tmp_path, episodes=2)
-    episodes = expand(load_sweep(sweep_path), sweep_path)
-    victim = episodes[1].episode_id
-    monkeypatch.setenv(FAULT_ENV, victim)
-    outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+def test_segfaulting_worker_becomes_an_error_row(crashed_run: tuple[SweepOutcome, str]):
+    outcome, victim = crashed_run
     # Retried once (CRASH_RETRIES), crashed again: one error row, nothing lost or doubled.
     assert outcome.stats.crashed == 1 and outcome.stats.finished == 4
     assert outcome.stats.retried == 1
@@ -135,11 +156,14 @@ def test_segfaulting_worker_becomes_an_error_row(tmp_path: Path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_one_off_worker_crash_is_retried_not_an_error(tmp_path: Path, monkeypatch):
+def test_a_one_off_worker_crash_is_retried_not_an_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, clean_rows: pd.DataFrame
+):
     """Issue 15 finding 6: a killed worker's episode was stored as a failed pick."""
     sweep_path = write_sweep(tmp_path, episodes=2)
     episodes = expand(load_sweep(sweep_path), sweep_path)
     victim = episodes[1].episode_id
+    assert victim is not None
     markers = tmp_path / "markers"
     markers.mkdir()
     monkeypatch.setenv(FAULT_ENV, victim)
@@ -149,21 +173,17 @@ def test_a_one_off_worker_crash_is_retried_not_an_error(tmp_path: Path, monkeypa
     assert outcome.stats.retried == 1 and outcome.stats.crashed == 0
     frame = rows(outcome.run_dir).set_index("episode_id")
     assert len(frame) == 4 and (frame["failure_reason"] != "error").all()
-    reference = run_sweep(sweep_path, out=tmp_path / "clean", workers=2, progress=False)
-    pd.testing.assert_frame_equal(
-        rows(outcome.run_dir)[DETERMINISTIC], rows(reference.run_dir)[DETERMINISTIC]
-    )
+    pd.testing.assert_frame_equal(rows(outcome.run_dir)[DETERMINISTIC], clean_rows[DETERMINISTIC])
 
 
 @pytest.mark.slow
-def test_ray_backend_gives_the_same_rows_as_the_process_pool(tmp_path: Path):
+def test_ray_backend_gives_the_same_rows_as_the_process_pool(
+    tmp_path: Path, clean_rows: pd.DataFrame
+):
     pytest.importorskip("ray")
     sweep_path = write_sweep(tmp_path, episodes=2)
-    pool = run_sweep(sweep_path, out=tmp_path / "pool", workers=2, progress=False)
     ray_run = run_sweep(sweep_path, out=tmp_path / "ray", backend="ray", workers=2, progress=False)
-    pd.testing.assert_frame_equal(
-        rows(pool.run_dir)[DETERMINISTIC], rows(ray_run.run_dir)[DETERMINISTIC]
-    )
+    pd.testing.assert_frame_equal(clean_rows[DETERMINISTIC], rows(ray_run.run_dir)[DETERMINISTIC])
 
 
 @pytest.mark.slow
@@ -264,20 +284,23 @@ def test_ctrl_c_keeps_finished_episodes_and_resume_completes(tmp_path: Path):
 
 
 @pytest.mark.slow
-def test_resume_with_retry_errors_reruns_only_the_error_rows(tmp_path: Path, monkeypatch):
-    """Issue 15 finding 6: ``--resume`` never retried ``error`` rows."""
-    sweep_path = write_sweep(tmp_path, episodes=2)
-    episodes = expand(load_sweep(sweep_path), sweep_path)
-    victim = episodes[1].episode_id
-    monkeypatch.setenv(FAULT_ENV, victim)
-    first = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
+def test_resume_with_retry_errors_reruns_only_the_error_rows(
+    tmp_path: Path, crashed_run: tuple[SweepOutcome, str]
+):
+    """Issue 15 finding 6: ``--resume`` never retried ``error`` rows. (A copy of the crashed
+    run's folder is resumed, without the fault: the segfault test reads the original.)"""
+    import shutil
+
+    first, victim = crashed_run
     assert first.stats.crashed == 1
-    monkeypatch.delenv(FAULT_ENV)
-    plain = run_sweep(resume_dir=first.run_dir, workers=2, progress=False)
+    run_dir = tmp_path / "run"
+    shutil.copytree(first.run_dir, run_dir)
+    assert rows(run_dir).set_index("episode_id").loc[victim, "failure_reason"] == "error"
+    plain = run_sweep(resume_dir=run_dir, workers=2, progress=False)
     assert plain.stats.finished == 0  # an error row counts as done without the flag
-    retried = run_sweep(resume_dir=first.run_dir, workers=2, progress=False, retry_errors=True)
+    retried = run_sweep(resume_dir=run_dir, workers=2, progress=False, retry_errors=True)
     assert retried.stats.finished == 1 and retried.skipped_existing == 3
-    frame = rows(first.run_dir).set_index("episode_id")
+    frame = rows(run_dir).set_index("episode_id")
     assert len(frame) == 4 and (frame["failure_reason"] != "error").all()
 
 
