@@ -8,6 +8,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from helpers import ROBOTS
 
 from harness.config import PhysicsConfig
 from harness.robots import RobotModel
@@ -19,7 +20,6 @@ from harness.robots.contact_patch import (
 )
 from harness.robots.mujoco_spec import build_robot_spec, finger_pad_geoms
 from harness.sim.composition import _set_options
-from tests.helpers import ROBOTS
 
 
 def _moment_factor(pressure: np.ndarray, r: np.ndarray) -> float:
