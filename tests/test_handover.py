@@ -173,18 +173,31 @@ def test_a_bad_goto_key_is_located_in_the_file(examples_dir: Path, tmp_path: Pat
 # End to end: the second pick runs
 
 
-# Seeds of write_handover_file's handover (the bottle for the object), from running seeds 0-25:
-# 17 runs through all three phases to a reference success that is valid; 4 reaches the second
-# pick, whose own pre-grasp is out of reach; 1 and 3 stop in the first pick and in the goto.
-SECOND_PICK_SUCCESS = 17
+# Seeds of write_handover_file's handover (the bottle for the object), from running seeds 0-69
+# under the default physics (the noslip pass, issue 33): 33 runs through all three phases to a
+# reference success with both right fingers on the bottle (34 / 41 N) that is valid; 4 reaches
+# the second pick, whose own pre-grasp is out of reach; 1 and 10 stop in the first pick and in
+# the goto. The reference rule accepts one finger (pick.py is_success: the force between the
+# object and at least one finger link > 0): 5 more successes (3, 17, 26, 32, 69) had one right
+# finger at 0 N at the verdict and 80-82 N on the other while the left gripper, still closed,
+# holds the bottle, and 59 had both; the both-fingers claim below holds for this seed, not
+# every success. (Before the noslip pass, seed 17 had both fingers on (40 / 38 N) and seed 3
+# stopped in the goto: without the creep the bottle sits otherwise in the left hand, so the goto
+# and the second pick start elsewhere; seed 17's bottle is 5.1 cm above the right arm base, not
+# 6.5 cm. Seed 17 with `physics.noslip_iterations` 0 and pad_torsion 0.01 gives the old row.)
+SECOND_PICK_SUCCESS = 33
 SECOND_PICK_PLAN_FAILED = 4
-STOPPED_EARLY = {1: "first_pick:plan:ik_pregrasp", 3: "goto_pose:plan:targets"}
+STOPPED_EARLY = {1: "first_pick:plan:ik_pregrasp", 10: "goto_pose:plan:targets"}
 
 
 @pytest.mark.slow
 def test_the_second_pick_runs_from_mid_air_and_is_judged_by_its_rule(
     examples_dir: Path, tmp_path: Path
 ) -> None:
+    """Seed 33 through all three phases: a valid reference success of the right arm from the
+    bottle in mid-air, both right fingers on it at the verdict (the reference rule needs one;
+    see the seeds above), then seeds that stop at the second pick's, the first pick's and the
+    goto's plan."""
     first, second = _handover_picks(examples_dir, tmp_path)
     cache: dict = {}
 
@@ -201,7 +214,7 @@ def test_the_second_pick_runs_from_mid_air_and_is_judged_by_its_rule(
     # frame: z up, y left; an object on the table lies about 4 cm below the base).
     assert row["object_z_m"] > 0.03 and row["object_y_m"] > 0.2
     assert row["lift_height_m"] > 0.05  # still above where it stood at the reset
-    # The reference rule (pick.py is_success, lift_th 0): the second gripper's fingers touch.
+    # The reference rule (pick.py is_success, lift_th 0) needs one finger; on this seed both touch.
     assert min(row["finger_force_left_n"], row["finger_force_right_n"]) > 0.0
     # Valid: after the left gripper opened, the right one alone holds it through hold and tug.
     assert row["valid"] and row["first_gripper_force_n"] == 0.0 and row["robustness_g"] > 0.0
