@@ -175,16 +175,18 @@ def test_a_bad_goto_key_is_located_in_the_file(examples_dir: Path, tmp_path: Pat
 
 # Seeds of write_handover_file's handover (the bottle for the object), from running seeds 0-69
 # under the default physics (the noslip pass, issue 33): 33 runs through all three phases to a
-# reference success with both right fingers on the bottle (34 / 41 N) that is valid; 4 reaches
-# the second pick, whose own pre-grasp is out of reach; 1 and 10 stop in the first pick and in
-# the goto. The reference rule accepts one finger (pick.py is_success: the force between the
-# object and at least one finger link > 0): 5 more successes (3, 17, 26, 32, 69) had one right
-# finger at 0 N at the verdict and 80-82 N on the other while the left gripper, still closed,
-# holds the bottle, and 59 had both; the both-fingers claim below holds for this seed, not
-# every success. (Before the noslip pass, seed 17 had both fingers on (40 / 38 N) and seed 3
-# stopped in the goto: without the creep the bottle sits otherwise in the left hand, so the goto
-# and the second pick start elsewhere; seed 17's bottle is 5.1 cm above the right arm base, not
-# 6.5 cm. Seed 17 with `physics.noslip_iterations` 0 and pad_torsion 0.01 gives the old row.)
+# reference success with both right fingers on the bottle (34 / 41 N) that is valid; 4 reaches the
+# second pick, whose own pre-grasp is out of reach; 1 and 10 stop in the first pick and in the
+# goto. The reference rule accepts one finger (pick.py is_success: the force between the object
+# and at least one finger link > 0): 5 more successes (3, 17, 26, 32, 69) had one right finger at
+# 0 N at the verdict and 80-82 N on the other (the two pads' 2 x 40 N; our reading: the fingers
+# are coupled, so while the still-closed left gripper holds the bottle off-centre the first finger
+# to touch stops both and takes the whole squeeze), and 59 had both. The both-fingers claim below
+# holds for this seed, not for every success. Before the noslip pass seed 17 had both fingers on
+# (40 / 38 N) and seed 3 stopped in the goto: without the creep the bottle sits otherwise in the
+# left hand, so the goto and the second pick start elsewhere (seed 17's bottle 5.1 cm above the
+# right arm base, not 6.5 cm); seed 17 with `physics.noslip_iterations` 0 and pad_torsion 0.01
+# gives its old row back (and seed 3 its goto stop), while 33 and 10 behave as pinned here.
 SECOND_PICK_SUCCESS = 33
 SECOND_PICK_PLAN_FAILED = 4
 STOPPED_EARLY = {1: "first_pick:plan:ik_pregrasp", 10: "goto_pose:plan:targets"}
