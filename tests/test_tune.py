@@ -285,11 +285,13 @@ def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -
     (grasps that come from under the table) tuned together: the bad copy switches with a
     confirmed gain, the canonical one keeps. Valid on 40 seeds (``harness run
     tasks/pick/fr3.yaml --episodes 40 --seed 900``): canonical 39/40 (0.87-1.00), ``--set
-    pick.filter_z_dir=[upward,60]`` 0/40 (0.00-0.09; 39 plan_failed, 1 dropped). The facing
-    cone narrowed to ``forward 10`` (valid 26/40, 0.50-0.77; 25/40 without the noslip pass) is
-    not bad enough since the grip of issue 33: in the race (30 seeds) it scored 23/30 against
-    the grid's best 28/30, undecided; narrowing it further changes nothing (``forward 5``
-    27/40, ``forward 2`` 26/40: the filter falls back to the same grasps)."""
+    pick.filter_z_dir=[upward,60]`` 0/40 (0.00-0.09; 39 plan_failed, 1 dropped); it switches at
+    the race's first look. The facing cone narrowed to ``forward 10`` (valid 26/40, 0.50-0.78)
+    is no longer bad enough since issue 33's grip: its race ends 23/30 against the grid's best
+    28/30, undecided. The pads' patch torsion does it, not the noslip pass: with
+    ``physics.noslip_iterations`` 0 the race is still undecided (24/30), with that and
+    ``pad_torsion`` 0.01 m (the old contact) it switches at look 1 (4/10 vs 10/10). Narrowing
+    further changes nothing (``forward 5`` 27/40, ``forward 2`` 26/40: the filter falls back)."""
     bad = tmp_path / "fr3_upward60.yaml"
     text = FR3.read_text().replace("name: fr3_pick", "name: fr3_pick_upward60")
     bad.write_text(merged_text(text, {"filter_z_dir": ["upward", 60]}, FR3))
