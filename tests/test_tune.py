@@ -281,24 +281,29 @@ def test_audit_counts_distinct_executions_not_rows(tuned) -> None:
 
 @pytest.mark.slow
 def test_tune_switches_from_a_bad_setting_and_keeps_a_good_one(tmp_path: Path) -> None:
-    """fr3 with its canonical filters (valid 30/30 on the race's seeds) and a copy whose facing
-    cone is narrowed to ``forward 10`` tuned together: the bad copy switches with a confirmed
-    gain, the canonical one keeps. Since the table verdict is decided by physics (issue 33)
-    ``forward 20`` is no longer bad enough (valid 23/30 on the race's seeds, not separable in
-    30); ``forward 10`` is: valid 12/20 (0.39-0.78), 3 dropped (``harness run
-    tasks/pick/fr3.yaml --episodes 20 --seed 900 --set pick.filter_x_dir=[forward,10]``)."""
-    bad = tmp_path / "fr3_facing10.yaml"
-    text = FR3.read_text().replace("name: fr3_pick", "name: fr3_pick_facing10")
-    bad.write_text(merged_text(text, {"filter_x_dir": ["forward", 10]}, FR3))
+    """fr3 with its canonical filters and a copy whose approach cone is turned to ``upward 60``
+    (grasps that come from under the table) tuned together: the bad copy switches with a
+    confirmed gain, the canonical one keeps. Valid on 40 seeds (``harness run
+    tasks/pick/fr3.yaml --episodes 40 --seed 900``): canonical 39/40 (0.87-1.00), ``--set
+    pick.filter_z_dir=[upward,60]`` 0/40 (0.00-0.09; 39 plan_failed, 1 dropped); it switches at
+    the race's first look. The facing cone narrowed to ``forward 10`` (valid 26/40, 0.50-0.78)
+    is no longer bad enough since issue 33's grip: its race ends 23/30 against the grid's best
+    28/30, undecided. The pads' patch torsion does it, not the noslip pass: with
+    ``physics.noslip_iterations`` 0 the race is still undecided (24/30), with that and
+    ``pad_torsion`` 0.01 m (the old contact) it switches at look 1 (4/10 vs 10/10). Narrowing
+    further changes nothing (``forward 5`` 27/40, ``forward 2`` 26/40: the filter falls back)."""
+    bad = tmp_path / "fr3_upward60.yaml"
+    text = FR3.read_text().replace("name: fr3_pick", "name: fr3_pick_upward60")
+    bad.write_text(merged_text(text, {"filter_z_dir": ["upward", 60]}, FR3))
     options = TuneOptions(screen_seeds=3, top=1, block=10, max_seeds=30, coarse=False)
     result = tune(
         [FR3, bad], step=90, bands=0, out=tmp_path / "tune", options=options, backend="serial"
     )
     decisions = result.decisions.set_index("task")
-    good, switched = decisions.loc["fr3_pick"], decisions.loc["fr3_pick_facing10"]
+    good, switched = decisions.loc["fr3_pick"], decisions.loc["fr3_pick_upward60"]
     assert good["verdict"] == KEEP, good.to_dict()
     assert switched["verdict"] == SWITCH, switched.to_dict()
-    assert switched["facing"] != '["forward", 10.0]'
+    assert switched["approach"] != '["upward", 60.0]'
     assert switched["gain_lo"] > 0 and switched["rate"] > switched["current_rate"]
     assert switched["p_holm"] <= switched["level"]  # the Holm step's group-sequential level
     screen_seeds = set(load_episodes(result.run_dir / "screen")["seed"])
