@@ -178,6 +178,8 @@ for job in "$@"; do
     demo100_gpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --episodes-per-point 100 --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo100_gpu" --no-progress --record none ;;
+    noslip_kernels)  # the noslip pass: off, MuJoCo Warp's kernel, the block kernel (5 models)
+      python3 -m harness.benchmarks.noslip_kernels "$R/noslip_kernels" --worlds 1024 --steps 200 ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -9,9 +9,11 @@ import numpy as np
 import warp as wp
 
 from harness.config import TaskConfig
-from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp import kernels, noslip
 from harness.pick.penetration import TablePenetration
 from harness.sim import Scene
+
+noslip.install()  # the noslip pass with a block per world (harness.engines.mjwarp.noslip)
 
 
 class DeviceModel:
