@@ -180,6 +180,18 @@ for job in "$@"; do
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo100_gpu" --no-progress --record none ;;
     noslip_kernels)  # the noslip pass: off, MuJoCo Warp's kernel, the block kernel (5 models)
       python3 -m harness.benchmarks.noslip_kernels "$R/noslip_kernels" --worlds 1024 --steps 200 ;;
+    demo_gpu_profiled)  # demo_gpu with every thread of the parent sampled (harness.benchmarks.sampler)
+      HARNESS_SAMPLE_PROFILE="$R/demo_gpu_profile.txt" python3 -c \
+        'from harness.benchmarks.sampler import start_from_env; start_from_env(); from harness.cli import main; raise SystemExit(main())' \
+        sweep tasks/sweeps/demo.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/demo_gpu_profiled" --no-progress --record none ;;
+    stream_overlap)  # do lane streams on one device step side by side? (graphs on K streams)
+      python3 -m harness.benchmarks.stream_overlap "$R/stream_overlap" --worlds 64 512 \
+        --streams 1 2 4 8 ;;
+    demo_gpu_s2)  # the demo sweep with two lane streams per device at a time
+      HARNESS_STREAMS_PER_DEVICE=2 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_s2" \
+        --no-progress --record none ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"

@@ -64,11 +64,29 @@ def run_variant(m: Any, d: Any, worlds: int, steps: int, variant: str) -> dict[s
     wp.synchronize()
     seconds = time.perf_counter() - clock
     return {
+        "kernel_ms": kernel_times(mw, dw),
         "ms_per_step": 1000.0 * seconds / steps,
         "qacc": dw.qacc.numpy(),
         "qpos": dw.qpos.numpy(),
         "nefc": int(dw.nefc.numpy().max()),
     }
+
+
+def kernel_times(mw: Any, dw: Any, steps: int = 5) -> dict[str, float]:
+    """Device ms per step of each kernel of ``steps`` eager steps (Warp's kernel timing), the
+    ten largest."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
+    for _ in range(steps):
+        mjw.step(mw, dw)
+    results = wp.timing_end()
+    totals: dict[str, float] = {}
+    for result in results:
+        name = str(result.name).split("__locals__")[0].removeprefix("forward kernel ")
+        totals[name] = totals.get(name, 0.0) + float(result.elapsed) / steps
+    return dict(sorted(totals.items(), key=lambda kv: -kv[1])[:10])
 
 
 def compare(task_file: str, worlds: int, steps: int) -> dict[str, Any]:
@@ -83,6 +101,7 @@ def compare(task_file: str, worlds: int, steps: int) -> dict[str, Any]:
         "worlds": worlds,
         "steps": steps,
         **{f"ms_{v}": runs[v]["ms_per_step"] for v in runs},
+        **{f"kernels_{v}": runs[v]["kernel_ms"] for v in runs},
         "pass_cost_mjwarp": runs["mjwarp"]["ms_per_step"] / runs["off"]["ms_per_step"],
         "pass_cost_block": runs["block"]["ms_per_step"] / runs["off"]["ms_per_step"],
         "qacc_diff_rel": float(np.abs(runs["mjwarp"]["qacc"] - runs["block"]["qacc"]).max())

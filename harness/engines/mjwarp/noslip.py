@@ -278,10 +278,7 @@ def noslip(m: types.Model, d: types.Data) -> None:
         return
     if d.njmax == 0 or m.nv == 0:
         return
-    noslip_L = wp.empty((d.nworld, m.nv, m.nv), dtype=float)
-    noslip_Y = wp.empty((d.nworld, d.njmax, m.nv), dtype=float)
-    noslip_A = wp.empty((d.nworld, d.njmax), dtype=types.vec5)
-    inertia_scale = wp.empty((d.nworld,), dtype=float)
+    noslip_L, noslip_Y, noslip_A, inertia_scale = _buffers(m, d)
     _prepare(m, d, noslip_L, noslip_Y, noslip_A, inertia_scale)
     wp.launch_tiled(
         solve_block, dim=[d.nworld], block_dim=BLOCK_DIM,
@@ -293,6 +290,28 @@ def noslip(m: types.Model, d: types.Data) -> None:
         outputs=[d.solver_niter, d.qacc, d.efc.force],
     )  # fmt: skip
     _finish(m, d, noslip_Y)
+
+
+def _buffers(m: Any, d: Any) -> tuple[Any, Any, Any, Any]:
+    """The pass's scratch arrays of ``d``, made at its first pass and kept on ``d``.
+
+    MuJoCo Warp allocates them at every pass; inside a graph capture those allocations become
+    graph memory nodes, allocated and freed at every replay. Made once (the first pass of a
+    ``Data`` is an eager step: ``LaneRun.launch`` and ``steps.replay`` step once before they
+    capture), a replay only runs kernels."""
+    key = (m.nv, d.nworld, d.njmax)
+    kept = getattr(d, "_harness_noslip", None)
+    if kept is not None and kept[0] == key:
+        return kept[1]
+    arrays = (
+        wp.empty((d.nworld, m.nv, m.nv), dtype=float),
+        wp.empty((d.nworld, d.njmax, m.nv), dtype=float),
+        wp.empty((d.nworld, d.njmax), dtype=types.vec5),
+        wp.empty((d.nworld,), dtype=float),
+    )
+    if not wp.get_device(d.qpos.device).is_capturing:  # never keep a graph's own memory
+        d._harness_noslip = (key, arrays)
+    return arrays
 
 
 def _prepare(
