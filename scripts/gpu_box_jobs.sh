@@ -192,6 +192,21 @@ for job in "$@"; do
       HARNESS_STREAMS_PER_DEVICE=2 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_s2" \
         --no-progress --record none ;;
+    banana_yaml)  # FR3 banana, the demo's seeds: where the table replays disagree
+      printf '%s\n' 'name: fr3_banana' 'tasks:' "  - $PWD/tasks/pick/fr3.yaml" 'axes:' \
+        '  pick.approach_filter: [[downward, 120], [downward, 140], [downward, 160]]' \
+        '  object.mesh: [banana]' 'episodes_per_point: 40' 'seed: 0' 'record: none' \
+        > /tmp/fr3_banana.yaml ;;
+    banana_cpu)
+      python3 -m harness.cli sweep /tmp/fr3_banana.yaml --workers "$(nproc)" \
+        --out "$R/banana_cpu" --no-progress --record none ;;
+    banana_gpu_block)  # the block noslip kernel (the default)
+      python3 -m harness.cli sweep /tmp/fr3_banana.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/banana_gpu_block" --no-progress --record none ;;
+    banana_gpu_mjwarp)  # MuJoCo Warp's own noslip kernel
+      HARNESS_NOSLIP_KERNEL=mjwarp python3 -m harness.cli sweep /tmp/fr3_banana.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/banana_gpu_mjwarp" \
+        --no-progress --record none ;;
     *) echo "unknown job $job" ;;
   esac > "$R/$job.log" 2>&1
   echo "$job ended $(date -u +%T) rc=$?" >> "$R/status"
