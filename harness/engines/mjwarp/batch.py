@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
+from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.judge import held_in_tcp, judge_started, needs_tug, rung_outcome
 from harness.engines.mjwarp.model import DeviceModel
 from harness.engines.mjwarp.motion import MotionRun
@@ -130,8 +131,8 @@ class WorldBatch:
             over = run.run(plan, buffers, self.timings, self.slot.wait)
             self.timings.physics_s += time.perf_counter() - clock
             clock = time.perf_counter()
-            steps = run.out.numpy()
-            warm_rows = run.warm.numpy()[:, 0]
+            steps = to_host(run.out)
+            warm_rows = to_host(run.warm)[:, 0]
             self.timings.download_s += time.perf_counter() - clock
             self._overflowed = set(over)  # not judged: they run again, or end unstable
             worlds = list(range(len(jobs)))
@@ -226,7 +227,7 @@ class WorldBatch:
         start_rows = wp.full(nt, kernels.BASELINE, dtype=wp.int32)
         dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
         self.slot.wait()
-        rows = out.numpy()[:, 0]
+        rows = to_host(out)[:, 0]
         over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock
         self.timings.world_steps += nt * rung_steps * substeps

@@ -14,6 +14,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
 
 
@@ -72,8 +73,8 @@ class BufferUse:
     def overflowed(self, d: mjw.Data, buffers: Buffers, timings: BatchTimings) -> list[int]:
         """The worlds whose rows or contacts did not fit (every world when the batch's contact
         pool overflowed: which world lost a contact is not known); notes the peaks."""
-        rows = self.rows.numpy()
-        contacts = int(self.contacts.numpy()[0])
+        rows = to_host(self.rows)
+        contacts = int(to_host(self.contacts)[0])
         timings.peak_rows = max(timings.peak_rows, int(rows.max(initial=0)))
         timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, d.nworld))
         if contacts > d.naconmax:
