@@ -58,9 +58,11 @@ def run_variant(m: Any, d: Any, worlds: int, steps: int, variant: str) -> dict[s
     with wp.ScopedCapture() as capture:
         mjw.step(mw, dw)
     wp.synchronize()
+    graph = capture.graph
+    assert graph is not None
     clock = time.perf_counter()
     for _ in range(steps):
-        wp.capture_launch(capture.graph)
+        wp.capture_launch(graph)
     wp.synchronize()
     seconds = time.perf_counter() - clock
     return {

@@ -19,9 +19,10 @@ import warp as wp
 def to_host(array: wp.array) -> np.ndarray:
     """A host copy of ``array``, made on the current stream of its device (which it waits for);
     on the CPU device, ``array.numpy()``."""
-    if not array.device.is_cuda:
+    device = wp.get_device(array.device)
+    if not device.is_cuda:
         return array.numpy()
-    stream = wp.get_stream(array.device)
+    stream = wp.get_stream(device)
     host = wp.empty(array.shape, dtype=array.dtype, device="cpu")
     wp.copy(host, array, stream=stream)
     wp.synchronize_stream(stream)
