@@ -294,3 +294,29 @@ def test_a_device_race_looks_at_most_eight_times_with_no_more_seeds() -> None:
         assert gpu.seeds <= cpu.seeds
         share = gpu.alpha / gpu.challengers
         assert power(gpu.seeds, gpu.block, share, gpu.target_gain, gpu.discordance) >= 0.8
+
+
+def test_the_budget_line_states_the_looks_the_race_will_run() -> None:
+    """Two units racing 4 settings each, blocks of 72 and 20 seeds, ``--budget 1600``: a round
+    is 4 x 72 + 4 x 20 = 368 episodes and runs only when all of it fits, so both units get 4
+    looks (the race's own ``Budget.allows``, stepped here); the up-front line says so for each
+    (sharing the budget evenly per seed said 2 looks for the first and 10 for the second)."""
+    from harness.tuning.decide import Racer, UnitRace
+    from harness.tuning.options import TuneOptions
+    from harness.tuning.planning import plan_lines
+    from harness.tuning.race import Budget, Unit
+
+    units = [
+        Unit(f"task{k}", "{}", UnitRace([Racer(("a", str(r)), r) for r in range(4)],
+                                      Plan(block * 50, block, challengers=3)))
+        for k, block in enumerate((72, 20))
+    ]  # fmt: skip
+    budget, episodes, rounds = Budget.parse("1600"), 0, 0
+    per_round = sum(u.race.plan.block * len(u.race.racers) for u in units)
+    while budget.allows(episodes, 0.0, per_round, 0.0):
+        episodes, rounds = episodes + per_round, rounds + 1
+    assert rounds == 4
+    names = {(u.task, u.context): {"robot": u.task, "arm": "left", "object": "cube"} for u in units}
+    lines = plan_lines(units, names, TuneOptions(budget="1600", seconds_each=0.1))
+    for unit, line in zip(units, lines, strict=True):
+        assert f"allows at least {rounds} looks ({rounds * unit.race.plan.block} seeds)" in line

@@ -93,7 +93,7 @@ def plan_lines(
     """Up front, per unit: the seeds its race needs, the minutes that costs on this engine
     (the screening's measured seconds per episode), and what a ``--budget`` lets it see."""
     budget = Budget.parse(options.budget)
-    racers = sum(len(u.race.racers) for u in units)
+    rounds = rounds_allowed(budget, units, options.seconds_each)
     out = []
     for unit in units:
         plan, label = unit.race.plan, names[(unit.task, unit.context)]
@@ -114,16 +114,15 @@ def plan_lines(
             "per episode; the screening shares each seed across many settings, the race across "
             "a few, so its episodes can cost more)"
         )
-        cap = seeds_allowed(budget, racers, options.seconds_each)
-        if cap is not None and cap < plan.seeds:
-            looks = cap // plan.block
+        if rounds is not None and rounds < plan.looks:
+            looks = rounds
             seen = plan.detectable(looks) if looks else math.inf
             line += f"; --budget {options.budget} allows " + (
-                f"{looks} looks ({looks * plan.block} seeds): it can see a gain of "
+                f"at least {looks} looks ({looks * plan.block} seeds): it can see a gain of "
                 f"{seen * 100:+.0f} points or more at 80% power"
                 if math.isfinite(seen)
-                else f"{looks} looks ({looks * plan.block} seeds): too few to confirm any gain "
-                "at 80% power"
+                else f"at least {looks} looks ({looks * plan.block} seeds): too few to confirm "
+                "any gain at 80% power"
                 if looks
                 else f"no look (one look is {plan.block} seeds x {len(unit.race.racers)} "
                 "racers): it decides nothing"
@@ -132,10 +131,21 @@ def plan_lines(
     return out
 
 
-def seeds_allowed(budget: Budget, racers: int, seconds_each: float) -> int | None:
-    """Seeds per contender the budget allows when every unit's racers share it evenly."""
+def rounds_allowed(budget: Budget, units: list[Unit], seconds_each: float) -> int | None:
+    """Looks the budget lets every unit have while all of them race (None: no budget).
+
+    The race's own rule (``RaceRunner.round``, ``Budget.allows``): a round runs every racing
+    unit's next block of seeds with each of its racers, and only when all of that round fits in
+    what is left. So each unit gets as many looks as whole rounds fit, whatever its block; a
+    unit that stops early leaves more for the rest (then they may get more looks than this).
+    Sharing the budget evenly per seed instead told a unit with a long block that it got no
+    look when the race gave it one (the canonical tune with ``--budget 1600``: 4 racers x 72
+    seeds of Lift-2 left banana ran in a round of 1,360 episodes)."""
+    per_round = sum(unit.race.plan.block * len(unit.race.racers) for unit in units)
+    if per_round <= 0:
+        return None
     if budget.episodes is not None:
-        return budget.episodes // max(1, racers)
+        return budget.episodes // per_round
     if budget.seconds is not None and seconds_each > 0:
-        return int(budget.seconds / seconds_each) // max(1, racers)
+        return int(budget.seconds / (per_round * seconds_each))
     return None
