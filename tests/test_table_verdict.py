@@ -88,40 +88,81 @@ def test_a_pick_through_the_table_is_valid_only_if_it_holds_on_a_physical_table(
     assert not fails["valid"] and fails["invalid_reason"] == "table_penetration"
 
 
-def test_compile_prepares_the_table_physical_model_where_picks_may_replay() -> None:
-    """``harness compile`` (``harness.runs.warm.model_jobs``): FR3 (robot-table contact
-    non-physical) gets its job and the same job with the table-physical contact bits, a stream
-    of its own (MJWarp compiles other collision kernels for it); Split ALOHA (contact physical)
-    only its job."""
+def test_compile_prepares_no_table_physical_model() -> None:
+    """``harness compile`` (``harness.runs.warm.model_jobs``): one job per task model, FR3
+    (robot-table contact non-physical) too: the replays run on the CPU engine, so no device
+    model with the table-physical contact bits is compiled."""
     from harness.engines.mjwarp.devices import stream_key
     from harness.episode import EpisodeSpec
     from harness.runs.warm import model_jobs
 
     fr3 = harness.load_task(FR3)
-    base, replay = model_jobs([EpisodeSpec(task=fr3, seed=s) for s in range(2)])
-    assert stream_key(base) != stream_key(replay)
-    robot = base.contact[1] != replay.contact[1]
-    assert robot.any() and np.all(replay.contact[1][robot] == base.contact[1][robot] | TABLE_BIT)
-    assert np.array_equal(base.contact[0], replay.contact[0])
-    assert replay.schedule is base.schedule and replay.state is base.state
+    (job,) = model_jobs([EpisodeSpec(task=fr3, seed=s) for s in range(2)])
+    assert stream_key(job)[-1] == job.contact_key
     aloha = harness.load_task(PROJECT_ROOT / "tasks" / "pick" / "split_aloha_right.yaml")
     assert len(model_jobs([EpisodeSpec(task=aloha, seed=s) for s in range(4)])) == 1
+
+
+class _DelegatingEngine:
+    """An engine that runs each job on the CPU engine and counts them (a stand-in for a
+    device engine)."""
+
+    name = "mjwarp"
+
+    def __init__(self) -> None:
+        from harness.engines.mujoco_engine import MujocoEngine
+
+        self.inner = MujocoEngine()
+        self.jobs = 0
+
+    def execute(self, job):  # type: ignore[no-untyped-def]
+        self.jobs += 1
+        return self.inner.execute(job)
+
+
+def test_the_replay_runs_on_the_cpu_engine_whatever_engine_ran_the_episode(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The FR3 banana pick of ``HELD_SEED`` (its fingers go into the non-physical table) run by
+    another engine: that engine executes the episode once, the replay runs on the CPU engine
+    (``table_verdict.REPLAY_ENGINE``), and the row's ``table_replay``, ``valid`` and
+    ``invalid_reason`` are the CPU engine's own row's."""
+    from harness import engines
+    from harness.engines.mujoco_engine import MujocoEngine
+    from harness.episode import EpisodeSpec, run_episode, table_verdict
+
+    replayed_on: list[object] = []
+    replay = table_verdict.replay_on_physical_table
+
+    def spy(engine, job, state):  # type: ignore[no-untyped-def]
+        replayed_on.append(engine)
+        return replay(engine, job, state)
+
+    monkeypatch.setattr(table_verdict, "replay_on_physical_table", spy)
+    other = _DelegatingEngine()
+    monkeypatch.setitem(engines._ENGINES, "mjwarp", other)
+    spec = EpisodeSpec(task=_banana(), seed=HELD_SEED)
+    cpu = run_episode(spec).row
+    device = run_episode(dataclasses.replace(spec, engine="mjwarp")).row
+    assert other.jobs == 1
+    assert len(replayed_on) == 2 and all(isinstance(e, MujocoEngine) for e in replayed_on)
+    assert cpu["table_replay"] == HELD and device["engine"] == "mjwarp"
+    for column in ("table_replay", "valid", "invalid_reason"):
+        assert device[column] == cpu[column], column
 
 
 @pytest.mark.slow
 @pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
-def test_mjwarp_replays_on_a_table_physical_device_model_as_the_cpu_does(
+def test_mjwarp_episodes_replay_on_the_cpu_engine(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The FR3 banana pick that still holds once the table is physical, on both engines
     (MJWarp in process on Warp's CPU device): each measures its own depth into the
-    non-physical table (3.8 mm on the CPU, 3.3 mm on the device), replays the job on the
-    physical one, and the rows' ``table_replay``, ``valid`` and ``invalid_reason`` are the
-    same. On MJWarp the replay ran on a second device model, made with the table's contact bit
-    on the robot's geoms. (The seed pinned as ``NO_CONTACT_SEED`` before the noslip pass did not
-    agree: docs/engines.md, "The table verdict's replay"; the device numbers here were measured
-    before it too.)"""
+    non-physical table (3.8 mm on the CPU, 3.3 mm on the device, measured before the noslip
+    pass), the replay on the physical table runs on the CPU engine for both, and the rows'
+    ``table_replay``, ``valid`` and ``invalid_reason`` are the same; the device made one model
+    (the task's contact bits: no table-physical variant)."""
     from harness import engines
     from harness.engines.mjwarp.contact import contact_key
     from harness.engines.mjwarp.engine import MjwarpEngine
@@ -141,9 +182,4 @@ def test_mjwarp_replays_on_a_table_physical_device_model_as_the_cpu_does(
     for column in ("table_replay", "valid", "invalid_reason"):
         assert gpu[column] == cpu[column], column
     scene = get_scene(spec.task, cache).scene
-    with table_physical(scene):
-        physical = contact_bits(scene.model)
-    assert len({key[:3] for key in engine._models}) == 1  # one scene, arm, target
-    assert {key[3] for key in engine._models} == {  # the task's bits, the physical ones
-        contact_key(contact_bits(scene.model)), contact_key(physical),
-    }  # fmt: skip
+    assert {key[3] for key in engine._models} == {contact_key(contact_bits(scene.model))}

@@ -29,6 +29,7 @@ from harness.episode.records import (
     TableReplayColumns,
 )
 from harness.episode.setup import WARMUP_TIME_S, EpisodeStopError
+from harness.episode.table_verdict import REPLAY_ENGINE
 from harness.episode.trace import planned_tcp
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.targets import PickTargets
@@ -132,7 +133,7 @@ def _execute(
     replay = None
     if state is not None and table_verdict.needs_replay(setup.task, outcome):
         clock = time.perf_counter()
-        replay = table_verdict.replay_on_physical_table(engine, job, state)
+        replay = table_verdict.replay_on_physical_table(engine_for(REPLAY_ENGINE), job, state)
         result.timings["table_replay_s"] = time.perf_counter() - clock
     judged, replayed = table_verdict.physical_verdict(setup.task, outcome.validity, replay)
     validity = validity_columns(execution.validity, outcome.table_penetration_m, judged)

@@ -59,15 +59,11 @@ def plan_job(spec: Any, scenes: dict[Any, Any]) -> tuple[dict[str, Any], Any]:
 
 def model_jobs(episodes: list[Any], seeds: int = 8) -> list[Any]:
     """One planned job per stream key (task model and timing) among ``episodes``: the first
-    of up to ``seeds`` episodes of each that reaches its execution; and, where the task's
-    picks can be replayed on a physical table (``table_verdict.may_replay``), the same job
-    with the table-physical contact bits (that model collides other geom pairs: MJWarp
-    compiles kernels of its own for it)."""
+    of up to ``seeds`` episodes of each that reaches its execution. (No table-physical
+    variant: the table verdict's replays run on the CPU engine, ``table_verdict.
+    REPLAY_ENGINE``.)"""
     from harness.engines.mjwarp.devices import stream_key
-    from harness.episode.scene_cache import get_scene
-    from harness.episode.table_verdict import may_replay, table_physical
     from harness.sim import scene_key
-    from harness.sim.masks import contact_bits
 
     scenes: dict[Any, Any] = {}
     by_model: dict[Any, list[Any]] = {}
@@ -80,12 +76,6 @@ def model_jobs(episodes: list[Any], seeds: int = 8) -> list[Any]:
             _, job = plan_job(spec, scenes)
             if job is not None:
                 jobs.setdefault(stream_key(job), job)
-                if may_replay(job.task):
-                    scene = get_scene(job.task, scenes).scene
-                    with table_physical(scene):
-                        bits = contact_bits(scene.model)
-                    replay = dataclasses.replace(job, contact=bits)
-                    jobs.setdefault(stream_key(replay), replay)
                 break
     return list(jobs.values())
 
