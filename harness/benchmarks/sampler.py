@@ -18,6 +18,7 @@ import sys
 import threading
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 ENV = "HARNESS_SAMPLE_PROFILE"
@@ -26,7 +27,12 @@ ENV = "HARNESS_SAMPLE_PROFILE"
 class Sampler:
     """Counts of functions on the stacks of every thread but its own, sampled."""
 
-    def __init__(self, interval_s: float = 0.005, on_tick=None, tick_s: float = 15.0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(
+        self,
+        interval_s: float = 0.005,
+        on_tick: Callable[[Sampler], None] | None = None,
+        tick_s: float = 15.0,
+    ) -> None:
         self.interval_s = interval_s
         self.inclusive: Counter[str] = Counter()
         self.own: Counter[str] = Counter()
