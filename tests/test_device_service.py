@@ -347,10 +347,7 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     stub = _Streams(hold=4)
     _stub_service(monkeypatch, stub)
     monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
-    episodes = [
-        dataclasses.replace(EpisodeSpec(task=fr3(), seed=s, episode_index=s), engine="mjwarp")
-        for s in range(6)
-    ]
+    episodes = _fr3_device_episodes(6)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=2)
     assert stats.finished == 6 and not stats.crashed
@@ -359,6 +356,14 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     assert len(executed) == stats.device.jobs >= 4
     assert sum(len(s) for s in stub.streams) == stats.device.jobs
     assert all(r["engine"] == "mjwarp" for r in rows)
+
+
+def _fr3_device_episodes(count: int) -> list[EpisodeSpec]:
+    """FR3 episodes 0..count-1 (seed = index) for the ``mjwarp`` engine."""
+    return [
+        dataclasses.replace(EpisodeSpec(task=fr3(), seed=s, episode_index=s), engine="mjwarp")
+        for s in range(count)
+    ]
 
 
 def _held_measure(depth: float) -> ValidityMeasure:
@@ -423,10 +428,7 @@ def test_a_pool_replays_a_pick_through_the_table_on_the_cpu_engine(
     stub = _TableStreams(contact_key(contact_bits(scene.model)))
     _stub_service(monkeypatch, stub)  # type: ignore[arg-type]
     monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
-    episodes = [
-        dataclasses.replace(EpisodeSpec(task=fr3(), seed=s, episode_index=s), engine="mjwarp")
-        for s in range(3)
-    ]
+    episodes = _fr3_device_episodes(3)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
     assert stats.finished == 3 and not stats.crashed and not stats.device.errors

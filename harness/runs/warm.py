@@ -19,8 +19,6 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from harness.engines.base import Execution, ExecutionJob
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import validity_enabled
@@ -86,7 +84,6 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
     from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.engines.mjwarp.stream import LaneStream
     from harness.episode.scene_cache import get_scene
-    from harness.sim.masks import contact_bits
 
     scenes: dict[Any, Any] = {}
     spent: dict[str, float] = {}
@@ -98,10 +95,7 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
             k += 1
             task = job.task
             scene = get_scene(task, scenes).scene
-            physical = (
-                "" if np.array_equal(job.contact, contact_bits(scene.model)) else ", table physical"
-            )
-            name = f"{task.robot} {task.arm} {task.target_object.name}{physical} on {device}"
+            name = f"{task.robot} {task.arm} {task.target_object.name} on {device}"
             say(f"[{k}/{total}] {name}: compiling or loading its kernels ...")
             clock = time.perf_counter()
             engine.execute_many(scene, [job])
