@@ -47,10 +47,11 @@ class _Streams:
     answering each with a stub outcome naming the stream; ``hold`` jobs are taken before the
     first answer (so a test can require that many jobs in flight at once)."""
 
-    def __init__(self, hold: int = 1, fail: bool = False) -> None:
-        self.hold, self.fail = hold, fail
+    def __init__(self, hold: int = 1, fail: bool = False, patience_s: float = 60.0) -> None:
+        self.hold, self.fail, self.patience_s = hold, fail, patience_s
         self.streams: list[list[Any]] = []
         self.lock = threading.Lock()
+        self.late = False  # answered jobs after ``patience_s`` without holding ``hold`` of them
 
     def __call__(self, engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
         assert scene.model.nbody > 0
@@ -59,7 +60,7 @@ class _Streams:
             mine = self.streams[-1]
             number = len(self.streams)
         held: list[Any] = []
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + self.patience_s
         while True:
             items = source(True)
             if items is None:
@@ -68,6 +69,8 @@ class _Streams:
             held.extend(items)
             if self.fail:
                 raise RuntimeError("out of device memory")
+            if held and len(held) < self.hold and time.monotonic() > deadline:
+                self.late = True
             if len(held) >= self.hold or time.monotonic() > deadline:
                 for tag, _ in held:
                     on_outcome(
@@ -356,6 +359,47 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     assert len(executed) == stats.device.jobs >= 4
     assert sum(len(s) for s in stub.streams) == stats.device.jobs
     assert all(r["engine"] == "mjwarp" for r in rows)
+
+
+def test_a_share_groups_next_episode_plans_while_the_one_before_is_on_the_device(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """FR3 seed 0 at approach cones 100, 140 and 160 degrees (chosen candidates 20, 20 and 34 on
+    the CPU engine), one worker of one track: the stub device answers nothing until it holds two
+    jobs. The 140 episode chooses the candidate whose job (the 100 episode's) is on the device
+    and waits for that outcome instead of sending it again, and the 160 episode plans and sends
+    its own job meanwhile; a track that started its next episode only after the one before had
+    its row would hold one job and wait out the stub's patience."""
+    from harness.config import apply_overrides
+    from harness.runs.expansion import point_overrides
+
+    stub = _Streams(hold=2, patience_s=20.0)
+    _stub_service(monkeypatch, stub)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 1)
+    base = fr3()
+    episodes = [
+        dataclasses.replace(
+            EpisodeSpec(
+                task=apply_overrides(
+                    base, point_overrides(base, {"pick.approach_filter": ["downward", deg]})
+                ),
+                seed=0,
+                episode_index=0,
+            ),
+            engine="mjwarp",
+        )
+        for deg in (100, 140, 160)
+    ]
+    rows: list[dict[str, Any]] = []
+    stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
+    assert stats.finished == 3 and not stats.crashed and not stats.device.errors
+    assert not stub.late
+    assert stats.device.jobs == 2 == sum(len(s) for s in stub.streams)
+    by_cone = {r["approach_filter"]: r for r in rows}
+    cones = [f'["downward", {deg:.1f}]' for deg in (100, 140, 160)]
+    assert [by_cone[cone]["chosen_index"] for cone in cones] == [20, 20, 34]
+    messages = [by_cone[cone]["error_message"] for cone in cones]
+    assert messages[0] == messages[1] == "stream 1"  # one outcome, the 140 row reused it
 
 
 def _fr3_device_episodes(count: int) -> list[EpisodeSpec]:

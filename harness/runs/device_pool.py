@@ -1,19 +1,23 @@
 """The process pool with ``--engine mjwarp``: workers plan without waiting for the device.
 
-Each worker holds up to ``depth`` *tracks*, each a share group run one episode after another in a
-thread of its own (so the rest of a group reuses the candidate cache exactly as on the CPU
-engine); one thread plans at a time (``harness.engines.mjwarp.service.Baton``). When an
+Each worker holds up to ``depth`` *tracks*, each a share group (the points of one seed that
+differ only in their selection keys) whose episodes start one after another, each in a thread
+of its own; one thread plans at a time (``harness.engines.mjwarp.service.Baton``). When an
 episode reaches its execution, its job goes to the parent (``DeviceRequest``), which queues it
-on the devices' lane streams (``DeviceService``), and the worker goes on planning: once every
-track of a worker waits for the device, the worker is given another share group. Outcomes come
-back as they are judged; the track's thread builds the row as the in-process engine does and
-sends it (``TrackRow``), and the track takes the next episode of its group.
+on the devices' lane streams (``DeviceService``), and the track's next episode starts planning
+at once: it reuses the candidate cache the one before filled, exactly as on the CPU engine, and
+when it chooses a candidate whose execution is still on the device it waits for that outcome
+instead of executing it again (``harness.episode.outcome_wait``). So a group's episodes are on
+the device together, not one device latency after another. Once every thread of a worker waits
+for the device, the worker is given another share group. Outcomes come back as they are judged;
+the episode's thread builds the row as the in-process engine does and sends it (``EpisodeRow``).
 
 What the CPU pool guarantees holds here: every row is stored as it arrives; a worker that dies
 turns the episode it was planning into a retried or ``error`` row and its other episodes are run
 again elsewhere; a worker that keeps one episode past its wall-clock limit (plus
 ``KILL_GRACE_S``) while planning is killed and that episode is a ``timeout`` row (time waiting
-for the device or the baton does not count); Ctrl-C stops the run and keeps what finished.
+for the device, the baton or another episode's outcome does not count); Ctrl-C stops the run
+and keeps what finished.
 """
 
 from __future__ import annotations
@@ -52,34 +56,39 @@ def depth_for(lanes: int, devices: int, workers: int) -> int:
 
 
 @dataclass
-class TrackEpisode:
-    """Parent to worker: run ``episode`` on track ``track``."""
+class EpisodeStart:
+    """Parent to worker: run ``episode`` in a new episode thread, ``thread``."""
 
-    track: int
+    thread: int
     episode: EpisodeSpec
 
 
 @dataclass
-class TrackRow:
-    """Worker to parent: the row of track ``track``'s episode."""
+class EpisodeRow:
+    """Worker to parent: the row of episode thread ``thread``."""
 
-    track: int
+    thread: int
     row: dict[str, Any]
 
 
 @dataclass
 class Holding:
-    """Worker to parent: track ``track`` holds the baton (plans) from now on."""
+    """Worker to parent: episode thread ``thread`` holds the baton (plans) from now on
+    (``None``: the holder waits for another episode's outcome, no thread plans)."""
 
-    track: int
+    thread: int | None
 
 
-def device_worker_main(conn: Connection, run_dir: str, record: str, share: bool) -> None:
-    """Process-pool worker with the shared devices: each ``TrackEpisode`` runs in a thread
-    holding the baton; ``DeviceReply`` messages go to the thread waiting for them."""
+def device_worker_main(
+    conn: Connection, run_dir: str, record: str, share: bool, depth: int = 1
+) -> None:
+    """Process-pool worker with the shared devices: each ``EpisodeStart`` runs in a thread
+    holding the baton; ``DeviceReply`` messages go to the thread waiting for them. ``depth``:
+    the share groups the worker holds at once (its candidate cache keeps every one of them)."""
     from harness.engines import register_engine
     from harness.engines.mjwarp.service import Baton, DeviceReply, PooledDeviceEngine
-    from harness.runs.worker import execute
+    from harness.episode.outcome_wait import set_waiter
+    from harness.runs.worker import execute, reserve_candidate_cache
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -89,17 +98,19 @@ def device_worker_main(conn: Connection, run_dir: str, record: str, share: bool)
         with send_lock:
             conn.send(message)
 
-    baton = Baton(lambda track: send(Holding(track)))
+    baton = Baton(lambda thread: send(Holding(thread)))
     register_engine(PooledDeviceEngine(send, baton))
+    set_waiter(baton.wait_elsewhere)
+    reserve_candidate_cache(depth)
 
-    def run(track: int, episode: EpisodeSpec) -> None:
-        baton.hold(track)
+    def run(thread: int, episode: EpisodeSpec) -> None:
+        baton.hold(thread)
         try:
             row = execute(episode, run_dir, record, share)
         finally:
             baton.release()
         with contextlib.suppress(BrokenPipeError, OSError):
-            send(TrackRow(track, row))
+            send(EpisodeRow(thread, row))
 
     while True:
         try:
@@ -110,15 +121,31 @@ def device_worker_main(conn: Connection, run_dir: str, record: str, share: bool)
             return
         if isinstance(message, DeviceReply):
             baton.deliver(message)
-        elif isinstance(message, TrackEpisode):
-            threading.Thread(target=run, args=(message.track, message.episode), daemon=True).start()
+        elif isinstance(message, EpisodeStart):
+            threading.Thread(
+                target=run, args=(message.thread, message.episode), daemon=True
+            ).start()
+
+
+@dataclass
+class _Thread:
+    """An episode running in a worker's thread."""
+
+    track: int
+    episode: EpisodeSpec
+    on_device: bool = False
+    waiting: bool = False  # for an outcome another thread's job will bring (``Holding(None)``)
 
 
 @dataclass
 class _Track:
-    episode: EpisodeSpec
-    group: list[EpisodeSpec]  # the rest of its share group, next last
-    on_device: bool = False
+    """A share group on a worker: the episodes still to start (next last), the thread that
+    plans its latest episode until that one's job goes to the device (None: none), and every
+    thread of it whose row has not come."""
+
+    group: list[EpisodeSpec]
+    head: int | None = None
+    threads: set[int] = field(default_factory=set)
 
 
 @dataclass
@@ -127,18 +154,23 @@ class _Worker:
     conn: Connection
     send_lock: threading.Lock = field(default_factory=threading.Lock)
     tracks: dict[int, _Track] = field(default_factory=dict)
-    holder: int | None = None  # the track planning now
-    holder_since: float = 0.0  # monotonic, with the device waits of that track taken out
-    next_track: int = 0
+    threads: dict[int, _Thread] = field(default_factory=dict)
+    holder: int | None = None  # the episode thread planning now
+    holder_since: float = 0.0  # monotonic, with the device waits of that thread taken out
+    next_id: int = 0  # of tracks and threads alike
 
     def send(self, message: Any) -> None:
         """Send, ignoring a worker that died meanwhile (its sentinel reports it)."""
         with self.send_lock, contextlib.suppress(BrokenPipeError, OSError):
             self.conn.send(message)
 
+    def new_id(self) -> int:
+        self.next_id += 1
+        return self.next_id
+
     def planning(self) -> bool:
-        """Some track of this worker is not waiting for the device."""
-        return any(not t.on_device for t in self.tracks.values())
+        """Some episode thread of this worker is not waiting for the device."""
+        return any(not (t.on_device or t.waiting) for t in self.threads.values())
 
 
 class DevicePool:
@@ -185,7 +217,7 @@ class DevicePool:
         parent, child = self.context.Pipe()
         process = self.context.Process(
             target=device_worker_main,
-            args=(child, str(self.run_dir), self.record, self.share),
+            args=(child, str(self.run_dir), self.record, self.share, self.depth),
             daemon=True,
         )
         start_worker(process)  # SIGINT blocked while it starts (runs.spawning)
@@ -208,14 +240,26 @@ class DevicePool:
         group = self.next_group()
         if not group:
             return False
-        track = worker.next_track
-        worker.next_track += 1
-        worker.tracks[track] = _Track(group.pop(), group)
-        worker.send(TrackEpisode(track, worker.tracks[track].episode))
+        track_id = worker.new_id()
+        worker.tracks[track_id] = _Track(group)
+        self.start_next(worker, track_id)
         return True
 
+    def start_next(self, worker: _Worker, track_id: int) -> None:
+        """Start the track's next episode in a new thread of the worker (if one is left)."""
+        track = worker.tracks[track_id]
+        if not track.group:
+            return
+        thread = worker.new_id()
+        episode = track.group.pop()
+        worker.threads[thread] = _Thread(track_id, episode)
+        track.head = thread
+        track.threads.add(thread)
+        worker.send(EpisodeStart(thread, episode))
+
     def feed(self, worker: _Worker) -> None:
-        """While every track of ``worker`` waits for the device, open another (up to depth)."""
+        """While every thread of ``worker`` waits for the device, open another track (up to
+        depth)."""
         while not worker.planning() and len(worker.tracks) < self.depth:
             if not self.open_track(worker):
                 return
@@ -238,49 +282,73 @@ class DevicePool:
                 except (EOFError, OSError):
                     break
                 if isinstance(message, Holding):
-                    with self._lock:
-                        worker.holder, worker.holder_since = message.track, time.monotonic()
+                    self.holding(worker, message.thread)
                 elif isinstance(message, DeviceRequest):
                     self.device_request(worker, message)
-                elif isinstance(message, TrackRow):
+                elif isinstance(message, EpisodeRow):
                     self.row(worker, message)
         if worker.process.sentinel in ready or not worker.process.is_alive():
             self.died(worker)
 
+    def holding(self, worker: _Worker, thread_id: int | None) -> None:
+        """``thread_id`` plans from now on; ``None``: the holder waits for another thread's
+        outcome (neither planning nor counted towards its deadline), so its track's next
+        episode starts."""
+        with self._lock:
+            held_by = worker.holder
+            holder = worker.threads.get(held_by) if held_by is not None else None
+            if thread_id in worker.threads:
+                worker.threads[thread_id].waiting = False
+            worker.holder, worker.holder_since = thread_id, time.monotonic()
+        if thread_id is None and holder is not None and held_by is not None:
+            holder.waiting = True  # its planning is done: the track's next episode may start
+            self.advance(worker, holder.track, held_by)
+            self.feed(worker)
+
     def device_request(self, worker: _Worker, request: Any) -> None:
-        track = worker.tracks.get(request.track)
-        if track is None:
+        """A thread's job: to the devices; its track's next episode starts planning."""
+        thread = worker.threads.get(request.track)  # the request's track: its episode thread
+        if thread is None:
             return
-        track.on_device = True
+        thread.on_device = True
         with self._lock:
             if worker.holder == request.track:
                 worker.holder = None
         answer = functools.partial(self.answer, worker, request.track)
         self.device.submit((id(worker), request.track), request.job, answer, request.track)
+        self.advance(worker, thread.track, request.track)
         self.feed(worker)
 
-    def answer(self, worker: _Worker, track_id: int, reply: DeviceReply) -> None:
-        """(A device thread) send the worker its track's outcome."""
+    def advance(self, worker: _Worker, track_id: int, thread: int) -> None:
+        """``thread`` no longer plans its track's latest episode: start the next one."""
         track = worker.tracks.get(track_id)
-        if track is not None:
-            track.on_device = False
+        if track is not None and track.head == thread:
+            track.head = None
+            self.start_next(worker, track_id)
+
+    def answer(self, worker: _Worker, thread_id: int, reply: DeviceReply) -> None:
+        """(A device thread) send the worker its thread's outcome."""
+        thread = worker.threads.get(thread_id)
+        if thread is not None:
+            thread.on_device = False
         worker.send(reply)
 
-    def row(self, worker: _Worker, message: TrackRow) -> None:
+    def row(self, worker: _Worker, message: EpisodeRow) -> None:
         self.on_result(message.row)
         self.stats.finished += 1
-        track = worker.tracks.get(message.track)
         with self._lock:
-            if worker.holder == message.track:
+            if worker.holder == message.thread:
                 worker.holder = None
-        if track is not None and track.group:
-            track.episode = track.group.pop()
-            track.on_device = False
-            worker.send(TrackEpisode(message.track, track.episode))
-        else:
-            worker.tracks.pop(message.track, None)
-            if not worker.tracks:
-                self.open_track(worker)
+        thread = worker.threads.pop(message.thread, None)
+        if thread is not None:
+            self.advance(worker, thread.track, message.thread)  # it never reached the device
+            track = worker.tracks.get(thread.track)
+            if track is not None:
+                track.threads.discard(message.thread)
+                if not track.threads and not track.group:
+                    worker.tracks.pop(thread.track)
+        if not worker.tracks:
+            self.open_track(worker)
         self.feed(worker)
 
     # ---- failures
@@ -296,16 +364,21 @@ class DevicePool:
             else f"worker exited with code {code}"
         )
         self.workers.remove(worker)
+        self.requeue_rest(worker)
         culprit = worker.holder
-        for track_id, track in worker.tracks.items():
-            if track.group:
-                self.requeued.append(track.group)
-            if track_id == culprit or culprit is None:
-                self.retry_or_fail(track.episode, reason)
+        for thread_id, thread in worker.threads.items():
+            if thread_id == culprit or culprit is None:
+                self.retry_or_fail(thread.episode, reason)
             else:
-                self.requeued.append([track.episode])
+                self.requeued.append([thread.episode])
         if self.pending_work():
             self.start()
+
+    def requeue_rest(self, worker: _Worker) -> None:
+        """The episodes of a lost worker's tracks that had not started: to run elsewhere."""
+        for track in worker.tracks.values():
+            if track.group:
+                self.requeued.append(track.group)
 
     def pending_work(self) -> bool:
         return bool(self.requeued) or any(w.tracks for w in self.workers) or self._peek()
@@ -339,11 +412,11 @@ class DevicePool:
 
     def _deadline(self, worker: _Worker) -> float | None:
         with self._lock:
-            track = worker.tracks.get(worker.holder) if worker.holder is not None else None
-            if track is None or track.on_device:
+            thread = worker.threads.get(worker.holder) if worker.holder is not None else None
+            if thread is None or thread.on_device:
                 return None
-            runs = 2 if self.share and (track.episode.record or self.record == "failures") else 1
-            limit = runs * track.episode.task.limits.wall_time_s
+            runs = 2 if self.share and (thread.episode.record or self.record == "failures") else 1
+            limit = runs * thread.episode.task.limits.wall_time_s
             return worker.holder_since + limit + KILL_GRACE_S
 
     def kill_overdue(self) -> None:
@@ -359,16 +432,15 @@ class DevicePool:
             worker.process.kill()
             worker.process.join(timeout=5)
             self.workers.remove(worker)
+            self.requeue_rest(worker)
             culprit = worker.holder
-            for track_id, track in worker.tracks.items():
-                if track.group:
-                    self.requeued.append(track.group)
-                if track_id != culprit:
-                    self.requeued.append([track.episode])
+            for thread_id, thread in worker.threads.items():
+                if thread_id != culprit:
+                    self.requeued.append([thread.episode])
                     continue
-                limit = track.episode.task.limits.wall_time_s
+                limit = thread.episode.task.limits.wall_time_s
                 row = error_row(
-                    track.episode,
+                    thread.episode,
                     f"wall-clock limit of {limit:g} s reached: the worker was still busy "
                     f"{KILL_GRACE_S:g} s after it and was killed",
                 )

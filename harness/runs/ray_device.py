@@ -54,17 +54,22 @@ class _DeviceStreamsHost:
 class _Planner:
     """(Inside a planning actor) episodes in threads, one planning at a time."""
 
-    def __init__(self, device: Any, run_dir: str, record: str, share: bool) -> None:
+    def __init__(self, device: Any, run_dir: str, record: str, share: bool, depth: int) -> None:
+        import itertools
         import threading
 
         import ray
 
         from harness.engines import register_engine
         from harness.engines.mjwarp.service import Baton, DeviceReply, PooledDeviceEngine
+        from harness.episode.outcome_wait import set_waiter
+        from harness.runs.worker import reserve_candidate_cache
 
         self.run_dir, self.record, self.share = run_dir, record, share
         self.baton = Baton(lambda track: None)
-        self.tracks = 0
+        self.tracks = itertools.count(1)  # next() is atomic: the actor's threads call it
+        set_waiter(self.baton.wait_elsewhere)  # a seed's outcome in flight: plan meanwhile
+        reserve_candidate_cache(depth)
 
         def send(request: Any) -> None:  # the job to the device actor; its reply to the baton
             ref = device.run.remote(request.job)
@@ -83,8 +88,7 @@ class _Planner:
     def run(self, episode: Any) -> dict[str, Any]:
         from harness.runs.worker import execute
 
-        self.tracks += 1
-        track = self.tracks
+        track = next(self.tracks)
         self.baton.hold(track)
         try:
             return execute(episode, self.run_dir, self.record, self.share)
@@ -134,7 +138,7 @@ def run_on_ray_device(
     planner = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)(_Planner)
     actors = [
         planner.options(max_concurrency=depth + 1).remote(
-            devices[k % len(devices)], run_dir, record, share
+            devices[k % len(devices)], run_dir, record, share, depth
         )
         for k in range(count)
     ]

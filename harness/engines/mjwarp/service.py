@@ -61,7 +61,7 @@ class Baton:
     track's job is on the device and returns the reply once it came and the baton is back.
     """
 
-    def __init__(self, on_hold: Callable[[int], None]) -> None:
+    def __init__(self, on_hold: Callable[[int | None], None]) -> None:
         self._lock = threading.Lock()
         self._on_hold = on_hold
         self._replies: dict[int, DeviceReply] = {}
@@ -103,6 +103,22 @@ class Baton:
             self.hold(track)
         self._arrived.pop(track, None)
         return self._replies.pop(track, None) if arrived else None
+
+    def wait_elsewhere(self, event: threading.Event) -> None:
+        """(Holding the baton) give it away until ``event`` is set, then take it back: the
+        wait of an episode for an outcome another episode of its seed is executing
+        (``harness.episode.outcome_wait``). The budget is paused and the parent told that no
+        thread of this worker plans for it (``on_hold(None)``), so neither counts the wait."""
+        from harness.sim.budget import budget_paused
+
+        track = self.track
+        with budget_paused():
+            self._on_hold(None)
+            self.release()
+            try:
+                event.wait()
+            finally:
+                self.hold(track)
 
 
 class PooledDeviceEngine:
