@@ -87,6 +87,8 @@ def main(args: argparse.Namespace) -> int:
             f"device, {device.device_s:.1f} s"
             + (f"; {len(device.errors)} failed stream(s)" if device.errors else "")
         )
+        if device.breakdown():
+            console.print(device.breakdown())
     print_summary(outcome.run_dir, console)
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
     failing = too_many_errors(outcome.errors, outcome.rows)

@@ -226,6 +226,7 @@ class WorldBatch:
         # the rungs' penetration is not judged: each rung row measures its own start
         start_rows = wp.full(nt, kernels.BASELINE, dtype=wp.int32)
         dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
+        self.timings.tug_issue_s += time.perf_counter() - clock
         self.slot.wait()
         rows = to_host(out)[:, 0]
         over = use.overflowed(td, buffers, self.timings)

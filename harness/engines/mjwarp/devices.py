@@ -123,6 +123,21 @@ class StreamStats:
     timings: Any = None  # the streams' BatchTimings, summed (bench figures)
     concurrent: int = 0
 
+    def breakdown(self) -> str:
+        """Where the streams' host time went (summed over streams, so it can exceed the wall),
+        and how much of the lanes' stepping was within a job's span."""
+        t = self.timings
+        if t is None:
+            return ""
+        busy = t.span_steps / t.motion_steps if t.motion_steps else 0.0
+        return (
+            f"streams' time: physics {t.physics_s:.1f} s, tug {t.tug_s:.1f} s (issuing "
+            f"{t.tug_issue_s:.1f} s; {t.tug_rounds} round(s), {t.tug_rungs} rung-world(s)), "
+            f"upload {t.upload_s:.1f} s, "
+            f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s; lanes within a job's "
+            f"span {100 * busy:.0f}% of {t.motion_steps:,} lane-steps"
+        )
+
     # the names the sweep's summary line reads (it predates lane streams)
     @property
     def batches(self) -> int:
@@ -488,7 +503,7 @@ class DeviceStreams:
 
 def _add_timings(total: Any, more: Any) -> None:
     for name in (
-        "physics_s", "tug_s", "upload_s", "download_s", "judge_s", "world_steps",
+        "physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s", "world_steps",
         "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns",
     ):  # fmt: skip
         setattr(total, name, getattr(total, name) + getattr(more, name))

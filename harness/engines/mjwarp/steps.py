@@ -45,6 +45,7 @@ class BatchTimings:
     upload_s: float = 0.0
     physics_s: float = 0.0
     tug_s: float = 0.0
+    tug_issue_s: float = 0.0  # of ``tug_s``: making the rounds' data and issuing their steps
     download_s: float = 0.0
     judge_s: float = 0.0  # the verdicts on the host (``judge``), after the download
     world_steps: int = 0  # every world-step stepped: the motion's (padding included) and the tug's

@@ -269,7 +269,7 @@ class LaneStream:
             self._merge(large)
 
     def _merge(self, batch: WorldBatch) -> None:
-        for name in ("physics_s", "tug_s", "upload_s", "download_s", "judge_s"):
+        for name in ("physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s"):
             setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))
         for name in ("world_steps", "motion_steps", "span_steps", "tug_rounds", "tug_rungs"):
             setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))
