@@ -129,6 +129,12 @@ for job in "$@"; do
     fr3_gpu)  # the product path: planning on every core but one, lanes on the GPU(s)
       python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu" --no-progress --record none ;;
+    fr3_gpu_4096)  # the same with 4,096 lanes: one wave for every job (groups pipelined)
+      HARNESS_LANES=4096 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_4096" --no-progress --record none ;;
+    demo_gpu_256)  # the demo with 256 lanes per stream (one wave per task model's jobs)
+      HARNESS_LANES=256 python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_256" --no-progress --record none ;;
     demo_cpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --workers "$(nproc)" \
         --out "$R/demo_cpu" --no-progress --record none ;;
