@@ -36,3 +36,49 @@ def test_slots_of_a_device_share_one_lock_and_take_turns() -> None:
         assert first.lock.locked()
     thread.join(timeout=10)
     assert entered.is_set() and not first.lock.locked()
+
+
+def test_a_graph_launch_lets_the_other_slots_have_the_lock(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A launch that blocks on a full device queue must not hold the lock: another slot takes
+    it meanwhile. The launch names the slot's stream; a graph's first launch (it is
+    instantiated then) and a slot without a stream keep the lock."""
+    import warp as wp
+
+    from harness.engines.mjwarp import slot as slot_module
+
+    lock = threading.Lock()
+    stream = object()
+    slot = slot_module.DeviceSlot("cpu", lock=lock, stream=stream)
+    monkeypatch.setattr(slot, "_make_current", lambda: None)
+    seen: list[tuple[bool, object]] = []
+    other_ran = threading.Event()
+
+    def blocking_launch(graph: object, stream: object = None) -> None:
+        seen.append((lock.locked(), stream))
+        if stream is not None:  # as a full queue would: the other slot gets the lock meanwhile
+            thread = threading.Thread(
+                target=lambda: (lock.acquire(), other_ran.set(), lock.release()),
+                daemon=True,
+            )
+            thread.start()
+            thread.join(timeout=10)
+
+    monkeypatch.setattr(wp, "capture_launch", blocking_launch)
+
+    class Graph:
+        graph_exec: object = None
+
+    graph = Graph()
+    with slot:
+        slot.launch(graph)  # first launch: instantiates, under the lock
+        graph.graph_exec = object()
+        slot.launch(graph)
+        assert lock.locked()  # held again on return
+    assert seen == [(True, None), (False, stream)]
+    assert other_ran.is_set()
+    no_stream = slot_module.DeviceSlot("cpu", lock=lock)
+    with no_stream:
+        no_stream.launch(graph)
+    assert seen[-1] == (True, None)

@@ -168,9 +168,11 @@ class Profiler:
     def _replay(self, original: Callable[..., Any]) -> Callable[..., Any]:
         import warp as wp
 
-        def replay(device: str, fn: Callable[[], None], times: int) -> None:
+        def replay(
+            device: str, fn: Callable[[], None], times: int, launch: Any = wp.capture_launch
+        ) -> None:
             if fn.__name__ != "control_step" or not wp.get_device(device).is_cuda or times < 2:
-                original(device, fn, times)
+                original(device, fn, times, launch)
                 return
             fn()
             with wp.ScopedCapture(device=device) as capture:
@@ -181,7 +183,7 @@ class Profiler:
                 if i + 1 in self.rows:
                     self._timed(fn)
                 else:
-                    wp.capture_launch(graph)
+                    launch(graph)
 
         return replay
 

@@ -220,7 +220,9 @@ class WorldBatch:
         substeps = max(1, substeps)
         rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
         use = steps.BufferUse(nt)
-        steps.replay(dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps)
+        steps.replay(
+            dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps, self.slot.launch
+        )
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)
         # the rungs' penetration is not judged: each rung row measures its own start

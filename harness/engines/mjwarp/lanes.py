@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco_warp as mjw
 import numpy as np
@@ -185,10 +186,12 @@ class LaneRun:
         )  # fmt: skip
         wp.launch(lk.lane_release, dim=self.nlane, inputs=[self.job_of, self.ended])
 
-    def launch(self, timings: BatchTimings) -> None:
+    def launch(
+        self, timings: BatchTimings, launch_graph: Callable[[Any], None] = wp.capture_launch
+    ) -> None:
         """Queue ``interval`` physics steps of every lane: one captured CUDA graph, captured at
         the first call after one eager step that loads the kernels (on Warp's CPU device:
-        eagerly)."""
+        eagerly), replayed with ``launch_graph`` (the slot's: ``DeviceSlot.launch``)."""
         self.peak_contacts.zero_()
         count = self.interval
         if not wp.get_device(self.dm.device).is_cuda:
@@ -203,7 +206,7 @@ class LaneRun:
                         self._physics_step()
                 self._graph = capture.graph
             assert self._graph is not None
-            wp.capture_launch(self._graph)
+            launch_graph(self._graph)
         timings.motion_steps += self.nlane * count
         timings.world_steps += self.nlane * count
 

@@ -93,9 +93,10 @@ def stepper(model: mjw.Model, d: mjw.Data, use: BufferUse):  # type: ignore[no-u
     return step
 
 
-def replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def]
+def replay(device: str, fn, times: int, launch=wp.capture_launch) -> None:  # type: ignore[no-untyped-def]
     """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
-    one captured CUDA graph (on the CPU device: eagerly)."""
+    one captured CUDA graph with ``launch`` (the slot's: ``DeviceSlot.launch``; on the CPU
+    device: eagerly)."""
     if times <= 0:
         return
     fn()
@@ -110,7 +111,7 @@ def replay(device: str, fn, times: int) -> None:  # type: ignore[no-untyped-def]
     graph = capture.graph
     assert graph is not None
     for _ in range(times - 1):
-        wp.capture_launch(graph)
+        launch(graph)
 
 
 def world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:

@@ -140,7 +140,7 @@ class LaneStream:
                 self._fill(lanes, pending)
                 if lanes.busy:
                     clock = time.perf_counter()
-                    lanes.launch(self.timings)
+                    lanes.launch(self.timings, self.batch.slot.launch)
                     # on the host while the device steps, for at most half the last replay
                     self._judge(tugged, 0.5 * replay_s)
                     self.batch.slot.wait()
