@@ -1,11 +1,11 @@
 """Agreement of two runs of the same sweep on the two engines, per sweep point.
 
 ``python -m harness.benchmarks.agreement CPU_RUN GPU_RUN`` reads both runs' ``episodes.csv``
-(``harness sweep X`` and ``harness sweep X --engine mjwarp``), matches rows on (point, episode),
-and prints per point: the reference success rate and the valid rate of each engine with Wilson
+(``harness sweep X`` and ``harness sweep X --engine mjwarp``), matches rows on (task, point,
+episode), and prints per point (a task's setting: the demo's points repeat over its five arms): the reference success rate and the valid rate of each engine with Wilson
 95% intervals, whether each engine's rate lies inside the other's interval, and the per-episode
 agreement (reference outcome: success and failure reason; validity) over the episodes executed
-on both; then the pooled line. Pooled agreement can hide a gap at one setting (issue 34: at
+on both; then each task's pooled line and the whole run's. Pooled agreement can hide a gap at one setting (issue 34: at
 ``downward 160`` 12 points of valid rate), hence the per-point table.
 """
 
@@ -42,17 +42,23 @@ def _reason(reasons: Any) -> Any:
 
 
 def matched(cpu: pd.DataFrame, gpu: pd.DataFrame) -> Any:
-    """The two runs' rows side by side (suffixes ``_cpu``, ``_gpu``), matched on the point
-    and the episode."""
-    keys = ["point", "episode_id"]
+    """The two runs' rows side by side (suffixes ``_cpu``, ``_gpu``), matched on the task, the
+    point and the episode."""
+    keys = ["task", "point", "episode_id"]
     return cpu.merge(gpu, on=keys, suffixes=("_cpu", "_gpu"), validate="one_to_one")
 
 
 def per_point(cpu: pd.DataFrame, gpu: pd.DataFrame) -> pd.DataFrame:
-    """One record per point (and one ``all`` record): rates, intervals and agreement."""
+    """One record per (task, point), one per task (``TASK all``) when the run has several,
+    and one ``all`` record: rates, intervals and agreement."""
     both: Any = matched(cpu, gpu)
     records = []
-    groups = [(str(point), rows) for point, rows in both.groupby("point", sort=True)]
+    groups = []
+    tasks = list(both.groupby("task", sort=True))
+    for task, task_rows in tasks:
+        groups += [(f"{task} {point}", rows) for point, rows in task_rows.groupby("point")]
+        if len(tasks) > 1:
+            groups.append((f"{task} all", task_rows))
     for point, rows in [*groups, ("all", both)]:
         record: dict[str, object] = {"point": point, "n": len(rows)}
         inside = {}
