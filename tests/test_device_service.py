@@ -639,3 +639,25 @@ def test_two_task_models_streamed_side_by_side_give_the_verdicts_of_one_at_a_tim
     assert all(o is not None for o in alone + together)
     for one, both in zip(alone, together, strict=True):
         assert same_fields(one, both)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
+def test_a_runs_device_models_load_before_its_first_job(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``prepare`` makes each expected task model's device model in the background (on Warp's
+    CPU device here); the stream of the first job then uses that model instead of making one."""
+    from harness.engines.mjwarp import devices
+
+    monkeypatch.setattr(devices, "_ENGINES", {})
+    streams = devices.DeviceStreams(["cpu"])
+    task = fr3()
+    streams.expect([task, task])
+    streams.prepare()
+    assert streams._prewarm is not None
+    streams._prewarm.join(timeout=600)
+    engine = streams._engine("cpu")
+    assert len(engine._models) == 1
+    (model,) = engine._models.values()
+    scene = devices.scene_for(task, streams._scenes, streams._scene_lock)
+    assert engine.batch(scene, task).dm is model
+    streams.close()

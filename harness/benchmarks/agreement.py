@@ -2,11 +2,12 @@
 
 ``python -m harness.benchmarks.agreement CPU_RUN GPU_RUN`` reads both runs' ``episodes.csv``
 (``harness sweep X`` and ``harness sweep X --engine mjwarp``), matches rows on (task, point,
-episode), and prints per point (a task's setting: the demo's points repeat over its five arms): the reference success rate and the valid rate of each engine with Wilson
-95% intervals, whether each engine's rate lies inside the other's interval, and the per-episode
-agreement (reference outcome: success and failure reason; validity) over the episodes executed
-on both; then each task's pooled line and the whole run's. Pooled agreement can hide a gap at one setting (issue 34: at
-``downward 160`` 12 points of valid rate), hence the per-point table.
+episode), and prints per point (a task's setting: the demo's points repeat over its five arms)
+the reference success rate and the valid rate of each engine with Wilson 95% intervals, whether
+each engine's rate lies inside the other's interval, and the per-episode agreement (reference
+outcome: success and failure reason; validity) over the episodes executed on both; then each
+task's pooled line and the whole run's. Pooled agreement can hide a gap at one setting (issue
+34: at ``downward 160`` 12 points of valid rate), hence the per-point table.
 """
 
 from __future__ import annotations

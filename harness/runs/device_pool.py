@@ -208,6 +208,7 @@ class DevicePool:
             service.streams.expect(e.task for e in episodes)
         except Exception:  # a task that cannot be read fails as its episode's row
             service.streams.expected = {}
+        service.streams.prepare()  # device models load while the workers start
         self.depth = depth_for(service.streams.planned_lanes(), 1, self.count)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 

@@ -191,6 +191,8 @@ class DeviceStreams:
         self._scene_lock = _SCENE_LOCK if shared else threading.Lock()
         self._spans: list[tuple[float, float]] = []
         self._seen: set[tuple[str, StreamKey]] = set()
+        self._examples: dict[tuple[Any, ...], Any] = {}  # a task per expected key (``prepare``)
+        self._prewarm: threading.Thread | None = None
         self._threads = [
             threading.Thread(target=self._serve, args=(d,), name=f"mjwarp-{d}-{k}", daemon=True)
             for d in devices
@@ -214,6 +216,24 @@ class DeviceStreams:
             counts[key] = counts.get(key, 0) + 1
         with self._cond:
             self.expected = counts
+            self._examples = {key: task for task, key in known.values()}
+
+    def prepare(self) -> None:
+        """Load each expected task model on every device in the background (``prewarm``), so
+        the first streams do not wait for it; nothing with stand-in engines or streams."""
+        if self._make_engine is not None or self._run_stream != self._lane_stream:
+            return
+        from harness.engines.mjwarp.prewarm import prewarm, warm_model
+
+        def warm(device: str, task: Any) -> None:
+            scene = scene_for(task, self._scenes, self._scene_lock)
+            warm_model(self._engine(device), scene, task)
+
+        with self._cond:
+            tasks = list(self._examples.values())
+        self._prewarm = prewarm(
+            [(device, task) for device in self.devices for task in tasks], warm, self._log
+        )
 
     def planned_lanes(self) -> int:
         """The lanes every device's streams will hold at once when each expected task model has

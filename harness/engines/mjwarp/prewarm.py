@@ -1,0 +1,56 @@
+"""Loading a run's device models before its first job arrives.
+
+A stream's first use of a task model on a device loads every MuJoCo Warp module its step
+launches (from Warp's kernel cache when it holds them, else compiling them) and makes the
+device model; on a GPU box with the cache this took ~10 s of the FR3 cube sweep's 25 s to its
+first outcome (2026-11-27), while the planning workers were still starting. ``prewarm`` does it
+in a background thread as soon as the run's tasks are known, so the first stream finds the
+model and the modules ready. It changes no result: the stream makes the same device model
+(``MjwarpEngine.batch`` keeps it) and a one-world step's state is thrown away.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Iterable
+from typing import Any
+
+import mujoco_warp as mjw
+import warp as wp
+
+from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp import lane_kernels as lk
+from harness.engines.mjwarp.slot import HOST_LOCK
+
+
+def warm_model(engine: Any, scene: Any, task: Any) -> None:
+    """``task``'s device model on ``engine``'s device, and one eager step of one world (which
+    loads the modules of every kernel the step launches), under the host lock."""
+    batch = engine.batch(scene, task)
+    dm = batch.dm
+    with HOST_LOCK, wp.ScopedDevice(dm.device):
+        d = batch.data(1, batch.buffers)
+        mjw.step(dm.model, d)
+        for module in (kernels, lk):
+            wp.load_module(module, device=dm.device)
+        wp.synchronize_device(dm.device)
+
+
+def prewarm(
+    jobs: Iterable[tuple[Any, Any]],
+    warm: Callable[[Any, Any], None],
+    on_error: Callable[[str], None],
+) -> threading.Thread:
+    """Run ``warm(device, task)`` for each (device, task) of ``jobs`` in a daemon thread;
+    a failure is reported with ``on_error`` and left to the stream (which fails as before)."""
+
+    def run() -> None:
+        for device, task in jobs:
+            try:
+                warm(device, task)
+            except Exception as exc:  # the stream meets it again and answers its jobs
+                on_error(f"preparing {task.name} on {device}: {type(exc).__name__}: {exc}")
+
+    thread = threading.Thread(target=run, name="mjwarp-prewarm", daemon=True)
+    thread.start()
+    return thread
