@@ -5,11 +5,13 @@ Between two replays the host collects the jobs whose span ended and judges the p
 while the device steps. Finished jobs wait in a group until ``group`` of them, the end of the
 stream, ``GROUP_WAIT_S`` since the group's first, or as many as the lanes still step (so that a
 caller waiting for its outcomes before it plans more is never held back by a group that cannot
-fill): their tug ladders then run in rounds on the same stream (``WorldBatch.tug``: the rounds
-are as large as the group's tugged worlds, the device is busy with them meanwhile), and their
-slots are freed. Jobs whose span exceeds the slots' rows, and jobs whose rows or contacts did
-not fit the buffers, run afterwards as lockstep batches (``WorldBatch``: the large buffers, and
-``sim_unstable`` when even those are full), exactly as a lockstep batch would rerun them.
+fill): their tug ladders then run in rounds (``WorldBatch.tug``: the rounds are as large as the
+group's tugged worlds) in a thread of the stream's own, on a CUDA stream of its own, while the
+lanes go on stepping (run in line, the FR3 cube sweep's 15 rounds held its lanes for 9 of its
+53 s, 2026-11-27); their slots are freed once their tug is done. Jobs whose span exceeds the
+slots' rows, and jobs whose rows or contacts did not fit the buffers, run afterwards as
+lockstep batches (``WorldBatch``: the large buffers, and ``sim_unstable`` when even those are
+full), exactly as a lockstep batch would rerun them.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable, Hashable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +31,7 @@ from harness.engines.mjwarp.judge import judge_started
 from harness.engines.mjwarp.lanes import LaneRun
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
+from harness.engines.mjwarp.slot import DeviceSlot
 from harness.engines.mjwarp.tug import Rung
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import RungOutcome, validity_enabled
@@ -90,12 +94,24 @@ class LaneStream:
         self._free_slots: list[int] = []
         self._lockstep: list[tuple[Hashable, DeviceJob]] = []  # too long for a slot
         self._rerun: list[tuple[Hashable, DeviceJob]] = []  # did not fit the buffers
+        # the tug rounds: their own thread, batch and device stream (made in ``run``)
+        self._tug_batch: WorldBatch | None = None
+        self._tugs: list[tuple[Future[_Tugged], list[int]]] = []  # in flight, with their slots
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
         """Every job ``source`` gives, by key, once it gives ``None``."""
-        with self.batch.slot, wp.ScopedDevice(self.batch.dm.device):
-            self._loop(source)
-            self._finish_lockstep()
+        with ThreadPoolExecutor(1, thread_name_prefix="mjwarp-tug") as tugger:
+            self._tugger = tugger
+            with self.batch.slot, wp.ScopedDevice(self.batch.dm.device):
+                batch = self.batch
+                slot = DeviceSlot.several(batch.dm.device, 1)[0]
+                self._tug_batch = WorldBatch(batch.dm, batch.policy, batch.buffers, slot)
+                try:
+                    self._loop(source)
+                    self._finish_lockstep()
+                finally:
+                    self._tugs_done(wait_all=True)
+                    self._merge(self._tug_batch)
         return self.outcomes
 
     def _make(self, job: DeviceJob) -> LaneRun:
@@ -158,9 +174,10 @@ class LaneStream:
                 or time.perf_counter() - group_since > GROUP_WAIT_S
             ):
                 assert lanes is not None
-                tugged.append(self._tug(lanes, group))
+                self._tug(lanes, group)
                 group = []
-            if drained and not group:
+            tugged += self._tugs_done(wait_all=drained or (idle and closed))
+            if drained and not group and not self._tugs:
                 self._judge(tugged)
                 return
 
@@ -208,8 +225,9 @@ class LaneStream:
         lanes.release(slots)
         self._free_slots.extend(slots)
 
-    def _tug(self, lanes: LaneRun, group: list[_Done]) -> _Tugged:
-        """The group's tug ladders (device); its slots are free afterwards."""
+    def _tug(self, lanes: LaneRun, group: list[_Done]) -> None:
+        """Start the group's tug ladders in the tug thread; its slots are freed when they are
+        done (``_tugs_done``): the rungs start from the slots' saved states."""
         jobs = [item.job for item in group]
         slots = [item.slot for item in group]
         rows = {item.slot: item.rows for item in group}
@@ -217,9 +235,32 @@ class LaneStream:
         windows, tugged = hold_windows(jobs, slots, rows, validity, set())
         start = RungStart(jobs, lanes.saved, lanes.hold_ctrl, lanes.mocap, lanes.motion_host,
                            windows)  # fmt: skip
-        rungs, over = self.batch.tug(start, rows, tugged)
-        self._release(lanes, slots)
-        return _Tugged(group, windows, rungs, over)
+        batch = self._tug_batch
+        assert batch is not None
+
+        def run() -> _Tugged:
+            with batch.slot, wp.ScopedDevice(batch.dm.device):
+                rungs, over = batch.tug(start, rows, tugged)
+            return _Tugged(group, windows, rungs, over)
+
+        self._tugs.append((self._tugger.submit(run), slots))
+
+    def _tugs_done(self, wait_all: bool = False) -> list[_Tugged]:
+        """The tug groups whose ladders are done (all of them with ``wait_all``: waited for with
+        the host lock let go), their slots freed; a failed tug raises here."""
+        if wait_all and self._tugs:
+            with self.batch.slot.released():
+                wait([future for future, _ in self._tugs])
+        done, running = [], []
+        for future, slots in self._tugs:
+            (done if future.done() else running).append((future, slots))
+        self._tugs = running
+        finished = []
+        for future, slots in done:
+            finished.append(future.result())
+            if self.lanes is not None:
+                self._release(self.lanes, slots)
+        return finished
 
     def _judge(self, ready: list[_Tugged], budget_s: float = math.inf) -> None:
         """Judge the tugged groups' jobs on the host, for at most about ``budget_s`` (the rest
