@@ -76,7 +76,8 @@ def test_a_graph_launch_lets_the_other_slots_have_the_lock(
         graph.graph_exec = object()
         slot.launch(graph)
         assert lock.locked()  # held again on return
-    assert seen == [(True, None), (False, stream)]
+        slot.launch(graph, times=3)  # the lock let go once for all three
+    assert seen == [(True, None), (False, stream), *[(False, stream)] * 3]
     assert other_ran.is_set()
     no_stream = slot_module.DeviceSlot("cpu", lock=lock)
     with no_stream:

@@ -168,9 +168,10 @@ class Profiler:
     def _replay(self, original: Callable[..., Any]) -> Callable[..., Any]:
         import warp as wp
 
-        def replay(
-            device: str, fn: Callable[[], None], times: int, launch: Any = wp.capture_launch
-        ) -> None:
+        from harness.engines.mjwarp.steps import launch_in_place
+
+        def replay(device: str, fn: Callable[[], None], times: int, launch: Any = None) -> None:
+            launch = launch or launch_in_place
             if fn.__name__ != "control_step" or not wp.get_device(device).is_cuda or times < 2:
                 original(device, fn, times, launch)
                 return

@@ -187,7 +187,7 @@ class LaneRun:
         wp.launch(lk.lane_release, dim=self.nlane, inputs=[self.job_of, self.ended])
 
     def launch(
-        self, timings: BatchTimings, launch_graph: Callable[[Any], None] = wp.capture_launch
+        self, timings: BatchTimings, launch_graph: Callable[[Any], None] = steps.launch_in_place
     ) -> None:
         """Queue ``interval`` physics steps of every lane: one captured CUDA graph, captured at
         the first call after one eager step that loads the kernels (on Warp's CPU device:

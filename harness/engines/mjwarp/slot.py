@@ -78,21 +78,29 @@ class DeviceSlot:
             self.lock.acquire()
             self._make_current()
 
-    def launch(self, graph: Any) -> None:
-        """Replay a captured ``graph`` on this slot's stream (holding the lock on entry and on
-        return). A launch blocks while the device's queue for the stream is full, for about the
-        graph's own device time when the graph is long, so the lock is let go meanwhile and the
-        other slots launch theirs: held through it, eight demo streams stepped one after
-        another (a sampling profile, 2026-11-27: 64 s of the streams' time inside
-        ``capture_launch``, all under the lock). The call names its stream, so it does not
-        depend on Warp's process-wide current stream. A graph's first launch instantiates it
-        and stays under the lock, as does a slot without a stream of its own."""
-        if self.stream is None or getattr(graph, "graph_exec", None) is None:
+    def launch(self, graph: Any, times: int = 1) -> None:
+        """Replay a captured ``graph`` ``times`` times on this slot's stream (holding the lock
+        on entry and on return). A launch blocks while the device's queue for the stream is
+        full, for about the graph's own device time when the graph is long, so the lock is let
+        go meanwhile (once for all ``times``) and the other slots launch theirs: held through
+        it, eight demo streams stepped one after another (a sampling profile, 2026-11-27: 64 s
+        of the streams' time inside ``capture_launch``, all under the lock). The calls name
+        their stream, so they do not depend on Warp's process-wide current stream. A graph's
+        first launch instantiates it and stays under the lock, as do the launches of a slot
+        without a stream of its own."""
+        if self.stream is None:
+            for _ in range(times):
+                wp.capture_launch(graph)
+            return
+        if times > 0 and getattr(graph, "graph_exec", None) is None:
             wp.capture_launch(graph)
+            times -= 1
+        if times <= 0:
             return
         self.lock.release()
         try:
-            wp.capture_launch(graph, stream=self.stream)
+            for _ in range(times):
+                wp.capture_launch(graph, stream=self.stream)
         finally:
             self.lock.acquire()
             self._make_current()

@@ -8,6 +8,7 @@ replaced there by ``harness.benchmarks.device_profile`` to time a few steps eage
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco_warp as mjw
 import numpy as np
@@ -93,10 +94,16 @@ def stepper(model: mjw.Model, d: mjw.Data, use: BufferUse):  # type: ignore[no-u
     return step
 
 
-def replay(device: str, fn, times: int, launch=wp.capture_launch) -> None:  # type: ignore[no-untyped-def]
+def launch_in_place(graph: Any, times: int = 1) -> None:
+    """Replay ``graph`` ``times`` times on the device's current stream."""
+    for _ in range(times):
+        wp.capture_launch(graph)
+
+
+def replay(device: str, fn, times: int, launch=launch_in_place) -> None:  # type: ignore[no-untyped-def]
     """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
-    one captured CUDA graph with ``launch`` (the slot's: ``DeviceSlot.launch``; on the CPU
-    device: eagerly)."""
+    one captured CUDA graph with ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on
+    the CPU device: eagerly)."""
     if times <= 0:
         return
     fn()
@@ -110,8 +117,7 @@ def replay(device: str, fn, times: int, launch=wp.capture_launch) -> None:  # ty
         fn()
     graph = capture.graph
     assert graph is not None
-    for _ in range(times - 1):
-        launch(graph)
+    launch(graph, times - 1)
 
 
 def world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
