@@ -370,26 +370,10 @@ def test_a_share_groups_next_episode_plans_while_the_one_before_is_on_the_device
     and waits for that outcome instead of sending it again, and the 160 episode plans and sends
     its own job meanwhile; a track that started its next episode only after the one before had
     its row would hold one job and wait out the stub's patience."""
-    from harness.config import apply_overrides
-    from harness.runs.expansion import point_overrides
-
     stub = _Streams(hold=2, patience_s=20.0)
     _stub_service(monkeypatch, stub)
     monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 1)
-    base = fr3()
-    episodes = [
-        dataclasses.replace(
-            EpisodeSpec(
-                task=apply_overrides(
-                    base, point_overrides(base, {"pick.approach_filter": ["downward", deg]})
-                ),
-                seed=0,
-                episode_index=0,
-            ),
-            engine="mjwarp",
-        )
-        for deg in (100, 140, 160)
-    ]
+    episodes = _cone_episodes((100, 140, 160))
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
     assert stats.finished == 3 and not stats.crashed and not stats.device.errors
@@ -400,6 +384,51 @@ def test_a_share_groups_next_episode_plans_while_the_one_before_is_on_the_device
     assert [by_cone[cone]["chosen_index"] for cone in cones] == [20, 20, 34]
     messages = [by_cone[cone]["error_message"] for cone in cones]
     assert messages[0] == messages[1] == "stream 1"  # one outcome, the 140 row reused it
+
+
+def _cone_episodes(degrees: tuple[int, ...], seed: int = 0) -> list[EpisodeSpec]:
+    """FR3 cube episodes of one seed at these approach cones (one share group), on ``mjwarp``."""
+    from harness.config import apply_overrides
+    from harness.runs.expansion import point_overrides
+
+    base = fr3()
+    return [
+        dataclasses.replace(
+            EpisodeSpec(
+                task=apply_overrides(
+                    base, point_overrides(base, {"pick.approach_filter": ["downward", deg]})
+                ),
+                seed=seed,
+                episode_index=seed,
+            ),
+            engine="mjwarp",
+        )
+        for deg in degrees
+    ]
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_inside_a_pipelined_group_loses_no_episode(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One share group (FR3 seed 0 at three cones), one worker: the worker segfaults (once) as
+    the group's second episode starts, while the first one's job is out. The second episode is
+    retried, the first and the third run again on a new worker: three rows, none an error."""
+    from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
+
+    _stub_service(monkeypatch, _Streams())
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 1)
+    episodes = _cone_episodes((100, 140, 160))
+    monkeypatch.setenv(FAULT_ENV, episodes[1].resolved_id)
+    monkeypatch.setenv(FAULT_ONCE_ENV, str(tmp_path))
+    rows: list[dict[str, Any]] = []
+    stats = run_process_pool(episodes, tmp_path / "run", "none", rows.append, workers=1)
+    assert stats.finished == 3 and stats.retried == 1 and not stats.crashed
+    assert sorted(r["approach_filter"] for r in rows) == sorted(
+        f'["downward", {deg:.1f}]' for deg in (100, 140, 160)
+    )
+    assert all(r["failure_reason"] != "error" for r in rows)
+    assert all(r["error_message"].startswith("stream ") for r in rows if r["sim_steps"])
 
 
 def _fr3_device_episodes(count: int) -> list[EpisodeSpec]:
