@@ -135,6 +135,10 @@ for job in "$@"; do
     demo_gpu_256)  # the demo with 256 lanes per stream (one wave per task model's jobs)
       HARNESS_LANES=256 python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_256" --no-progress --record none ;;
+    demo_gpu_interval32)  # the demo with host visits every 32 control steps instead of 8
+      HARNESS_LANE_INTERVAL=32 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_interval32" \
+        --no-progress --record none ;;
     demo_cpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --workers "$(nproc)" \
         --out "$R/demo_cpu" --no-progress --record none ;;

@@ -156,3 +156,25 @@ def test_a_job_too_long_for_a_lane_is_answered_before_the_stream_ends(
     )  # fmt: skip
     stream.run(source)  # type: ignore[arg-type]
     assert same_fields(answered["a"], lockstep[0])
+
+
+@pytest.mark.gpu
+@needs_warp
+def test_host_visits_follow_the_lane_interval_setting(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stream's lanes replay ``INTERVAL_CONTROL_STEPS`` control steps between host visits,
+    or ``HARNESS_LANE_INTERVAL`` of them when set (in physics steps: times the servo chunks)."""
+    from types import SimpleNamespace
+
+    from harness.engines.mjwarp import stream as stream_module
+
+    job = fr3_device_jobs(1)[0]
+    made: list[int] = []
+    monkeypatch.setattr(stream_module, "LaneRun", lambda *args: made.append(args[-1]))
+    batch = SimpleNamespace(dm=None, buffers=None, timings=None, data=lambda n, b: None)
+    substeps = sum(job.schedule.chunk_sizes)
+    stream = stream_module.LaneStream(batch, nlane=2)  # type: ignore[arg-type]
+    monkeypatch.delenv("HARNESS_LANE_INTERVAL", raising=False)
+    stream._make(job)
+    monkeypatch.setenv("HARNESS_LANE_INTERVAL", "32")
+    stream._make(job)
+    assert made == [stream_module.INTERVAL_CONTROL_STEPS * substeps, 32 * substeps]

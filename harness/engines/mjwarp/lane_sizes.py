@@ -34,7 +34,10 @@ MIN_CUDA_LANES = 64
 # Episodes per lane a stream needs before more lanes pay: every lane steps whether busy or not,
 # and a stream's first outcome comes one episode span (~9-12 s on an H100) after its start. On
 # one H100, issue 34's 3,000-episode FR3 sweep (one stream) took 46.8 s with 1,024 lanes, 50.7 s
-# with 2,048 and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs.
+# with 2,048 and 76.6 s with 8,192 (docs/engines.md); chosen from those three runs. With a share
+# group's episodes on the device together (2026-11-27 night, one H200): 53.0 s with 1,024 lanes,
+# 54.4 s with 4,096 (a step of 1,024 worlds is latency-bound; more lanes cost as much as they
+# save).
 EPISODES_PER_LANE = 3
 
 

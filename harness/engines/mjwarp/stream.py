@@ -28,6 +28,7 @@ import warp as wp
 
 from harness.engines.mjwarp.batch import LARGE, RungStart, WorldBatch, hold_windows
 from harness.engines.mjwarp.judge import judge_started
+from harness.engines.mjwarp.lane_sizes import env_int
 from harness.engines.mjwarp.lanes import LaneRun
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
@@ -40,7 +41,9 @@ from harness.pick.validity import RungOutcome, validity_enabled
 # Chosen, no public source: FR3 cube spans reach ~340 (277 control steps and the window).
 LANE_ROWS = 512
 # Control steps between two host visits: a lane idles at most this long per job. Chosen, no
-# public source: ~3% of an FR3 cube span (~260 control steps).
+# public source: ~3% of an FR3 cube span (~260 control steps). ``HARNESS_LANE_INTERVAL``
+# overrides it (fewer visits for streams of a few lanes, whose host work per visit may outweigh
+# their device work: the demo's case, not yet measured).
 INTERVAL_CONTROL_STEPS = 8
 # Finished jobs per tug group: the first round runs ~6 rung-worlds per tugged job.
 TUG_GROUP = 4096
@@ -123,7 +126,7 @@ class LaneStream:
         return LaneRun(
             self.batch.dm, self.nlane, capacity, LANE_ROWS, window, schedule.chunk_sizes,
             self.batch.buffers, lambda n: self.batch.data(n, self.batch.buffers),
-            INTERVAL_CONTROL_STEPS * substeps,
+            (env_int("HARNESS_LANE_INTERVAL") or INTERVAL_CONTROL_STEPS) * substeps,
         )  # fmt: skip
 
     def _loop(self, source: Source) -> None:
