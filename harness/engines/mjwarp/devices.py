@@ -27,7 +27,6 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Hashable, Iterable
-from dataclasses import dataclass, field
 from typing import Any
 
 from harness.engines.mjwarp.busy_time import union_length
@@ -41,6 +40,7 @@ from harness.engines.mjwarp.lane_sizes import (
     is_cuda,
     streams_per_device,
 )
+from harness.engines.mjwarp.stream_stats import StreamStats, add_timings
 from harness.pick.outcome import PickOutcome
 
 # How long a stream keeps its slot while another key's jobs wait for one (s). Chosen, no public
@@ -105,47 +105,6 @@ def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock, contact: 
         if variant not in scenes:
             scenes[variant] = scene_with_contact(scene, contact)
         return scenes[variant]
-
-
-@dataclass
-class StreamStats:
-    """What the devices did: jobs, lane streams run, the most lanes of one, seconds with a
-    stream on a device (the union over devices), streams per device, the first-use compile
-    (s) per (device, key), failures, the most streams in flight on one device at once."""
-
-    jobs: int = 0
-    streams: int = 0
-    lanes: int = 0
-    device_s: float = 0.0
-    by_device: dict[str, int] = field(default_factory=dict)
-    compile_s: dict[str, float] = field(default_factory=dict)
-    errors: list[str] = field(default_factory=list)
-    timings: Any = None  # the streams' BatchTimings, summed (bench figures)
-    concurrent: int = 0
-
-    def breakdown(self) -> str:
-        """Where the streams' host time went (summed over streams, so it can exceed the wall),
-        and how much of the lanes' stepping was within a job's span."""
-        t = self.timings
-        if t is None:
-            return ""
-        busy = t.span_steps / t.motion_steps if t.motion_steps else 0.0
-        return (
-            f"streams' time: physics {t.physics_s:.1f} s, tug {t.tug_s:.1f} s (issuing "
-            f"{t.tug_issue_s:.1f} s; {t.tug_rounds} round(s), {t.tug_rungs} rung-world(s)), "
-            f"upload {t.upload_s:.1f} s, "
-            f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s; lanes within a job's "
-            f"span {100 * busy:.0f}% of {t.motion_steps:,} lane-steps"
-        )
-
-    # the names the sweep's summary line reads (it predates lane streams)
-    @property
-    def batches(self) -> int:
-        return self.streams
-
-    @property
-    def largest(self) -> int:
-        return self.lanes
 
 
 def _log(message: str) -> None:
@@ -518,14 +477,4 @@ class DeviceStreams:
             if self.stats.timings is None:
                 self.stats.timings = stream.timings
             elif self.stats.timings is not stream.timings:
-                _add_timings(self.stats.timings, stream.timings)
-
-
-def _add_timings(total: Any, more: Any) -> None:
-    for name in (
-        "physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s", "world_steps",
-        "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns",
-    ):  # fmt: skip
-        setattr(total, name, getattr(total, name) + getattr(more, name))
-    for name in ("peak_rows", "peak_contacts"):
-        setattr(total, name, max(getattr(total, name), getattr(more, name)))
+                add_timings(self.stats.timings, stream.timings)
