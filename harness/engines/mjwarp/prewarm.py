@@ -25,15 +25,18 @@ from harness.engines.mjwarp.slot import HOST_LOCK
 
 def warm_model(engine: Any, scene: Any, task: Any) -> None:
     """``task``'s device model on ``engine``'s device, and one eager step of one world (which
-    loads the modules of every kernel the step launches), under the host lock."""
-    batch = engine.batch(scene, task)
+    loads the modules of every kernel the step launches), on a device stream of its own (so it
+    neither waits for nor orders the lane streams' work) under the host lock."""
+    with HOST_LOCK:  # a stream is a Warp call: Warp's current device is process-wide
+        (slot,) = engine.slots(1)
+    batch = engine.batch(scene, task, slot)
     dm = batch.dm
-    with HOST_LOCK, wp.ScopedDevice(dm.device):
+    with slot, wp.ScopedDevice(dm.device):
         d = batch.data(1, batch.buffers)
         mjw.step(dm.model, d)
         for module in (kernels, lk):
             wp.load_module(module, device=dm.device)
-        wp.synchronize_device(dm.device)
+        slot.wait()
 
 
 def prewarm(
