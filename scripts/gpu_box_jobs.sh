@@ -139,6 +139,10 @@ for job in "$@"; do
       HARNESS_LANE_INTERVAL=32 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_interval32" \
         --no-progress --record none ;;
+    demo_gpu_block)  # the demo with the slots waiting in the driver (no polling threads)
+      HARNESS_DEVICE_WAIT=block python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_block" \
+        --no-progress --record none ;;
     demo_cpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --workers "$(nproc)" \
         --out "$R/demo_cpu" --no-progress --record none ;;

@@ -83,3 +83,41 @@ def test_a_graph_launch_lets_the_other_slots_have_the_lock(
     with no_stream:
         no_stream.launch(graph)
     assert seen[-1] == (True, None)
+
+
+def test_a_blocking_wait_lets_go_of_the_lock_while_the_driver_sleeps(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``HARNESS_DEVICE_WAIT=block``: the slot records its event on its own stream, then waits
+    for it in the native call with the lock let go (another slot takes it meanwhile), and holds
+    the lock again, with its stream current, on return."""
+    from types import SimpleNamespace
+
+    from harness.engines.mjwarp import slot as slot_module
+
+    lock = threading.Lock()
+    recorded: list[object] = []
+    stream = SimpleNamespace(record_event=recorded.append)
+    slot = slot_module.DeviceSlot("cpu", lock=lock, stream=stream)
+    made_current: list[bool] = []
+    monkeypatch.setattr(slot, "_make_current", lambda: made_current.append(lock.locked()))
+    other_ran = threading.Event()
+
+    def synchronize(handle: object) -> bool:
+        assert not lock.locked()
+        thread = threading.Thread(
+            target=lambda: (lock.acquire(), other_ran.set(), lock.release()), daemon=True
+        )
+        thread.start()
+        thread.join(timeout=10)
+        return True
+
+    monkeypatch.setattr(
+        slot_module, "_native", lambda: SimpleNamespace(wp_cuda_event_synchronize=synchronize)
+    )
+    event = SimpleNamespace(cuda_event=object())
+    with slot:
+        slot._wait_blocking(event)
+        assert lock.locked()
+    assert recorded == [event] and other_ran.is_set()
+    assert made_current == [True, True]  # on entering the slot, and after the wait

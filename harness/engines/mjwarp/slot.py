@@ -16,6 +16,7 @@ no streams: the slots take turns.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Iterator
@@ -31,6 +32,34 @@ POLL_S = 0.0005
 # the first streams, 2026-11-27); the devices still step at the same time while their threads
 # wait for their streams.
 HOST_LOCK = threading.Lock()
+# How a slot waits for its stream: "poll" (the default: an event queried every ``POLL_S``, the
+# lock and the GIL let go in between) or "block" (``HARNESS_DEVICE_WAIT=block``: one
+# blocking-sync CUDA event per slot, waited for in the driver with the lock and the GIL let go:
+# no wake-ups while the stream works, which sixteen polling threads of the demo make 32,000
+# times a second; not yet measured on a GPU).
+WAIT_ENV = "HARNESS_DEVICE_WAIT"
+_BLOCKING_SYNC = 0x1 | 0x2  # cudaEventBlockingSync | cudaEventDisableTiming
+
+
+def _native() -> Any:
+    """Warp's native library (its event flags and a synchronize without the capture check are
+    not public), or None where this Warp does not have it there (then slots poll)."""
+    try:
+        from warp._src.context import runtime
+    except ImportError:
+        return None
+    return runtime.core
+
+
+def blocking_event(device: str) -> Any:
+    """A CUDA event of ``device`` whose synchronize sleeps in the driver (no spinning core),
+    or None where this Warp does not expose the event flags (then the slot polls)."""
+    native = _native()
+    if native is None:
+        return None
+    dev = wp.get_device(device)
+    handle = native.wp_cuda_event_create(dev.context, _BLOCKING_SYNC)
+    return wp.Event(dev, cuda_event=handle) if handle else None
 
 
 class DeviceSlot:
@@ -41,6 +70,8 @@ class DeviceSlot:
         self.lock = lock if lock is not None else HOST_LOCK
         self.stream = stream
         self.cuda = wp.get_device(device).is_cuda
+        blocking = self.cuda and os.environ.get(WAIT_ENV, "poll") == "block"
+        self._event = blocking_event(device) if blocking else None  # made once, reused
 
     @classmethod
     def several(cls, device: str, count: int) -> list[DeviceSlot]:
@@ -111,6 +142,9 @@ class DeviceSlot:
         if not self.cuda:
             wp.synchronize_device(self.device)
             return
+        if self._event is not None:
+            self._wait_blocking(self._event)
+            return
         event = wp.record_event()
         while not event.is_complete:
             self.lock.release()
@@ -118,4 +152,24 @@ class DeviceSlot:
                 time.sleep(POLL_S)
             finally:  # held again whatever happens, as ``__exit__`` expects
                 self.lock.acquire()
+        self._make_current()
+
+    def _wait_blocking(self, event: Any) -> None:
+        """``wait`` on a blocking-sync event: recorded on this slot's stream, synchronized
+        with the lock let go (the native call releases the GIL while the driver sleeps).
+        ``wp.synchronize_event`` refuses while any thread captures a graph on the device (a
+        tug round may, another slot's thread), which a CUDA event synchronize from this thread
+        does not disturb, so the native call is made directly."""
+        if self.stream is not None:
+            self.stream.record_event(event)
+        else:
+            wp.record_event(event)
+        native = _native()
+        assert native is not None  # the event was made through it
+        self.lock.release()
+        try:
+            if not native.wp_cuda_event_synchronize(event.cuda_event):
+                raise RuntimeError(f"waiting for a stream of {self.device} failed")
+        finally:
+            self.lock.acquire()
         self._make_current()
