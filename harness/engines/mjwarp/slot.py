@@ -59,7 +59,11 @@ def blocking_event(device: str) -> Any:
         return None
     dev = wp.get_device(device)
     handle = native.wp_cuda_event_create(dev.context, _BLOCKING_SYNC)
-    return wp.Event(dev, cuda_event=handle) if handle else None
+    if not handle:
+        return None
+    event = wp.Event(dev, cuda_event=handle)
+    event.owner = True  # destroyed with the slot (Warp frees the events it owns)
+    return event
 
 
 class DeviceSlot:
