@@ -320,3 +320,23 @@ def test_the_budget_line_states_the_looks_the_race_will_run() -> None:
     lines = plan_lines(units, names, TuneOptions(budget="1600", seconds_each=0.1))
     for unit, line in zip(units, lines, strict=True):
         assert f"allows at least {rounds} looks ({rounds * unit.race.plan.block} seeds)" in line
+
+
+def test_each_race_round_reports_its_pace_and_what_the_rest_costs_at_it() -> None:
+    """After a round the tune says how long it took and the most the running races can still
+    ask for at that pace: a running unit's unraced seeds times its live racers; a stopped unit
+    asks for nothing."""
+    from harness.tuning.race import Unit, episodes_left, pace_line
+
+    plan = Plan(100, 20)  # 5 looks of 20 seeds
+    running = UnitRace([Racer(("a", str(k)), k) for k in range(3)], plan, look=2)
+    running.racers[2].alive = False  # two racers left, 60 seeds each to go
+    stopped = UnitRace([Racer(("a", "0"), 0), Racer(("a", "1"), 1)], plan, look=1)
+    stopped.stopped = "confirmed"
+    units = [Unit("t", "{}", running), Unit("t", '{"o": 1}', stopped)]
+    assert episodes_left(units) == 120
+    assert pace_line(1, 7012, 182.0, 14024) == (
+        "race round 1: 7,012 episodes in 3.0 min; the races still running ask for at most "
+        "14,024 more: at this pace up to 6.1 min"
+    )
+    assert pace_line(3, 40, 12.0, 0) == "race round 3: 40 episodes in 12 s; no race asks for more"

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -95,6 +97,32 @@ class RaceLog:
     rows: list[dict[str, Any]] = field(default_factory=list)
 
 
+def episodes_left(units: list[Unit]) -> int:
+    """The most episodes the races still running can ask for: each running unit's seeds not
+    yet raced, times its live racers (a race that stops early asks for fewer)."""
+    return sum(
+        (u.race.plan.seeds - u.race.seeds_of(u.race.look)) * len(u.race.alive())
+        for u in units
+        if not u.race.stopped
+    )
+
+
+def pace_line(round_number: int, ran: int, seconds: float, left: int) -> str:
+    """After a race round: what it ran, in how long, and what the rest costs at that pace (the
+    up-front estimate uses the screening's pace, which shares seeds across more settings)."""
+    line = f"race round {round_number}: {ran:,} episodes in {_duration(seconds)}"
+    if not left:
+        return line + "; no race asks for more"
+    return (
+        f"{line}; the races still running ask for at most {left:,} more: at this pace up to "
+        f"{_duration(left * seconds / max(1, ran))}"
+    )
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds / 60.0:.1f} min" if seconds >= 90 else f"{seconds:.0f} s"
+
+
 def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
     """The screening sweep with fresh seeds and ``max_seeds`` episodes per point."""
     data = screen.model_dump(mode="json")
@@ -126,8 +154,10 @@ class RaceRunner:
         may_run: bool,
         progress: bool = False,
         seconds_each: float = 0.0,
+        announce: Callable[[str], None] | None = None,
     ) -> None:
-        """``progress``: each round's episodes as the sweep shows them (``SweepProgress``)."""
+        """``progress``: each round's episodes as the sweep shows them (``SweepProgress``);
+        ``announce``: a line per round with its pace and what the rest costs at it."""
         self.sweep = confirm_sweep(screen, max_seeds)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
@@ -143,6 +173,7 @@ class RaceRunner:
         self.engine = engine
         self.progress = progress
         self.seconds_each = seconds_each
+        self.announce = announce
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -205,6 +236,7 @@ class RaceRunner:
         if todo and not self.may_run:
             log.missing = True
             return False
+        clock = time.perf_counter()
         if todo:
             label = f"{self.round_label} {log.rounds + 1}"
             with SweepProgress(len(todo), 0, self.progress, label=label) as on_row:
@@ -234,6 +266,9 @@ class RaceRunner:
         for unit in units:
             update(unit.race)
         log.rounds += 1
+        if todo and self.announce is not None:
+            elapsed = time.perf_counter() - clock
+            self.announce(pace_line(log.rounds, len(todo), elapsed, episodes_left(units)))
         return True
 
     def _store(self, row: dict[str, Any]) -> None:

@@ -321,6 +321,7 @@ def decide(
         may_run=may_run,
         progress=progress,
         seconds_each=options.seconds_each,
+        announce=announce,
     )
     log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:
