@@ -2,10 +2,11 @@
 
 A stream's first use of a task model on a device loads every MuJoCo Warp module its step
 launches (from Warp's kernel cache when it holds them, else compiling them) and makes the
-device model; on a GPU box with the cache this took ~10 s of the FR3 cube sweep's 25 s to its
-first outcome (2026-11-27), while the planning workers were still starting. ``prewarm`` does it
-in a background thread as soon as the run's tasks are known, so the first stream finds the
-model and the modules ready. It changes no result: the stream makes the same device model
+device model. ``prewarm`` does it in a background thread as soon as the run's tasks are known,
+while the planning workers start, so the first stream finds the model and the modules ready.
+Measured gain small: the FR3 cube sweep's first outcome came after 24.3 s with it (H100) and
+25.2 s without (H200), 2026-11-27; the first outcome is mostly the workers' start and one
+episode span. It changes no result: the stream makes the same device model
 (``MjwarpEngine.batch`` keeps it) and a one-world step's state is thrown away.
 """
 

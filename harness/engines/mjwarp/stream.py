@@ -33,6 +33,7 @@ from harness.engines.mjwarp.lanes import LaneRun
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
 from harness.engines.mjwarp.slot import DeviceSlot
+from harness.engines.mjwarp.stream_stats import add_timings
 from harness.engines.mjwarp.tug import Rung
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import RungOutcome, validity_enabled
@@ -313,7 +314,4 @@ class LaneStream:
             self._merge(large)
 
     def _merge(self, batch: WorldBatch) -> None:
-        for name in ("physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s"):
-            setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))
-        for name in ("world_steps", "motion_steps", "span_steps", "tug_rounds", "tug_rungs"):
-            setattr(self.timings, name, getattr(self.timings, name) + getattr(batch.timings, name))
+        add_timings(self.timings, batch.timings)
