@@ -163,6 +163,9 @@ for job in "$@"; do
     check_canon_cpu)  # its decisions on 40 fresh paired seeds
       python3 -m harness.cli tune --check "$R/tune_canon_cpu" --seed 777777 --episodes 40 \
         --workers "$(nproc)" ;;
+    demo_gpu_streams)  # demo_gpu again in a directory of its own (a per-stream line each)
+      python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_streams" --no-progress --record none ;;
     demo_gpu_one_stream)  # the same, one lane stream per device at a time (before issue 34's streams)
       HARNESS_STREAMS_PER_DEVICE=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_one_stream" \

@@ -118,7 +118,14 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
         assert same_fields(outcomes[key], expected), key
-    assert stream.timings.tug_rounds >= 2 and stream.timings.reruns == 0
+    t = stream.timings
+    assert t.tug_rounds >= 2 and t.reruns == 0
+    # every host visit replayed one interval of every lane; the launch and the wait are parts
+    # of the visits' wall time, and the stream's line reports them
+    assert stream.lanes is not None
+    assert t.visits > 0 and t.motion_steps == t.visits * 2 * stream.lanes.interval
+    assert 0 < t.launch_s + t.wait_s <= t.physics_s
+    assert f"{t.motion_steps // 2:,} physics steps in {t.visits} visits" in stream.summary()
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)
 
 

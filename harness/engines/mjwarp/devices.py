@@ -473,6 +473,9 @@ class DeviceStreams:
             return given.pop() if given else source(block)
 
         stream.run(replay_first)
+        task = head[0][1].task
+        label = f"{engine.device} {task.arm} {task.target_object.name}"
+        self._log(f"{label} stream: {stream.summary()}")
         with self._cond:
             if self.stats.timings is None:
                 self.stats.timings = stream.timings

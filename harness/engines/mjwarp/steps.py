@@ -57,6 +57,11 @@ class BatchTimings:
     peak_rows: int = 0  # the most constraint rows a world asked for
     peak_contacts: float = 0.0  # the most contacts per world of a batch, on average
     reruns: int = 0  # worlds run again with the ``LARGE`` buffers (their rows did not fit)
+    # a lane stream's host visits (one replay of its graph each), and of its ``physics_s`` the
+    # time in the graph launches and waiting for its stream (the rest: judging meanwhile)
+    visits: int = 0
+    launch_s: float = 0.0
+    wait_s: float = 0.0
 
 
 class BufferUse:

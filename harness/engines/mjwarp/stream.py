@@ -161,11 +161,14 @@ class LaneStream:
                 if lanes.busy:
                     clock = time.perf_counter()
                     lanes.launch(self.timings, self.batch.slot.launch)
+                    launched = time.perf_counter()
                     # on the host while the device steps, for at most half the last replay
                     self._judge(tugged, 0.5 * replay_s)
+                    judged = time.perf_counter()
                     self.batch.slot.wait()
-                    replay_s = time.perf_counter() - clock
-                    self.timings.physics_s += replay_s
+                    end = time.perf_counter()
+                    replay_s = end - clock
+                    self._visit(launched - clock, end - judged, replay_s)
                     done = self._collect(lanes)
                     if done and not group:
                         group_since = time.perf_counter()
@@ -184,6 +187,27 @@ class LaneStream:
             if drained and not group and not self._tugs:
                 self._judge(tugged)
                 return
+
+    def _visit(self, launch_s: float, wait_s: float, replay_s: float) -> None:
+        t = self.timings
+        t.visits += 1
+        t.launch_s += launch_s
+        t.wait_s += wait_s
+        t.physics_s += replay_s
+
+    def summary(self) -> str:
+        """One line on this stream's device work: its physics steps, their wall time per step
+        (a replay's launch, judging meanwhile, and the wait for the stream), how much of that
+        was the launch and the wait, and the host's time between replays."""
+        t = self.timings
+        steps = t.motion_steps // max(1, self.nlane)
+        per_step = 1000.0 * t.physics_s / max(1, steps)
+        return (
+            f"{self.nlane} lanes, {steps:,} physics steps in {t.visits} visits: "
+            f"{per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait {t.wait_s:.1f} s of "
+            f"{t.physics_s:.1f} s), upload {t.upload_s:.1f} s, download {t.download_s:.1f} s, "
+            f"judge {t.judge_s:.1f} s, tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
+        )
 
     def _fill(self, lanes: LaneRun, pending: deque[tuple[Hashable, DeviceJob]]) -> None:
         free = lanes.free_lanes()

@@ -52,7 +52,8 @@ def add_timings(total: Any, more: Any) -> None:
     """Add the counts of ``more`` (``BatchTimings``) to ``total``; keep the larger peaks."""
     for name in (
         "physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s", "world_steps",
-        "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns",
+        "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns", "visits", "launch_s",
+        "wait_s",
     ):  # fmt: skip
         setattr(total, name, getattr(total, name) + getattr(more, name))
     for name in ("peak_rows", "peak_contacts"):
