@@ -101,9 +101,17 @@ class LaneStream:
         # the tug rounds: their own thread, batch and device stream (made in ``run``)
         self._tug_batch: WorldBatch | None = None
         self._tugs: list[tuple[Future[_Tugged], list[int]]] = []  # in flight, with their slots
+        self.wall_s = 0.0  # the last ``run``'s wall time
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
         """Every job ``source`` gives, by key, once it gives ``None``."""
+        started = time.perf_counter()
+        try:
+            return self._run(source)
+        finally:
+            self.wall_s = time.perf_counter() - started
+
+    def _run(self, source: Source) -> dict[Hashable, PickOutcome]:
         with ThreadPoolExecutor(1, thread_name_prefix="mjwarp-tug") as tugger:
             self._tugger = tugger
             with self.batch.slot, wp.ScopedDevice(self.batch.dm.device):
@@ -198,13 +206,14 @@ class LaneStream:
     def summary(self) -> str:
         """One line on this stream's device work: its physics steps, their wall time per step
         (a replay's launch, judging meanwhile, and the wait for the stream), how much of that
-        was the launch and the wait, and the host's time between replays."""
+        was the launch and the wait, and the host's other work (the stream's wall less its
+        physics: the source, uploads, downloads, the lockstep leftovers)."""
         t = self.timings
         steps = t.motion_steps // max(1, self.nlane)
         per_step = 1000.0 * t.physics_s / max(1, steps)
         return (
-            f"{self.nlane} lanes, {steps:,} physics steps in {t.visits} visits: "
-            f"{per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait {t.wait_s:.1f} s of "
+            f"{self.wall_s:.1f} s, {self.nlane} lanes, {steps:,} physics steps in {t.visits} "
+            f"visits: {per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait {t.wait_s:.1f} s of "
             f"{t.physics_s:.1f} s), upload {t.upload_s:.1f} s, download {t.download_s:.1f} s, "
             f"judge {t.judge_s:.1f} s, tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
         )
