@@ -213,9 +213,10 @@ class LaneStream:
         per_step = 1000.0 * t.physics_s / max(1, steps)
         return (
             f"{self.wall_s:.1f} s, {self.nlane} lanes, {steps:,} physics steps in {t.visits} "
-            f"visits: {per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait {t.wait_s:.1f} s of "
-            f"{t.physics_s:.1f} s), upload {t.upload_s:.1f} s, download {t.download_s:.1f} s, "
-            f"judge {t.judge_s:.1f} s, tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
+            f"visits: {per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait "
+            f"{t.wait_s:.1f} s of {t.physics_s:.1f} s), upload {t.upload_s:.1f} s, "
+            f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s, "
+            f"tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
         )
 
     def _fill(self, lanes: LaneRun, pending: deque[tuple[Hashable, DeviceJob]]) -> None:
