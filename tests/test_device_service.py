@@ -690,3 +690,35 @@ def test_a_runs_device_models_load_before_its_first_job(monkeypatch: pytest.Monk
     scene = devices.scene_for(task, streams._scenes, streams._scene_lock)
     assert engine.batch(scene, task).dm is model
     streams.close()
+
+
+def test_the_switch_interval_is_set_while_the_streams_run(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``HARNESS_SWITCH_INTERVAL_MS``: the interpreter switches threads at that interval while
+    the device streams serve (seen from inside a stream), and at its own again after ``close``;
+    a value that is not a positive number is one line naming the variable."""
+    import sys
+
+    from harness.engines.mjwarp.devices import DeviceStreams
+    from harness.errors import HarnessError
+
+    before = sys.getswitchinterval()
+    seen: list[float] = []
+
+    def stream(engine: object, scene: object, source, on_outcome, lanes: int) -> None:  # type: ignore[no-untyped-def]
+        seen.append(sys.getswitchinterval())
+        while (jobs := source(True)) is not None:
+            for tag, _ in jobs:
+                on_outcome(tag, None)
+
+    monkeypatch.setenv("HARNESS_SWITCH_INTERVAL_MS", "0.5")
+    streams = DeviceStreams(["stub"], make_engine=lambda d: d, run_stream=stream, per_device=1)
+    done = threading.Semaphore(0)
+    streams.submit(0, fr3_jobs[0], lambda outcome, error: done.release())
+    assert done.acquire(timeout=60)
+    streams.close()
+    assert seen == [0.0005] and sys.getswitchinterval() == before
+    monkeypatch.setenv("HARNESS_SWITCH_INTERVAL_MS", "fast")
+    with pytest.raises(HarnessError, match="HARNESS_SWITCH_INTERVAL_MS='fast'"):
+        DeviceStreams(["stub"], make_engine=lambda d: d, run_stream=stream, per_device=1)

@@ -88,9 +88,10 @@ def test_a_graph_launch_lets_the_other_slots_have_the_lock(
 def test_a_blocking_wait_lets_go_of_the_lock_while_the_driver_sleeps(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """``HARNESS_DEVICE_WAIT=block``: the slot records its event on its own stream, then waits
-    for it in the native call with the lock let go (another slot takes it meanwhile), and holds
-    the lock again, with its stream current, on return."""
+    """A blocking wait (the default; ``HARNESS_DEVICE_WAIT=poll`` polls): the slot records its
+    event on its own stream, then waits for it in the native call with the lock let go
+    (another slot takes it meanwhile), and holds the lock again, with its stream current, on
+    return."""
     from types import SimpleNamespace
 
     from harness.engines.mjwarp import slot as slot_module

@@ -29,6 +29,7 @@ from collections import deque
 from collections.abc import Callable, Hashable, Iterable
 from typing import Any
 
+from harness.engines.mjwarp import switch
 from harness.engines.mjwarp.busy_time import union_length
 from harness.engines.mjwarp.engine import CPU_DEVICE_NOTE
 from harness.engines.mjwarp.lane_sizes import (
@@ -159,6 +160,7 @@ class DeviceStreams:
         ]
         if "cpu" in devices:
             log(CPU_DEVICE_NOTE)
+        self._switch = switch.shorten()  # put back by ``close``
         for thread in self._threads:
             thread.start()
 
@@ -229,6 +231,8 @@ class DeviceStreams:
             self._cond.notify_all()
         for thread in self._threads:
             thread.join(timeout=wait_s)
+        switch.restore(self._switch)
+        self._switch = None
 
     def abandon(self) -> None:
         """Drop every queued job unanswered (the run was interrupted) and close."""

@@ -19,11 +19,24 @@ import warp as wp
 def to_host(array: wp.array) -> np.ndarray:
     """A host copy of ``array``, made on the current stream of its device (which it waits for);
     on the CPU device, ``array.numpy()``."""
-    device = wp.get_device(array.device)
+    return to_host_all([array])[0]
+
+
+def to_host_all(arrays: list[wp.array]) -> list[np.ndarray]:
+    """Host copies of ``arrays`` (of one device), made on its current stream, then one wait for
+    it: each driver call lets go of the GIL and must win it back, which with a dozen busy
+    threads in the process can take up to a switch interval (``harness.engines.mjwarp.
+    switch``)."""
+    if not arrays:
+        return []
+    device = wp.get_device(arrays[0].device)
     if not device.is_cuda:
-        return array.numpy()
+        return [array.numpy() for array in arrays]
     stream = wp.get_stream(device)
-    host = wp.empty(array.shape, dtype=array.dtype, device="cpu")
-    wp.copy(host, array, stream=stream)
+    hosts = []
+    for array in arrays:
+        host = wp.empty(array.shape, dtype=array.dtype, device="cpu")
+        wp.copy(host, array, stream=stream)
+        hosts.append(host)
     wp.synchronize_stream(stream)
-    return np.array(host.numpy(), copy=True)
+    return [np.array(host.numpy(), copy=True) for host in hosts]

@@ -29,7 +29,7 @@ import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
 from harness.engines.mjwarp import lane_kernels as lk
-from harness.engines.mjwarp.host import to_host
+from harness.engines.mjwarp.host import to_host_all
 from harness.engines.mjwarp.model import DeviceModel
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import SIGNALS
@@ -212,11 +212,13 @@ class LaneRun:
 
     def collect(self, timings: BatchTimings) -> Finished:
         """After the queued steps are done: the jobs whose span ended (their lanes are free)."""
-        job_of = to_host(self.job_of)
+        job_of, peak_rows, contacts_np = to_host_all(
+            [self.job_of, self.peak_rows, self.peak_contacts]
+        )
         done_lanes = np.flatnonzero((self.lane_job >= 0) & (job_of < 0))
         slots = self.lane_job[done_lanes].copy()
-        peak_rows = to_host(self.peak_rows)[done_lanes]
-        contacts = int(to_host(self.peak_contacts)[0])
+        peak_rows = peak_rows[done_lanes]
+        contacts = int(contacts_np[0])
         timings.peak_rows = max(timings.peak_rows, int(peak_rows.max(initial=0)))
         timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
         spans = self.span_host[slots]
@@ -233,7 +235,8 @@ class LaneRun:
         wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.out, index, rows])
         warm = wp.empty((len(slots), 1, SIGNALS), dtype=float)
         wp.launch(lk.gather_rows, dim=warm.shape, inputs=[self.warm, index, warm])
-        rows_np, warm_np = to_host(rows), to_host(warm)[:, 0]
+        rows_np, warm_np = to_host_all([rows, warm])
+        warm_np = warm_np[:, 0]
         over = (peak_rows > self.buffers.njmax) | pool_full | np.isin(slots, self._flagged)
         return Finished(
             [int(s) for s in slots],

@@ -7,10 +7,10 @@ batch's host work overlaps another's physics, and two batches' kernels can run s
 Warp keeps one *current* device, and one current stream per device, for the whole process (not
 per thread), so every slot of every device shares one lock (``HOST_LOCK``): a slot's thread holds
 it while it issues Warp calls (with its own device and stream made current each time it takes
-the lock) and lets go of it only while it waits for its stream (``wait``), polling an event
-every 0.5 ms
-rather than spinning a core in a CUDA synchronize (the driver's default with fewer contexts than
-cores), a core the planning processes beside this one can use. On Warp's CPU device there are
+the lock) and lets go of it while a graph launch blocks (``launch``) and while it waits for its
+stream (``wait``): on a blocking-sync CUDA event, asleep in the driver, rather than spinning a
+core in a CUDA synchronize (the driver's default with fewer contexts than cores), a core the
+planning processes beside this one can use. On Warp's CPU device there are
 no streams: the slots take turns.
 """
 
@@ -32,11 +32,13 @@ POLL_S = 0.0005
 # the first streams, 2026-11-27); the devices still step at the same time while their threads
 # wait for their streams.
 HOST_LOCK = threading.Lock()
-# How a slot waits for its stream: "poll" (the default: an event queried every ``POLL_S``, the
-# lock and the GIL let go in between) or "block" (``HARNESS_DEVICE_WAIT=block``: one
-# blocking-sync CUDA event per slot, waited for in the driver with the lock and the GIL let go:
-# no wake-ups while the stream works, which sixteen polling threads of the demo make 32,000
-# times a second; not yet measured on a GPU).
+# How a slot waits for its stream: "block" (the default: one blocking-sync CUDA event per slot,
+# waited for in the driver with the lock and the GIL let go) or "poll" (``HARNESS_DEVICE_WAIT=
+# poll``, as before: an event queried every ``POLL_S``, the lock and the GIL let go in between;
+# sixteen polling device threads of the demo woke 32,000 times a second and fought the threads
+# doing host work for the GIL). Measured on one H200, 2026-11-27, the demo sweep one run each,
+# same box: 105.8 s polling, 79.0 s blocking (first outcomes after 47-60 s and 31-44 s). Where
+# Warp does not expose the event flags, slots poll.
 WAIT_ENV = "HARNESS_DEVICE_WAIT"
 _BLOCKING_SYNC = 0x1 | 0x2  # cudaEventBlockingSync | cudaEventDisableTiming
 
@@ -74,7 +76,7 @@ class DeviceSlot:
         self.lock = lock if lock is not None else HOST_LOCK
         self.stream = stream
         self.cuda = wp.get_device(device).is_cuda
-        blocking = self.cuda and os.environ.get(WAIT_ENV, "poll") == "block"
+        blocking = self.cuda and os.environ.get(WAIT_ENV, "block") != "poll"
         self._event = blocking_event(device) if blocking else None  # made once, reused
 
     @classmethod
