@@ -238,6 +238,7 @@ def _add_tune(sub: Subparsers) -> None:
     )
     p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
     p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
+    p.add_argument("--unit", action="append", help="--check: only this unit ('fr3 left cube')")
     p.add_argument("--episodes", type=EPISODES, help="seeds per setting (10; --check: 100)")
     p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
     p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")

@@ -139,10 +139,28 @@ for job in "$@"; do
       HARNESS_LANE_INTERVAL=32 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_interval32" \
         --no-progress --record none ;;
-    demo_gpu_block)  # the demo with the slots waiting in the driver (no polling threads)
+    demo_gpu_block)  # the demo with the slots waiting in the driver (now the default)
       HARNESS_DEVICE_WAIT=block python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_block" \
         --no-progress --record none ;;
+    demo_gpu_poll)  # the demo with the slots polling their streams (the default before)
+      HARNESS_DEVICE_WAIT=poll python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_poll" \
+        --no-progress --record none ;;
+    demo_gpu_switch)  # the demo with the interpreter switching threads every 0.5 ms
+      HARNESS_SWITCH_INTERVAL_MS=0.5 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_switch" \
+        --no-progress --record none ;;
+    demo_gpu_interval4)  # the demo with host visits every 4 control steps instead of 8
+      HARNESS_LANE_INTERVAL=4 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_interval4" \
+        --no-progress --record none ;;
+    check_unit_gpu)  # issue 35: the unit the first check left unconfirmed, 800 seeds of its own
+      # (the tune of an earlier sitting, carried in .gpu/tune_canon)
+      [ -d "$R/tune_canon" ] || cp -r .gpu/tune_canon "$R/tune_canon"
+      python3 -m harness.cli tune --check "$R/tune_canon" --unit "lift2 left banana" \
+        --seed 888888 --episodes 800 --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/tune_canon/check_lift2_left_banana" ;;
     demo_cpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --workers "$(nproc)" \
         --out "$R/demo_cpu" --no-progress --record none ;;

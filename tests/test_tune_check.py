@@ -37,6 +37,7 @@ from harness.tuning.check import (
     read_decisions,
     refuse_overlap,
     run_check,
+    select_units,
 )
 from harness.tuning.decide import KEEP, SWITCH, UNDECIDED
 from harness.tuning.planning import unit_key
@@ -241,3 +242,28 @@ def test_a_keep_is_checked_against_the_best_challenger_that_never_fell_back(
     with pytest.raises(HarnessError) as error:
         check_units(pd.DataFrame([_decision(SWITCH, "downward 90")]), race, options, tmp_path)
     assert "decisions.csv" in str(error.value) and "'downward 90'" in str(error.value)
+
+
+def test_a_check_of_named_units_tests_those_alone(tmp_path: Path) -> None:
+    """``--unit 'robot arm object'``: the check keeps the named units (Holm over them alone);
+    a name the tune does not have is one line listing the tune's units."""
+    race = pd.DataFrame(
+        {
+            "task": ["fr3_pick"] * 2, "context": ["{}"] * 2, "current": [True, False],
+            "screen_rank": [0, 1], "n": [20, 20], "successes": [10, 12],
+            "fallback": [False, False],
+        }
+    )  # fmt: skip
+    chosen = [['["downward", 120.0]', '["forward", 150.0]']]
+    options = TuneOptions(plans={unit_key("fr3_pick", "{}"): {"challengers": chosen}})
+    cube, banana = _decision(SWITCH), {**_decision(KEEP), "object": "banana"}
+    units = check_units(pd.DataFrame([cube, banana]), race, options, tmp_path)
+    assert select_units(units, None, tmp_path) == units
+    (chosen,) = select_units(units, ["fr3 left banana"], tmp_path)
+    assert chosen.names["object"] == "banana" and chosen.verdict == KEEP
+    with pytest.raises(HarnessError) as error:
+        select_units(units, ["fr3 left mug"], tmp_path)
+    message = str(error.value)
+    assert "\n" not in message and "'fr3 left mug'" in message
+    assert "fr3 left cube, fr3 left banana" in message
+    assert cli_main(["tune", "--unit", "fr3 left cube", str(tmp_path / "x.yaml")]) != 0

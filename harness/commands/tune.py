@@ -54,6 +54,7 @@ def _check(args: argparse.Namespace, console: Any) -> int:
         workers=args.workers or default_workers(),
         out=Path(args.out) if args.out else None,
         progress=True,
+        only=args.unit,
     )
     if result.interrupted:
         console.print(
@@ -77,6 +78,8 @@ def main(args: argparse.Namespace) -> int:
     console = make_console()
     if args.check:
         return _check(args, console)
+    if getattr(args, "unit", None):
+        raise HarnessError("--unit goes with --check DIR (the units a check tests)")
     write = Path(args.write) if args.write else None
     Budget.parse(args.budget)  # one line for a garbage, zero or negative --budget
     if args.analyse:

@@ -211,6 +211,24 @@ def check_units(
     return units
 
 
+def unit_name(unit: CheckUnit) -> str:
+    return " ".join(unit.names[k] for k in ("robot", "arm", "object"))
+
+
+def select_units(units: list[CheckUnit], only: list[str] | None, tune_dir: Path) -> list[CheckUnit]:
+    """The units named in ``only`` (all when None); an unknown name is one line listing the
+    tune's units."""
+    if not only:
+        return units
+    names = [unit_name(u) for u in units]
+    unknown = [name for name in only if name not in names]
+    if unknown:
+        raise HarnessError(
+            f"--unit {unknown[0]!r}: {tune_dir} has no such unit (its units: {', '.join(names)})"
+        )
+    return [u for u, name in zip(units, names, strict=True) if name in only]
+
+
 def _check_setting(setting: tuple[str, str], tune_dir: Path, task: str) -> None:
     """One line when a stored setting is not the JSON of a filter value (a hand-edited file)."""
     for text in setting:
@@ -350,9 +368,12 @@ def run_check(
     out: Path | None = None,
     backend: str = "process",
     progress: bool = False,
+    only: list[str] | None = None,
 ) -> CheckResult:
     """Run (or continue) the check of the tune in ``tune_dir`` and write ``check.csv`` and
-    ``check.md`` in its run directory (``out``, default ``<tune>/check``)."""
+    ``check.md`` in its run directory (``out``, default ``<tune>/check``). ``only``: the units
+    to check (``"robot arm object"``; default every unit), Holm over those alone: a follow-up
+    test of a unit an earlier check left unconfirmed, on seeds of its own (a new ``--seed``)."""
     options_path = tune_dir / OPTIONS_FILE
     if not options_path.is_file():
         raise HarnessError(f"{tune_dir}: not a tune directory (no {OPTIONS_FILE})")
@@ -366,7 +387,7 @@ def run_check(
     if out.exists():  # a planted link or special file: refused before any episode
         check_outputs(out, CHECK_OUTPUTS)
     _refuse_changed(out, seed, episodes)
-    units = check_units(decisions, race, options, tune_dir)
+    units = select_units(check_units(decisions, race, options, tune_dir), only, tune_dir)
     screen = RunDir(tune_dir / "screen")
     sweep = screen.load_sweep()
     refine = RunDir(tune_dir / "refine")
@@ -403,6 +424,8 @@ def run_check(
     ]
     table = check_table(units, outcomes)
     header = _header(tune_dir, seed, episodes, engine, options.objective)
+    if only:
+        header.append(f"Only the units {', '.join(only)} (`--unit`): Holm over these alone.")
     csv = write_file(out / "check.csv", table.to_csv(index=False), root=out)
     md = write_file(out / "check.md", check_markdown(table, header), root=out)
     page = tune_dir / "screen" / "report.html"
