@@ -151,6 +151,13 @@ for job in "$@"; do
       HARNESS_SWITCH_INTERVAL_MS=0.5 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_switch" \
         --no-progress --record none ;;
+    demo_gpu_ahead)  # the demo with each lane replay queued before the last is collected
+      HARNESS_LANE_AHEAD=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_ahead" \
+        --no-progress --record none ;;
+    fr3_gpu_ahead)  # fr3_gpu with each lane replay queued before the last is collected
+      HARNESS_LANE_AHEAD=1 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_ahead" --no-progress --record none ;;
     demo_gpu_interval4)  # the demo with host visits every 4 control steps instead of 8
       HARNESS_LANE_INTERVAL=4 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_interval4" \

@@ -118,7 +118,41 @@ def test_a_blocking_wait_lets_go_of_the_lock_while_the_driver_sleeps(
     )
     event = SimpleNamespace(cuda_event=object())
     with slot:
-        slot._wait_blocking(event)
+        slot._record(event)
+        slot._sync_blocking(event)
         assert lock.locked()
     assert recorded == [event] and other_ran.is_set()
     assert made_current == [True, True]  # on entering the slot, and after the wait
+
+
+def test_a_mark_is_waited_for_with_the_lock_let_go() -> None:
+    """``wait_mark`` (the lanes' pipelined visits) polls a mark recorded without a blocking
+    event, letting go of the lock between queries (another thread takes it meanwhile), and
+    holds it again on return; a slot of the CPU device has no marks (its work ran as it was
+    issued)."""
+    from harness.engines.mjwarp import slot as slot_module
+
+    lock = threading.Lock()
+    slot = slot_module.DeviceSlot("cpu", lock=lock)
+    assert slot.mark() is None
+    other_ran = threading.Event()
+    other = threading.Thread(
+        target=lambda: (lock.acquire(), other_ran.set(), lock.release()), daemon=True
+    )
+
+    class Mark:
+        queries = 0
+
+        @property
+        def is_complete(self) -> bool:
+            self.queries += 1
+            if self.queries == 1:
+                other.start()  # blocked until the slot lets go of the lock
+                return False
+            return other_ran.wait(timeout=10)
+
+    slot._make_current = lambda: None  # type: ignore[method-assign]
+    with slot:
+        slot.wait_mark(None)
+        slot.wait_mark(Mark())
+        assert lock.locked() and other_ran.is_set()

@@ -19,11 +19,13 @@ needs_warp = pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip
 @pytest.mark.slow
 @pytest.mark.gpu
 @needs_warp
-def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
+@pytest.mark.parametrize("ahead", [False, True])
+def test_jobs_through_two_lanes_keep_the_lockstep_rows(ahead: bool) -> None:
     """Four jobs (FR3 cube seed 0's cut to 10, 4, 7 and 5 control steps, a window of 3)
     through two lanes, each free lane taking the next job between replays of one control
     step: every job's signal rows, warm-up row and saved window states equal the lockstep
-    batch's bit for bit, and a lane idles less than one replay per job."""
+    batch's bit for bit, and a lane idles less than one replay per job; ``ahead`` (each
+    replay queued before the last is collected: ``queue`` / ``settle``), less than two."""
     import mujoco_warp as mjw
 
     from harness.benchmarks.engines import _SCENES
@@ -64,14 +66,18 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
     rows: dict[int, np.ndarray] = {}
     warm: dict[int, np.ndarray] = {}
     replays = 0
-    while waiting or lanes.busy:
+    while waiting or lanes.busy or lanes.in_flight:
         free = lanes.free_lanes()[: len(waiting)]
         if len(free):
             take, waiting = waiting[: len(free)], waiting[len(free) :]
             lanes.load(free, np.array(take), [jobs[i] for i in take], spans[take])
-        lanes.launch(timings)
-        replays += 1
-        finished = lanes.collect(timings)
+        if ahead:
+            replays += lanes.queue(timings, lambda graph: None)
+            finished = lanes.settle(timings, lambda mark: None, lambda: None)
+        else:
+            lanes.launch(timings)
+            replays += 1
+            finished = lanes.collect(timings)
         assert not any(finished.overflowed)
         for slot, r, w in zip(finished.slots, finished.rows, finished.warm, strict=True):
             rows[slot], warm[slot] = r, w
@@ -83,20 +89,26 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows() -> None:
         np.testing.assert_array_equal(warm[i], lock_warm[i])
         for lane_saved, lock_array in zip(lanes.saved, lock_saved, strict=True):
             np.testing.assert_array_equal(lane_saved.numpy()[i], lock_array[i])
-    # each job's own physics steps, and at most one replay of idling per job and lane
+    # each job's own physics steps, and at most one replay (ahead: two) of idling per job and
+    # lane
     substeps = sum(chunks)
     assert timings.span_steps == sum(job.schedule.warmup_steps + s * substeps for s in spans)
-    assert timings.motion_steps <= timings.span_steps + (len(jobs) + 2) * substeps
+    idle = (2 if ahead else 1) * (len(jobs) + 2) * substeps
+    assert timings.motion_steps <= timings.span_steps + idle
     assert replays * substeps * 2 == timings.motion_steps
 
 
 @pytest.mark.slow
 @pytest.mark.gpu
 @needs_warp
-def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
+@pytest.mark.parametrize("ahead", ["0", "1"])
+def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
+    ahead: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Three whole FR3 cube episodes (seeds 0-2) handed over in two installments to a stream
     of two lanes whose tug groups hold two jobs: each outcome (the verdict, its measures, the
-    validity phase with its tug ladder) equals the lockstep batch's, field by field."""
+    validity phase with its tug ladder) equals the lockstep batch's, field by field, with
+    each replay collected before the next or (``HARNESS_LANE_AHEAD=1``) after it is queued."""
     from harness.benchmarks.engines import _SCENES
     from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.engines.mjwarp.stream import LaneStream
@@ -113,7 +125,9 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
         [("c", jobs[2])],
         None,
     ]
+    monkeypatch.setenv("HARNESS_LANE_AHEAD", ahead)
     stream = LaneStream(engine.batch(scene, task), nlane=2, group=2)
+    assert stream.ahead == (ahead == "1")
     outcomes = stream.run(lambda block: installments.pop(0))  # type: ignore[arg-type,return-value]
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
@@ -123,7 +137,9 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch() -> None:
     # every host visit replayed one interval of every lane; the launch and the wait are parts
     # of the visits' wall time, and the stream's line reports them
     assert stream.lanes is not None
-    assert t.visits > 0 and t.motion_steps == t.visits * 2 * stream.lanes.interval
+    replays = t.motion_steps // (2 * stream.lanes.interval)
+    assert t.visits > 0 and t.motion_steps == replays * 2 * stream.lanes.interval
+    assert t.visits == replays if ahead == "0" else t.visits >= replays  # ahead: + the last
     assert 0 < t.launch_s + t.wait_s <= t.physics_s
     assert f"{t.motion_steps // 2:,} physics steps in {t.visits} visits" in stream.summary()
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)

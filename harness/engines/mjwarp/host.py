@@ -40,3 +40,40 @@ def to_host_all(arrays: list[wp.array]) -> list[np.ndarray]:
         hosts.append(host)
     wp.synchronize_stream(stream)
     return [np.array(host.numpy(), copy=True) for host in hosts]
+
+
+class Downloads:
+    """Host copies queued on the current stream without waiting (read after the caller waited
+    for the stream past them): into page-locked host buffers, kept per ``key`` and grown as
+    needed (a copy into pageable memory would wait for the stream). On the CPU device the
+    copies are made at once."""
+
+    def __init__(self) -> None:
+        self._buffers: dict[tuple[object, int], wp.array] = {}
+
+    def queue(self, key: object, arrays: list[wp.array]) -> list[wp.array | np.ndarray]:
+        """Start copying ``arrays``; the returned handles are read with ``read`` once the
+        stream is past the copies."""
+        out: list[wp.array | np.ndarray] = []
+        for k, array in enumerate(arrays):
+            device = wp.get_device(array.device)
+            if not device.is_cuda or array.size == 0:
+                out.append(np.array(array.numpy(), copy=True))
+                continue
+            host = self._buffers.get((key, k))
+            if host is None or host.shape[0] < array.shape[0] or host.shape[1:] != array.shape[1:]:
+                rows = max(array.shape[0], 2 * (host.shape[0] if host is not None else 0), 1)
+                shape = (rows, *array.shape[1:])
+                host = wp.empty(shape, dtype=array.dtype, device="cpu", pinned=True)
+                self._buffers[(key, k)] = host
+            view = host[: array.shape[0]] if array.shape[0] else host[:0]
+            wp.copy(view, array, stream=wp.get_stream(device))
+            out.append(view)
+        return out
+
+    @staticmethod
+    def read(handle: wp.array | np.ndarray) -> np.ndarray:
+        """A copy of a queued download (after the stream is past it)."""
+        if isinstance(handle, np.ndarray):
+            return handle
+        return np.array(handle.numpy(), copy=True)

@@ -29,7 +29,7 @@ import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
 from harness.engines.mjwarp import lane_kernels as lk
-from harness.engines.mjwarp.host import to_host_all
+from harness.engines.mjwarp.host import Downloads, to_host_all
 from harness.engines.mjwarp.model import DeviceModel
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import SIGNALS
@@ -45,6 +45,17 @@ class Finished:
     rows: list[np.ndarray]
     warm: list[np.ndarray]
     overflowed: list[bool]
+
+
+@dataclass
+class _RowsInFlight:
+    """Finished jobs whose rows a visit queued for download (``settle``)."""
+
+    slots: np.ndarray
+    spans: np.ndarray
+    overflowed: np.ndarray
+    handles: list[Any]
+    keep: list[Any]  # the device arrays copied from, alive until the copies are read
 
 
 class LaneRun:
@@ -105,6 +116,15 @@ class LaneRun:
         self._flagged = np.zeros(0, dtype=np.int64)
         self.interval = interval
         self._graph = None
+        # the pipelined visits (``queue`` / ``settle``): the visit count, the visit from whose
+        # replay on each lane's job runs, the previous visit's downloads and its mark
+        self._visit = 0
+        self.loaded_at = np.zeros(nlane, dtype=np.int64)
+        self._downloads = Downloads()
+        self._state_prev: list[Any] | None = None  # the lanes' state after the last replay
+        self._state_now: list[Any] | None = None
+        self._rows_prev: _RowsInFlight | None = None
+        self._mark: Any = None
 
     @property
     def busy(self) -> int:
@@ -144,6 +164,7 @@ class LaneRun:
         for target, values in per_slot:
             self._scatter(values, slots_w, target)
         self.lane_job[lanes] = slots
+        self.loaded_at[lanes] = self._visit + 1  # runs from the next queued replay on
         self.span_host[slots] = span
         self.warmup_host[slots] = [s.warmup_steps for s in schedules]
         self.motion_host[slots] = motion
@@ -244,6 +265,82 @@ class LaneRun:
             list(warm_np),
             [bool(v) for v in over],
         )
+
+    # ---- pipelined visits: the next replay is queued before the last one is collected
+
+    @property
+    def in_flight(self) -> bool:
+        """(pipelined) A replay or a download is queued that ``settle`` has not collected."""
+        rows = self._rows_prev is not None and len(self._rows_prev.slots) > 0
+        return self._state_now is not None or self._state_prev is not None or rows
+
+    def queue(self, timings: BatchTimings, launch_graph: Callable[[Any], None]) -> bool:
+        """(pipelined) Queue one replay of every lane (``launch``) and the download of the
+        lanes' state at its end, behind what the device still runs; False (nothing queued)
+        when no lane holds a job."""
+        self._visit += 1
+        self._state_prev, self._state_now = self._state_now, None
+        if not self.busy:
+            return False
+        self.launch(timings, launch_graph)
+        self._state_now = self._downloads.queue(
+            ("state", self._visit % 2), [self.job_of, self.peak_rows, self.peak_contacts]
+        )
+        return True
+
+    def settle(
+        self, timings: BatchTimings, wait: Callable[[Any], None], mark: Callable[[], Any]
+    ) -> Finished:
+        """(pipelined) Wait until the device is past the previous visit's work (its replay,
+        state and rows downloads; the replay ``queue`` just queued may run on), then: the jobs
+        the previous replay finished leave their lanes (free for the next ``load``) and their
+        rows are queued for download; returned are the jobs whose rows the previous visit
+        downloaded. A job's lane so idles at most two replays, and its rows come one visit
+        after its lane is free."""
+        if self._mark is not None:
+            wait(self._mark)
+        ready = self._rows_prev
+        self._rows_prev = self._learn(timings)
+        self._mark = mark()
+        if ready is None or len(ready.slots) == 0:
+            return Finished([], [], [], [])
+        rows, warm = (Downloads.read(h) for h in ready.handles)
+        return Finished(
+            [int(s) for s in ready.slots],
+            [rows[k, : ready.spans[k]] for k in range(len(ready.slots))],
+            list(warm[:, 0]),
+            [bool(v) for v in ready.overflowed],
+        )
+
+    def _learn(self, timings: BatchTimings) -> _RowsInFlight | None:
+        """The jobs the previous visit's replay finished (from its state download): their
+        lanes are freed and their rows queued for download."""
+        if self._state_prev is None:
+            return None
+        job_of, peak_rows, contacts_np = (Downloads.read(h) for h in self._state_prev)
+        self._state_prev = None
+        ran = (self.lane_job >= 0) & (self.loaded_at < self._visit)
+        done_lanes = np.flatnonzero(ran & (job_of < 0))
+        contacts = int(contacts_np[0])
+        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
+        if contacts > self.d.naconmax:  # every job that ran in that replay may have lost one
+            self._flagged = np.union1d(self._flagged, self.lane_job[ran])
+        slots = self.lane_job[done_lanes].copy()
+        peaks = peak_rows[done_lanes]
+        timings.peak_rows = max(timings.peak_rows, int(peaks.max(initial=0)))
+        spans = self.span_host[slots]
+        timings.span_steps += int(np.sum(self.warmup_host[slots] + spans * self.substeps))
+        self.lane_job[done_lanes] = -1
+        if len(slots) == 0:
+            return _RowsInFlight(slots, spans, np.zeros(0, bool), [], [])
+        index = wp.array(slots.astype(np.int32), dtype=wp.int32)
+        rows = wp.empty((len(slots), self.rows, SIGNALS), dtype=float)
+        wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.out, index, rows])
+        warm = wp.empty((len(slots), 1, SIGNALS), dtype=float)
+        wp.launch(lk.gather_rows, dim=warm.shape, inputs=[self.warm, index, warm])
+        over = (peaks > self.buffers.njmax) | np.isin(slots, self._flagged)
+        handles = self._downloads.queue(("rows", self._visit % 2), [rows, warm])
+        return _RowsInFlight(slots, spans, over, handles, [index, rows, warm])
 
     def _flag_all(self) -> None:
         """Mark every job now in a lane as overflowed (the contact pool was full)."""

@@ -78,6 +78,7 @@ class DeviceSlot:
         self.cuda = wp.get_device(device).is_cuda
         blocking = self.cuda and os.environ.get(WAIT_ENV, "block") != "poll"
         self._event = blocking_event(device) if blocking else None  # made once, reused
+        self._mark_event = blocking_event(device) if blocking else None  # ``mark``'s
 
     @classmethod
     def several(cls, device: str, count: int) -> list[DeviceSlot]:
@@ -142,6 +143,27 @@ class DeviceSlot:
             self.lock.acquire()
             self._make_current()
 
+    def mark(self) -> Any:
+        """An event recorded on this slot's stream after the work queued so far (None on a
+        slot without a stream: the CPU device runs its work as it is issued). One mark is out
+        at a time: ``wait_mark`` it before the next."""
+        if not self.cuda:
+            return None
+        if self._mark_event is None:
+            return wp.record_event()
+        self._record(self._mark_event)
+        return self._mark_event
+
+    def wait_mark(self, mark: Any) -> None:
+        """Wait (holding the lock on entry and on return) until the work queued before
+        ``mark`` is done; later work may still run."""
+        if mark is None:
+            return
+        if mark is self._mark_event:
+            self._sync_blocking(mark)
+        else:
+            self._poll(mark)
+
     def wait(self) -> None:
         """Wait (holding the lock on entry and on return) until this slot's queued work is done;
         the other slots issue theirs meanwhile."""
@@ -149,9 +171,19 @@ class DeviceSlot:
             wp.synchronize_device(self.device)
             return
         if self._event is not None:
-            self._wait_blocking(self._event)
+            self._record(self._event)
+            self._sync_blocking(self._event)
             return
-        event = wp.record_event()
+        self._poll(wp.record_event())
+
+    def _record(self, event: Any) -> None:
+        if self.stream is not None:
+            self.stream.record_event(event)
+        else:
+            wp.record_event(event)
+
+    def _poll(self, event: Any) -> None:
+        """Query ``event`` every ``POLL_S``, the lock let go in between."""
         while not event.is_complete:
             self.lock.release()
             try:
@@ -160,16 +192,12 @@ class DeviceSlot:
                 self.lock.acquire()
         self._make_current()
 
-    def _wait_blocking(self, event: Any) -> None:
-        """``wait`` on a blocking-sync event: recorded on this slot's stream, synchronized
-        with the lock let go (the native call releases the GIL while the driver sleeps).
-        ``wp.synchronize_event`` refuses while any thread captures a graph on the device (a
-        tug round may, another slot's thread), which a CUDA event synchronize from this thread
-        does not disturb, so the native call is made directly."""
-        if self.stream is not None:
-            self.stream.record_event(event)
-        else:
-            wp.record_event(event)
+    def _sync_blocking(self, event: Any) -> None:
+        """Wait for a recorded blocking-sync event with the lock let go (the native call
+        releases the GIL while the driver sleeps). ``wp.synchronize_event`` refuses while any
+        thread captures a graph on the device (a tug round may, another slot's thread), which a
+        CUDA event synchronize from this thread does not disturb, so the native call is made
+        directly."""
         native = _native()
         assert native is not None  # the event was made through it
         self.lock.release()

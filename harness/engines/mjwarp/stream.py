@@ -17,6 +17,7 @@ full), exactly as a lockstep batch would rerun them.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Hashable
@@ -29,7 +30,7 @@ import warp as wp
 from harness.engines.mjwarp.batch import LARGE, RungStart, WorldBatch, hold_windows
 from harness.engines.mjwarp.judge import judge_started
 from harness.engines.mjwarp.lane_sizes import env_int
-from harness.engines.mjwarp.lanes import LaneRun
+from harness.engines.mjwarp.lanes import Finished, LaneRun
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
 from harness.engines.mjwarp.slot import DeviceSlot
@@ -48,6 +49,9 @@ LANE_ROWS = 512
 INTERVAL_CONTROL_STEPS = 8
 # Finished jobs per tug group: the first round runs ~6 rung-worlds per tugged job.
 TUG_GROUP = 4096
+# Queue the lanes' next replay before the host collects the last one (a lane then idles up to
+# two replays per job instead of one, and the device never waits for the host's visit).
+AHEAD_ENV = "HARNESS_LANE_AHEAD"
 # The longest a finished job waits in a group for its tug (s). Chosen, no public source: long
 # against a tug round (~0.2 s of device time), short against an episode's planning on a pool.
 GROUP_WAIT_S = 10.0
@@ -102,6 +106,9 @@ class LaneStream:
         self._tug_batch: WorldBatch | None = None
         self._tugs: list[tuple[Future[_Tugged], list[int]]] = []  # in flight, with their slots
         self.wall_s = 0.0  # the last ``run``'s wall time
+        # queue each replay before collecting the last (``HARNESS_LANE_AHEAD=1``; not yet
+        # measured on a GPU: off by default)
+        self.ahead = os.environ.get(AHEAD_ENV, "0") not in ("", "0")
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
         """Every job ``source`` gives, by key, once it gives ``None``."""
@@ -146,7 +153,7 @@ class LaneStream:
         closed, replay_s = False, 0.0
         while True:
             lanes = self.lanes
-            idle = lanes is None or lanes.busy == 0
+            idle = lanes is None or not self._stepping(lanes)
             if not closed:
                 if idle and not pending:
                     self._judge(tugged)  # nothing else to do until the source answers
@@ -166,22 +173,12 @@ class LaneStream:
             lanes = self.lanes
             if lanes is not None:
                 self._fill(lanes, pending)
-                if lanes.busy:
-                    clock = time.perf_counter()
-                    lanes.launch(self.timings, self.batch.slot.launch)
-                    launched = time.perf_counter()
-                    # on the host while the device steps, for at most half the last replay
-                    self._judge(tugged, 0.5 * replay_s)
-                    judged = time.perf_counter()
-                    self.batch.slot.wait()
-                    end = time.perf_counter()
-                    replay_s = end - clock
-                    self._visit(launched - clock, end - judged, replay_s)
-                    done = self._collect(lanes)
+                if self._stepping(lanes):
+                    done, replay_s = self._replay(lanes, tugged, replay_s)
                     if done and not group:
                         group_since = time.perf_counter()
                     group += done
-            drained = closed and not pending and (lanes is None or lanes.busy == 0)
+            drained = closed and not pending and (lanes is None or not self._stepping(lanes))
             if group and (
                 len(group) >= self.group
                 or drained
@@ -195,6 +192,35 @@ class LaneStream:
             if drained and not group and not self._tugs:
                 self._judge(tugged)
                 return
+
+    def _stepping(self, lanes: LaneRun) -> bool:
+        """A lane holds a job, or (ahead) a replay or download is not yet collected."""
+        return lanes.busy > 0 or (self.ahead and lanes.in_flight)
+
+    def _replay(
+        self, lanes: LaneRun, tugged: list[_Tugged], last_s: float
+    ) -> tuple[list[_Done], float]:
+        """One host visit: queue a replay of the lanes, judge on the host meanwhile (for at
+        most half the last visit), wait for the device, collect the finished jobs. Ahead
+        (``LaneRun.queue`` / ``settle``) the wait is for the previous visit's replay, so the
+        device steps on while the host collects, loads and judges."""
+        slot = self.batch.slot
+        clock = time.perf_counter()
+        if self.ahead:
+            lanes.queue(self.timings, slot.launch)
+        else:
+            lanes.launch(self.timings, slot.launch)
+        launched = time.perf_counter()
+        self._judge(tugged, 0.5 * last_s)
+        judged = time.perf_counter()
+        if self.ahead:
+            finished = lanes.settle(self.timings, slot.wait_mark, slot.mark)
+        else:
+            slot.wait()
+            finished = None
+        end = time.perf_counter()
+        self._visit(launched - clock, end - judged, end - clock)
+        return self._collect(lanes, finished), end - clock
 
     def _visit(self, launch_s: float, wait_s: float, replay_s: float) -> None:
         t = self.timings
@@ -243,10 +269,13 @@ class LaneStream:
         window = window_steps(job.task.pick.hold_time, job.schedule.control_dt)
         return job.schedule.steps + (window if validity_enabled(job.task.pick) else 0)
 
-    def _collect(self, lanes: LaneRun) -> list[_Done]:
-        clock = time.perf_counter()
-        finished = lanes.collect(self.timings)
-        self.timings.download_s += time.perf_counter() - clock
+    def _collect(self, lanes: LaneRun, finished: Finished | None = None) -> list[_Done]:
+        """The finished jobs (``finished``, else downloaded now): overflowed ones are set
+        aside for a rerun and their slots freed."""
+        if finished is None:
+            clock = time.perf_counter()
+            finished = lanes.collect(self.timings)
+            self.timings.download_s += time.perf_counter() - clock
         done = []
         for slot, rows, warm, over in zip(
             finished.slots, finished.rows, finished.warm, finished.overflowed, strict=True
