@@ -151,6 +151,19 @@ for job in "$@"; do
       HARNESS_SWITCH_INTERVAL_MS=0.5 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_switch" \
         --no-progress --record none ;;
+    fr3_gpu_one)  # fr3_gpu on the first GPU alone (the two-GPU kind's one-GPU figure)
+      HARNESS_WARP_DEVICE=cuda:0 timeout 300 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_one" --no-progress \
+        --record none ;;
+    fr3_gpu_all)  # fr3_gpu on every GPU of the box
+      timeout 300 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_all" --no-progress --record none ;;
+    bench_all)  # issue 34's M episodes/h: 65,536 FR3 cube episodes through 8,192 lanes, every GPU
+      BENCH_LANES=8192 BENCH_CPU_EPISODES=512 BENCH_OBJECTS=cube timeout 420 \
+        python3 -m harness.benchmarks.engines 65536 "$R/bench_all" fr3 ;;
+    bench_one)  # the same on the first GPU alone
+      HARNESS_WARP_DEVICE=cuda:0 BENCH_LANES=8192 BENCH_CPU_EPISODES=512 BENCH_OBJECTS=cube \
+        timeout 420 python3 -m harness.benchmarks.engines 65536 "$R/bench_one" fr3 ;;
     demo_gpu_ahead)  # the demo with each lane replay queued before the last is collected
       HARNESS_LANE_AHEAD=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_ahead" \
