@@ -722,3 +722,34 @@ def test_the_switch_interval_is_set_while_the_streams_run(
     monkeypatch.setenv("HARNESS_SWITCH_INTERVAL_MS", "fast")
     with pytest.raises(HarnessError, match="HARNESS_SWITCH_INTERVAL_MS='fast'"):
         DeviceStreams(["stub"], make_engine=lambda d: d, run_stream=stream, per_device=1)
+
+
+def test_two_devices_share_one_keys_jobs_a_streams_room_at_a_time(fr3_jobs) -> None:
+    """A stream takes at most the jobs it has room for (``want``: its free lanes and a
+    reserve); the rest stay queued, where the other device's stream of the same key takes
+    them: twelve jobs of one key, streams taking two at a time, both devices answer some."""
+    from harness.engines.mjwarp.devices import DeviceStreams
+
+    taken: dict[str, int] = {}
+    lock = threading.Lock()
+
+    def stream(engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+        while (jobs := source(True, 2)) is not None:
+            assert len(jobs) <= 2
+            time.sleep(0.2)  # the device steps them
+            with lock:
+                taken[engine] = taken.get(engine, 0) + len(jobs)
+            for tag, _ in jobs:
+                on_outcome(tag, None)
+
+    streams = DeviceStreams(
+        ["cuda:0", "cuda:1"], make_engine=lambda d: d, run_stream=stream, per_device=1
+    )
+    done = threading.Semaphore(0)
+    for tag in range(12):
+        streams.submit(tag, fr3_jobs[0], lambda outcome, error: done.release())
+    for _ in range(12):
+        assert done.acquire(timeout=60)
+    streams.close()
+    assert sum(taken.values()) == 12
+    assert sorted(taken) == ["cuda:0", "cuda:1"] and min(taken.values()) >= 2, taken

@@ -128,7 +128,7 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
     monkeypatch.setenv("HARNESS_LANE_AHEAD", ahead)
     stream = LaneStream(engine.batch(scene, task), nlane=2, group=2)
     assert stream.ahead == (ahead == "1")
-    outcomes = stream.run(lambda block: installments.pop(0))  # type: ignore[arg-type,return-value]
+    outcomes = stream.run(lambda block, want: installments.pop(0))  # type: ignore[arg-type,return-value]
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
         assert same_fields(outcomes[key], expected), key
@@ -168,7 +168,7 @@ def test_a_job_too_long_for_a_lane_is_answered_before_the_stream_ends(
     answered: dict[Hashable, object] = {}
     given = [[("a", jobs[0])]]
 
-    def source(block: bool) -> list[tuple[Hashable, object]] | None:
+    def source(block: bool, want: int) -> list[tuple[Hashable, object]] | None:
         if given:
             return given.pop()  # type: ignore[return-value]
         return None if "a" in answered else []  # like a sweep: no end before the answer
@@ -201,3 +201,24 @@ def test_host_visits_follow_the_lane_interval_setting(monkeypatch: pytest.Monkey
     monkeypatch.setenv("HARNESS_LANE_INTERVAL", "32")
     stream._make(job)
     assert made == [stream_module.INTERVAL_CONTROL_STEPS * substeps, 32 * substeps]
+
+
+@pytest.mark.gpu
+@needs_warp
+def test_a_stream_takes_the_jobs_it_has_room_for() -> None:
+    """What a stream asks its source for: its free lanes and a quarter of its lanes in reserve,
+    less the jobs already waiting in it (the rest stay where another device can take them)."""
+    from collections import deque
+    from types import SimpleNamespace
+
+    from harness.engines.mjwarp import stream as stream_module
+
+    batch = SimpleNamespace(dm=None, buffers=None, timings=None, data=lambda n, b: None)
+    stream = stream_module.LaneStream(batch, nlane=64)  # type: ignore[arg-type]
+    assert stream._room(deque()) == 64 + 16
+    assert stream._room(deque([("a", None)] * 70)) == 10
+    assert stream._room(deque([("a", None)] * 90)) == 0
+    lane_job = np.full(64, 3)
+    lane_job[:5] = -1  # five free lanes
+    stream.lanes = SimpleNamespace(free_lanes=lambda: np.flatnonzero(lane_job < 0))  # type: ignore[assignment]
+    assert stream._room(deque([("a", None)] * 4)) == 5 + 16 - 4

@@ -377,7 +377,7 @@ class DeviceStreams:
             first = (device, key) not in self._seen
             self._seen.add((device, key))
 
-        def source(block: bool) -> list[tuple[Hashable, Any]] | None:
+        def source(block: bool, want: int | None = None) -> list[tuple[Hashable, Any]] | None:
             with self._cond:
                 while True:
                     jobs = self._queues[key]
@@ -385,7 +385,7 @@ class DeviceStreams:
                     turn_over = starved and time.perf_counter() - started > QUANTUM_S
                     if jobs and not turn_over:
                         out = []
-                        while jobs:
+                        while jobs and (want is None or len(out) < want):
                             tag, job, answer = jobs.popleft()
                             taken[tag] = answer
                             out.append((tag, job))
@@ -461,9 +461,9 @@ class DeviceStreams:
         from harness.engines.mjwarp.stream import TUG_GROUP, LaneStream
 
         # the task of the stream's first job: its device model (arm, target) and buffers
-        head = source(True)
+        head = source(True, lanes)
         while head == []:  # another device took what was queued: wait for more or the end
-            head = source(True)
+            head = source(True, lanes)
         if head is None:
             return
         batch = engine.batch(scene, head[0][1].task, self._slot(engine), contact=head[0][1].contact)
@@ -473,8 +473,8 @@ class DeviceStreams:
         stream = LaneStream(batch, nlane=lanes, group=group, on_outcome=on_outcome)
         given = [head]
 
-        def replay_first(block: bool) -> Any:
-            return given.pop() if given else source(block)
+        def replay_first(block: bool, want: int) -> Any:
+            return given.pop() if given else source(block, want)
 
         stream.run(replay_first)
         task = head[0][1].task
