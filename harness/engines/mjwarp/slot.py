@@ -36,9 +36,9 @@ HOST_LOCK = threading.Lock()
 # waited for in the driver with the lock and the GIL let go) or "poll" (``HARNESS_DEVICE_WAIT=
 # poll``, as before: an event queried every ``POLL_S``, the lock and the GIL let go in between;
 # sixteen polling device threads of the demo woke 32,000 times a second and fought the threads
-# doing host work for the GIL). Measured on one H200, 2026-11-27, the demo sweep one run each,
-# same box: 105.8 s polling, 79.0 s blocking (first outcomes after 47-60 s and 31-44 s). Where
-# Warp does not expose the event flags, slots poll.
+# doing host work for the GIL). Measured on two H200 boxes, 2026-11-27, the demo sweep one run
+# each per box: 105.8 s and 101.1 s polling, 79.0 s and 69.6 s blocking (first outcomes after
+# 47-60 s and 26-44 s). Where Warp does not expose the event flags, slots poll.
 WAIT_ENV = "HARNESS_DEVICE_WAIT"
 _BLOCKING_SYNC = 0x1 | 0x2  # cudaEventBlockingSync | cudaEventDisableTiming
 
