@@ -164,6 +164,11 @@ for job in "$@"; do
     bench_one)  # the same on the first GPU alone
       HARNESS_WARP_DEVICE=cuda:0 BENCH_LANES=8192 BENCH_CPU_EPISODES=512 BENCH_OBJECTS=cube \
         timeout 420 python3 -m harness.benchmarks.engines 65536 "$R/bench_one" fr3 ;;
+    demo_gpu_conn32)  # the demo with 32 hardware work queues per device (CUDA's default: 8)
+      # for 8 lane streams and 8 tug streams (NVIDIA's CUDA_DEVICE_MAX_CONNECTIONS)
+      CUDA_DEVICE_MAX_CONNECTIONS=32 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_conn32" \
+        --no-progress --record none ;;
     demo_gpu_ahead)  # the demo with each lane replay queued before the last is collected
       HARNESS_LANE_AHEAD=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_ahead" \
