@@ -222,3 +222,20 @@ def test_a_stream_takes_the_jobs_it_has_room_for() -> None:
     lane_job[:5] = -1  # five free lanes
     stream.lanes = SimpleNamespace(free_lanes=lambda: np.flatnonzero(lane_job < 0))  # type: ignore[assignment]
     assert stream._room(deque([("a", None)] * 4)) == 5 + 16 - 4
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
+@needs_warp
+def test_harness_compile_warms_a_task_models_lockstep_batch_and_lanes() -> None:
+    """``harness compile`` (``harness.runs.warm.warm``) runs a task model's job as a lockstep
+    batch and through a one-lane stream on each device, saying each model as it starts and
+    when it is ready (the stream's source is asked as every stream asks it)."""
+    from harness.runs.warm import warm
+
+    job = fr3_device_jobs(1)[0]
+    said: list[str] = []
+    spent = warm([job], ["cpu"], said.append)
+    name = "fr3 left cube on cpu"
+    assert list(spent) == [name] and spent[name] > 0
+    assert said[0].startswith(f"[1/1] {name}: compiling") and "ready in" in said[-1]

@@ -99,7 +99,7 @@ class GpuDevices:
         for engine in self.engines:
             batch = engine.batch(self._scene(job), job.task, contact=job.contact)
             items: list[Any] = [[(0, job)], None]
-            LaneStream(batch, nlane=1, group=1).run(lambda block, items=items: items.pop(0))
+            LaneStream(batch, nlane=1, group=1).run(lambda block, want, items=items: items.pop(0))
 
     def to_stream(self, index: int, job: Any, lanes: int) -> None:
         """Hand a planned job to the lane streams (the product's ``DeviceStreams``, on this

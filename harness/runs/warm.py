@@ -101,7 +101,7 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
             engine.execute_many(scene, [job])
             items: list[Any] = [[(0, job)], None]
             LaneStream(engine.batch(scene, task, contact=job.contact), nlane=1, group=1).run(
-                lambda block, items=items: items.pop(0)
+                lambda block, want, items=items: items.pop(0)
             )
             spent[name] = time.perf_counter() - clock
             say(f"[{k}/{total}] {name}: ready in {spent[name]:.1f} s")

@@ -12,6 +12,8 @@ stream_overlap``). ``to_host`` copies on the current stream (the slot's) and wai
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 import warp as wp
 
@@ -66,7 +68,7 @@ class Downloads:
                 shape = (rows, *array.shape[1:])
                 host = wp.empty(shape, dtype=array.dtype, device="cpu", pinned=True)
                 self._buffers[(key, k)] = host
-            view = host[: array.shape[0]] if array.shape[0] else host[:0]
+            view = cast(wp.array, host[: array.shape[0]])  # a contiguous view: rows first
             wp.copy(view, array, stream=wp.get_stream(device))
             out.append(view)
         return out

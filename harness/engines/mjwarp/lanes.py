@@ -47,6 +47,18 @@ class Finished:
     overflowed: list[bool]
 
 
+def _finished(
+    slots: np.ndarray, spans: np.ndarray, over: np.ndarray, rows: np.ndarray, warm: np.ndarray
+) -> Finished:
+    """``Finished`` from downloaded rows (each cut to its job's span) and warm-up rows."""
+    return Finished(
+        [int(s) for s in slots],
+        [rows[k, : spans[k]] for k in range(len(slots))],
+        list(warm[:, 0]),
+        [bool(v) for v in over],
+    )
+
+
 @dataclass
 class _RowsInFlight:
     """Finished jobs whose rows a visit queued for download (``settle``)."""
@@ -233,38 +245,49 @@ class LaneRun:
 
     def collect(self, timings: BatchTimings) -> Finished:
         """After the queued steps are done: the jobs whose span ended (their lanes are free)."""
-        job_of, peak_rows, contacts_np = to_host_all(
-            [self.job_of, self.peak_rows, self.peak_contacts]
-        )
-        done_lanes = np.flatnonzero((self.lane_job >= 0) & (job_of < 0))
-        slots = self.lane_job[done_lanes].copy()
-        peak_rows = peak_rows[done_lanes]
-        contacts = int(contacts_np[0])
-        timings.peak_rows = max(timings.peak_rows, int(peak_rows.max(initial=0)))
-        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
-        spans = self.span_host[slots]
-        warmups = self.warmup_host[slots]
-        timings.span_steps += int(np.sum(warmups + spans * self.substeps))
-        pool_full = contacts > self.d.naconmax
-        if pool_full:  # every job in flight may have lost a contact
-            self._flag_all()
-        self.lane_job[done_lanes] = -1
+        job_of, peak_rows, contacts = to_host_all([self.job_of, self.peak_rows, self.peak_contacts])
+        slots, spans, over = self._retire(job_of, peak_rows, int(contacts[0]), timings)
         if len(slots) == 0:
             return Finished([], [], [], [])
+        rows, warm = to_host_all(list(self._gather(slots)[1:]))
+        return _finished(slots, spans, over, rows, warm)
+
+    def _retire(
+        self,
+        job_of: np.ndarray,
+        peak_rows: np.ndarray,
+        contacts: int,
+        timings: BatchTimings,
+        loaded_before: int | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """From the lanes' state after a replay: the jobs whose span ended in it leave their
+        lanes; their slots, spans and whether their rows or contacts did not fit (a full
+        contact pool: every job that ran in the replay may have lost a contact). Only lanes
+        loaded before visit ``loaded_before`` ran in it (None: every busy lane)."""
+        ran = self.lane_job >= 0
+        if loaded_before is not None:
+            ran &= self.loaded_at < loaded_before
+        done_lanes = np.flatnonzero(ran & (job_of < 0))
+        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
+        if contacts > self.d.naconmax:
+            self._flagged = np.union1d(self._flagged, self.lane_job[ran])
+        slots = self.lane_job[done_lanes].copy()
+        peaks = peak_rows[done_lanes]
+        timings.peak_rows = max(timings.peak_rows, int(peaks.max(initial=0)))
+        spans = self.span_host[slots]
+        timings.span_steps += int(np.sum(self.warmup_host[slots] + spans * self.substeps))
+        self.lane_job[done_lanes] = -1
+        over = (peaks > self.buffers.njmax) | np.isin(slots, self._flagged)
+        return slots, spans, over
+
+    def _gather(self, slots: np.ndarray) -> tuple[wp.array, wp.array, wp.array]:
+        """The slots' index, signal rows and warm-up rows gathered on the device."""
         index = wp.array(slots.astype(np.int32), dtype=wp.int32)
         rows = wp.empty((len(slots), self.rows, SIGNALS), dtype=float)
         wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.out, index, rows])
         warm = wp.empty((len(slots), 1, SIGNALS), dtype=float)
         wp.launch(lk.gather_rows, dim=warm.shape, inputs=[self.warm, index, warm])
-        rows_np, warm_np = to_host_all([rows, warm])
-        warm_np = warm_np[:, 0]
-        over = (peak_rows > self.buffers.njmax) | pool_full | np.isin(slots, self._flagged)
-        return Finished(
-            [int(s) for s in slots],
-            [rows_np[k, : spans[k]] for k in range(len(slots))],
-            list(warm_np),
-            [bool(v) for v in over],
-        )
+        return index, rows, warm
 
     # ---- pipelined visits: the next replay is queued before the last one is collected
 
@@ -305,47 +328,23 @@ class LaneRun:
         if ready is None or len(ready.slots) == 0:
             return Finished([], [], [], [])
         rows, warm = (Downloads.read(h) for h in ready.handles)
-        return Finished(
-            [int(s) for s in ready.slots],
-            [rows[k, : ready.spans[k]] for k in range(len(ready.slots))],
-            list(warm[:, 0]),
-            [bool(v) for v in ready.overflowed],
-        )
+        return _finished(ready.slots, ready.spans, ready.overflowed, rows, warm)
 
     def _learn(self, timings: BatchTimings) -> _RowsInFlight | None:
         """The jobs the previous visit's replay finished (from its state download): their
         lanes are freed and their rows queued for download."""
         if self._state_prev is None:
             return None
-        job_of, peak_rows, contacts_np = (Downloads.read(h) for h in self._state_prev)
+        job_of, peak_rows, contacts = (Downloads.read(h) for h in self._state_prev)
         self._state_prev = None
-        ran = (self.lane_job >= 0) & (self.loaded_at < self._visit)
-        done_lanes = np.flatnonzero(ran & (job_of < 0))
-        contacts = int(contacts_np[0])
-        timings.peak_contacts = max(timings.peak_contacts, contacts / max(1, self.nlane))
-        if contacts > self.d.naconmax:  # every job that ran in that replay may have lost one
-            self._flagged = np.union1d(self._flagged, self.lane_job[ran])
-        slots = self.lane_job[done_lanes].copy()
-        peaks = peak_rows[done_lanes]
-        timings.peak_rows = max(timings.peak_rows, int(peaks.max(initial=0)))
-        spans = self.span_host[slots]
-        timings.span_steps += int(np.sum(self.warmup_host[slots] + spans * self.substeps))
-        self.lane_job[done_lanes] = -1
+        slots, spans, over = self._retire(
+            job_of, peak_rows, int(contacts[0]), timings, loaded_before=self._visit
+        )
         if len(slots) == 0:
-            return _RowsInFlight(slots, spans, np.zeros(0, bool), [], [])
-        index = wp.array(slots.astype(np.int32), dtype=wp.int32)
-        rows = wp.empty((len(slots), self.rows, SIGNALS), dtype=float)
-        wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.out, index, rows])
-        warm = wp.empty((len(slots), 1, SIGNALS), dtype=float)
-        wp.launch(lk.gather_rows, dim=warm.shape, inputs=[self.warm, index, warm])
-        over = (peaks > self.buffers.njmax) | np.isin(slots, self._flagged)
-        handles = self._downloads.queue(("rows", self._visit % 2), [rows, warm])
-        return _RowsInFlight(slots, spans, over, handles, [index, rows, warm])
-
-    def _flag_all(self) -> None:
-        """Mark every job now in a lane as overflowed (the contact pool was full)."""
-        busy = self.lane_job[self.lane_job >= 0]
-        self._flagged = np.union1d(self._flagged, busy)
+            return _RowsInFlight(slots, spans, over, [], [])
+        gathered = self._gather(slots)
+        handles = self._downloads.queue(("rows", self._visit % 2), list(gathered[1:]))
+        return _RowsInFlight(slots, spans, over, handles, list(gathered))
 
     def release(self, slots: list[int]) -> None:
         """The slots' jobs are judged: the slots can take new jobs."""
