@@ -753,3 +753,22 @@ def test_two_devices_share_one_keys_jobs_a_streams_room_at_a_time(fr3_jobs) -> N
     streams.close()
     assert sum(taken.values()) == 12
     assert sorted(taken) == ["cuda:0", "cuda:1"] and min(taken.values()) >= 2, taken
+
+
+def test_stream_timings_add_up_and_keep_the_larger_peaks() -> None:
+    """``add_timings`` sums every field of two streams' timings except the peaks, which keep
+    the larger (a field added to the timings is summed without being listed anywhere)."""
+    from dataclasses import dataclass
+
+    from harness.engines.mjwarp.stream_stats import add_timings
+
+    @dataclass
+    class Timings:
+        physics_s: float = 0.0
+        visits: int = 0
+        peak_rows: int = 0
+        peak_contacts: float = 0.0
+
+    total, more = Timings(1.5, 3, 100, 2.0), Timings(0.5, 4, 80, 3.5)
+    add_timings(total, more)
+    assert total == Timings(2.0, 7, 100, 3.5)

@@ -78,7 +78,7 @@ def main(args: argparse.Namespace) -> int:
     console = make_console()
     if args.check:
         return _check(args, console)
-    if getattr(args, "unit", None):
+    if args.unit:
         raise HarnessError("--unit goes with --check DIR (the units a check tests)")
     write = Path(args.write) if args.write else None
     Budget.parse(args.budget)  # one line for a garbage, zero or negative --budget

@@ -3,7 +3,7 @@ compiles, failures, and where the streams' host time went (their ``BatchTimings`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 
@@ -50,11 +50,7 @@ class StreamStats:
 
 def add_timings(total: Any, more: Any) -> None:
     """Add the counts of ``more`` (``BatchTimings``) to ``total``; keep the larger peaks."""
-    for name in (
-        "physics_s", "tug_s", "tug_issue_s", "upload_s", "download_s", "judge_s", "world_steps",
-        "motion_steps", "span_steps", "tug_rounds", "tug_rungs", "reruns", "visits", "launch_s",
-        "wait_s",
-    ):  # fmt: skip
-        setattr(total, name, getattr(total, name) + getattr(more, name))
-    for name in ("peak_rows", "peak_contacts"):
-        setattr(total, name, max(getattr(total, name), getattr(more, name)))
+    for item in fields(total):
+        mine, theirs = getattr(total, item.name), getattr(more, item.name)
+        combined = max(mine, theirs) if item.name.startswith("peak_") else mine + theirs
+        setattr(total, item.name, combined)
