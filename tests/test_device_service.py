@@ -231,7 +231,8 @@ def test_a_streams_lanes_follow_its_task_models_jobs(
     fr3_jobs, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Lanes per key from the jobs the run expects of it (``expect``): 3,000 FR3 jobs get
-    1,024 lanes (the measured best for one stream), 300 get 128; within the device's budget."""
+    1,024 lanes (the measured best for one stream), 100 get 128 (a lane each: one span);
+    within the device's budget."""
     from harness.engines.mjwarp.devices import DeviceStreams
 
     monkeypatch.delenv("HARNESS_LANES", raising=False)
@@ -239,7 +240,7 @@ def test_a_streams_lanes_follow_its_task_models_jobs(
     big, small = fr3_jobs[0], _keyed(fr3_jobs[0], 1)
     stub = _Concurrent(threading.Barrier(2))
     streams = DeviceStreams(["cuda:0"], make_engine=lambda d: d, run_stream=stub, per_device=2)
-    streams.expect([big.task] * 3000 + [small.task] * 300)
+    streams.expect([big.task] * 3000 + [small.task] * 100)
     assert streams.planned_lanes() == 1024 + 128
     done = threading.Semaphore(0)
     for tag, job in enumerate([big, small]):
@@ -325,7 +326,9 @@ def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPat
     monkeypatch.delenv("HARNESS_LANES", raising=False)
     assert default_lanes("cuda:0", 3000) == 1024  # the best of 1,024 / 2,048 / 8,192 measured
     assert default_lanes("cuda:0", 10) == 64  # the floor: a stream's lanes add to the others'
-    assert default_lanes("cuda:0", 300) == 128
+    assert default_lanes("cuda:0", 112) == 128  # a tune round's look: one span, not two
+    assert default_lanes("cuda:0", 300) == default_lanes("cuda:0", 512) == 512  # one span
+    assert default_lanes("cuda:0", 600) == 512  # past one span's lanes: the floor of the rule
     assert default_lanes("cuda:0", 65536) == default_lanes("cuda:0") == 8192
     assert default_lanes("cpu", 3000) == 4
     monkeypatch.setenv("HARNESS_LANES", "64")

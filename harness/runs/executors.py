@@ -248,10 +248,15 @@ def run_process_pool(
 ) -> RunStats:
     """One process per worker, one episode in flight per worker; dead workers are replaced.
     With the ``mjwarp`` engine the workers plan on while the devices execute
-    (``harness.runs.device_pool``)."""
+    (``harness.runs.device_pool``), with several devices in a process per device
+    (``harness.runs.device_shards``)."""
     if any(e.engine == "mjwarp" for e in episodes):
         from harness.runs.device_pool import DevicePool, run_device_pool
+        from harness.runs.device_shards import process_per_device, run_device_shards, warp_devices
 
+        devices = warp_devices()
+        if process_per_device(devices):
+            return run_device_shards(episodes, run_dir, record, on_result, workers, devices, share)
         stats = RunStats()
         run_device_pool(DevicePool(episodes, run_dir, record, on_result, stats, workers, share))
         return stats

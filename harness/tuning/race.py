@@ -6,12 +6,19 @@ episodes per point: every race episode is an episode of that sweep (same ids, sa
 the confirmation seeds are fresh (no screening seed among them), the racers of a unit share each
 seed (common random numbers; points that differ only in filters share the seed's candidate
 evaluations) and a rerun of the tune skips what the directory already holds.
+
+On a GPU engine a small round is latency-bound: its episodes take one episode span however few
+they are. Such a round also runs the blocks of the looks after it (``round_fill``), as long as
+the round stays within the fill, and stores them; the looks are still applied one at a time,
+each on its own block only, so the test and its decisions are those of one look per round (a
+race that stops early leaves its later blocks stored and unused).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +37,22 @@ from harness.tuning.decide import UnitRace, update
 from harness.tuning.grid import APPROACH_KEY, FACING_KEY
 
 CONFIRM_SEED_OFFSET = 100_000
+# Episodes a round on a GPU engine may grow to by running later looks' blocks early
+# (``HARNESS_RACE_FILL`` overrides; 0 turns it off). Chosen, no public source: on one H200 a
+# round of 112 episodes took 21-23 s, 2 episode spans of a 64-lane stream (docs/tune.md), and up
+# to ~1,000 episodes fill a stream of at most 512 lanes whose step is latency-bound
+# (docs/engines.md, "Lanes"). On the CPU engine every episode costs a core's time: no fill.
+DEVICE_ROUND_FILL = 1024
+
+
+def round_fill(engine: str) -> int:
+    """The episodes a race round may grow to by running later looks ahead (see the module)."""
+    chosen = os.environ.get("HARNESS_RACE_FILL", "").strip()
+    if chosen:
+        if not chosen.isdigit():
+            raise HarnessError(f"HARNESS_RACE_FILL={chosen!r}: expected a count of episodes")
+        return int(chosen)
+    return 0 if engine == "mujoco" else DEVICE_ROUND_FILL
 
 
 @dataclass(frozen=True)
@@ -91,6 +114,7 @@ class RaceLog:
     episodes: int = 0
     seconds: float = 0.0
     rounds: int = 0
+    ran_ahead: int = 0  # episodes run for later looks than their round's (``round_fill``)
     budget_spent: bool = False
     interrupted: bool = False
     missing: bool = False  # --analyse: a block the race needs is not stored
@@ -155,9 +179,11 @@ class RaceRunner:
         progress: bool = False,
         seconds_each: float = 0.0,
         announce: Callable[[str], None] | None = None,
+        fill: int = 0,
     ) -> None:
         """``progress``: each round's episodes as the sweep shows them (``SweepProgress``);
-        ``announce``: a line per round with its pace and what the rest costs at it."""
+        ``announce``: a line per round with its pace and what the rest costs at it; ``fill``:
+        the episodes a round may grow to with later looks' blocks (``round_fill``)."""
         self.sweep = confirm_sweep(screen, max_seeds)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
@@ -174,6 +200,7 @@ class RaceRunner:
         self.progress = progress
         self.seconds_each = seconds_each
         self.announce = announce
+        self.fill = fill
         self.configured: dict[tuple[str, str], TaskConfig] = {}
         self.stored: dict[str, dict[str, Any]] = {}
 
@@ -211,22 +238,46 @@ class RaceRunner:
             engine=self.engine,
         )
 
+    def _look(self, unit: Unit, look: int) -> list[tuple[Any, list[EpisodeSpec]]]:
+        """Each alive racer of ``unit`` with its specs of block ``look`` (0-based)."""
+        others = json.loads(unit.context)
+        start, stop = unit.race.seeds_of(look), unit.race.seeds_of(look + 1)
+        blocks = []
+        for racer in unit.race.alive():
+            point = {
+                APPROACH_KEY: json.loads(racer.setting[0]),
+                FACING_KEY: json.loads(racer.setting[1]),
+                **others,
+            }
+            blocks.append((racer, [self._spec(unit.task, point, i) for i in range(start, stop)]))
+        return blocks
+
+    def _ahead(self, units: list[Unit], size: int) -> list[EpisodeSpec]:
+        """The blocks of the looks after this round's, whole looks at a time (the same count
+        for every unit, each within its plan), while the round stays within ``fill``."""
+        ahead: list[EpisodeSpec] = []
+        for step in range(1, max(u.race.looks for u in units)):
+            later = [
+                spec
+                for unit in units
+                if unit.race.look + step < unit.race.looks
+                for _, specs in self._look(unit, unit.race.look + step)
+                for spec in specs
+            ]
+            if not later or size + len(ahead) + len(later) > self.fill:
+                break
+            ahead.extend(later)
+        return ahead
+
     def round(self, units: list[Unit], budget: Budget, log: RaceLog) -> bool:
-        """Run the next block of every running unit and apply the look; False if cut short
-        (the budget would be overrun, a row is missing or the run was interrupted)."""
-        wanted: list[tuple[Any, Unit, list[EpisodeSpec]]] = []
-        for unit in units:
-            others = json.loads(unit.context)
-            start = unit.race.seeds_of(unit.race.look)
-            stop = unit.race.seeds_of(unit.race.look + 1)
-            for racer in unit.race.alive():
-                point = {
-                    APPROACH_KEY: json.loads(racer.setting[0]),
-                    FACING_KEY: json.loads(racer.setting[1]),
-                    **others,
-                }
-                specs = [self._spec(unit.task, point, i) for i in range(start, stop)]
-                wanted.append((racer, unit, specs))
+        """Run the next block of every running unit (and, within ``fill``, the blocks of later
+        looks) and apply the look; False if cut short (the budget would be overrun, a row is
+        missing or the run was interrupted)."""
+        wanted = [
+            (racer, unit, specs)
+            for unit in units
+            for racer, specs in self._look(unit, unit.race.look)
+        ]
         size = sum(len(specs) for _, _, specs in wanted)
         each = log.seconds / log.episodes if log.episodes else self.seconds_each
         if not budget.allows(log.episodes, log.seconds, size, each):
@@ -236,6 +287,13 @@ class RaceRunner:
         if todo and not self.may_run:
             log.missing = True
             return False
+        ahead: list[EpisodeSpec] = []
+        if todo and self.fill > size:
+            ahead = [s for s in self._ahead(units, size) if s.resolved_id not in self.stored]
+            if not budget.allows(log.episodes, log.seconds, size + len(ahead), each):
+                ahead = []
+            todo.extend(ahead)
+            log.ran_ahead += len(ahead)
         clock = time.perf_counter()
         if todo:
             label = f"{self.round_label} {log.rounds + 1}"
@@ -268,7 +326,10 @@ class RaceRunner:
         log.rounds += 1
         if todo and self.announce is not None:
             elapsed = time.perf_counter() - clock
-            self.announce(pace_line(log.rounds, len(todo), elapsed, episodes_left(units)))
+            line = pace_line(log.rounds, len(todo), elapsed, episodes_left(units))
+            if ahead:
+                line += f" ({len(ahead):,} of the round's episodes were later looks', run ahead)"
+            self.announce(line)
         return True
 
     def _store(self, row: dict[str, Any]) -> None:

@@ -57,7 +57,7 @@ from harness.tuning.options import (
     stored_options,
 )
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
-from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
+from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, round_fill, run_race
 from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
@@ -322,6 +322,7 @@ def decide(
         progress=progress,
         seconds_each=options.seconds_each,
         announce=announce,
+        fill=round_fill(options.engine),
     )
     log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:

@@ -39,6 +39,13 @@ MIN_CUDA_LANES = 64
 # 54.4 s with 4,096 (a step of 1,024 worlds is latency-bound; more lanes cost as much as they
 # save).
 EPISODES_PER_LANE = 3
+# A stream of at most this many jobs gets a lane per job (a power of two), so its jobs take one
+# episode span, not ``EPISODES_PER_LANE``: below it a step is latency-bound (a 64-lane demo
+# stream alone steps at 1.6-2.6 ms, a 1,024-lane FR3 stream at 3.1 ms; docs/engines.md, "The
+# sittings of 2026-11-27, late night"), so the idle lanes of a short stream cost little and
+# its outcomes come two spans sooner. Chosen, no public source; issue 34's tune rounds of 112
+# jobs took two spans of a 64-lane stream.
+SPAN_LANES = 512
 
 
 def is_cuda(device: str) -> bool:
@@ -63,7 +70,8 @@ def streams_per_device(device: str) -> int:
 
 def default_lanes(device: str, episodes: int | None = None) -> int:
     """``HARNESS_LANES``, else on the CPU ``CPU_LANES``, else on a CUDA device the power of
-    two nearest above ``episodes / EPISODES_PER_LANE`` between ``MIN_CUDA_LANES`` and
+    two nearest above ``episodes`` (up to ``SPAN_LANES`` episodes: one span), else above
+    ``episodes / EPISODES_PER_LANE``, between ``MIN_CUDA_LANES`` (``SPAN_LANES`` past it) and
     ``CUDA_LANES`` (``CUDA_LANES`` when the stream's size is not known)."""
     chosen = env_int("HARNESS_LANES")
     if chosen:
@@ -72,5 +80,7 @@ def default_lanes(device: str, episodes: int | None = None) -> int:
         return CPU_LANES
     if episodes is None:
         return CUDA_LANES
-    wanted = max(1, math.ceil(episodes / EPISODES_PER_LANE))
-    return max(MIN_CUDA_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
+    if episodes <= SPAN_LANES:
+        return max(MIN_CUDA_LANES, 1 << (max(1, episodes) - 1).bit_length())
+    wanted = math.ceil(episodes / EPISODES_PER_LANE)
+    return max(SPAN_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))

@@ -1,0 +1,250 @@
+"""A process per device: with several Warp devices, each runs its own device pool.
+
+One process did not feed two GPUs (issue 34, two H200s: the second GPU's stream stepped 3,537 of
+16,866 stream-steps, and at 8,192 lanes each step took 11.95 ms): every stream's host work
+shared one interpreter lock and one host lock. Here the sweep's share groups are split between
+the devices (``split_groups``: whole groups, so sharing holds; the fewest episodes first), and
+each device gets a *shard* process of its own (``HARNESS_WARP_DEVICE`` set to that device) that
+runs the usual ``harness.runs.device_pool`` with its share of the planning workers. Rows come
+back to this process as they finish and go to ``on_result`` (one writer, one progress bar);
+each shard's ``RunStats`` come back when it ends and are summed (``merge_stats``).
+
+Ctrl-C reaches only this process (the shards start with SIGINT blocked, as pool workers do): it
+tells every shard to stop, each stops its pool as Ctrl-C would and sends what it finished, so
+nothing finished is lost. A shard that dies leaves an ``error`` row, naming its device, for
+each of its episodes without a row. ``HARNESS_PROCESS_PER_DEVICE=0`` keeps one process for all
+devices (the behaviour before).
+"""
+
+from __future__ import annotations
+
+import _thread
+import os
+import queue
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from harness.runs.scheduling import share_groups
+from harness.runs.spawning import start_worker
+
+if TYPE_CHECKING:
+    from harness.episode.spec import EpisodeSpec
+    from harness.runs.executors import OnResult, RunStats
+
+# How long a stopped shard gets to send what it finished before it is terminated (its pool
+# stops its workers in seconds; chosen, no public source).
+STOP_GRACE_S = 60.0
+
+
+def warp_devices() -> list[str]:
+    """The devices a device pool would use (``default_devices``); none without the gpu extra
+    (the pool then says so itself, once, as its episodes' rows)."""
+    from harness.engines.mjwarp.engine import default_devices
+    from harness.errors import HarnessError
+
+    try:
+        return default_devices()
+    except HarnessError:
+        return []
+
+
+def process_per_device(devices: list[str]) -> bool:
+    """Several devices, unless ``HARNESS_PROCESS_PER_DEVICE=0``."""
+    return len(devices) > 1 and os.environ.get("HARNESS_PROCESS_PER_DEVICE", "1") != "0"
+
+
+def split_groups(
+    episodes: list[EpisodeSpec], shards: int, share: bool = True
+) -> list[list[EpisodeSpec]]:
+    """``episodes`` in ``shards`` lists of whole share groups (every episode of a group in one
+    list), each group to the list with the fewest episodes so far, in the sweep's order."""
+    groups = share_groups(episodes) if share else [[e] for e in episodes]
+    split: list[list[EpisodeSpec]] = [[] for _ in range(shards)]
+    for group in groups:
+        min(split, key=len).extend(group)
+    return split
+
+
+def split_workers(workers: int, sizes: list[int]) -> list[int]:
+    """``workers`` planning processes shared in proportion to the shards' ``sizes``, at least
+    one each (largest remainders get the rest)."""
+    total = sum(sizes) or 1
+    exact = [workers * size / total for size in sizes]
+    counts = [max(1, int(share)) for share in exact]
+    order = sorted(range(len(sizes)), key=lambda k: exact[k] - int(exact[k]), reverse=True)
+    for k in order[: max(0, workers - sum(counts))]:
+        counts[k] += 1
+    return counts
+
+
+def merge_stats(total: RunStats, shard: RunStats) -> None:
+    """Add a shard's ``RunStats`` (and its devices' ``StreamStats``) to ``total``: counts and
+    lists summed; the lanes and streams at once, the larger; device seconds, the longest
+    shard's (the shards run side by side)."""
+    total.finished += shard.finished
+    total.crashed += shard.crashed
+    total.retried += shard.retried
+    total.interrupted = total.interrupted or shard.interrupted
+    total.errors.extend(shard.errors)
+    mine, theirs = total.device, shard.device
+    if theirs is None:
+        return
+    if mine is None:
+        total.device = theirs
+        return
+    from harness.engines.mjwarp.stream_stats import add_timings
+
+    mine.jobs += theirs.jobs
+    mine.streams += theirs.streams
+    mine.lanes = max(mine.lanes, theirs.lanes)
+    mine.concurrent = max(mine.concurrent, theirs.concurrent)
+    mine.device_s = max(mine.device_s, theirs.device_s)
+    for name, count in theirs.by_device.items():
+        mine.by_device[name] = mine.by_device.get(name, 0) + count
+    mine.compile_s.update(theirs.compile_s)
+    mine.errors.extend(theirs.errors)
+    if theirs.timings is not None:
+        if mine.timings is None:
+            mine.timings = theirs.timings
+        else:
+            add_timings(mine.timings, theirs.timings)
+
+
+def shard_main(
+    index: int,
+    device: str,
+    episodes: list[EpisodeSpec],
+    run_dir: str,
+    record: str,
+    workers: int,
+    share: bool,
+    out: Any,
+    stop: Any,
+) -> None:
+    """Shard ``index``: the device pool of ``episodes`` on ``device``; each row, then its
+    stats, to ``out`` with the index. ``stop`` set by the parent ends the pool as Ctrl-C
+    would."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ["HARNESS_WARP_DEVICE"] = device
+    os.environ["HARNESS_PROCESS_PER_DEVICE"] = "0"  # this shard is one device's process
+
+    def stop_when_told() -> None:
+        stop.wait()
+        _thread.interrupt_main()
+
+    threading.Thread(target=stop_when_told, daemon=True).start()
+    from harness.runs.device_pool import DevicePool, run_device_pool
+    from harness.runs.executors import RunStats
+
+    stats = RunStats()
+    try:
+        pool = DevicePool(
+            episodes, Path(run_dir), record, lambda row: out.put((index, row)), stats, workers,
+            share,
+        )  # fmt: skip
+        run_device_pool(pool)
+    except KeyboardInterrupt:
+        stats.interrupted = True
+    out.put((index, stats))
+
+
+class _Shard:
+    def __init__(self, device: str, episodes: list[EpisodeSpec], process: Any) -> None:
+        self.device, self.process = device, process
+        self.left = {e.resolved_id: e for e in episodes}  # episodes without a row yet
+        self.done = False
+
+
+def run_device_shards(
+    episodes: list[EpisodeSpec],
+    run_dir: Path,
+    record: str,
+    on_result: OnResult,
+    workers: int,
+    devices: list[str],
+    share: bool = True,
+) -> RunStats:
+    """Every device's share of ``episodes`` in a shard process of its own (module docstring)."""
+    import multiprocessing as mp
+
+    from harness.runs.executors import RunStats
+
+    context = mp.get_context("spawn")
+    out, stop = context.Queue(), context.Event()
+    split = split_groups(episodes, len(devices), share)
+    counts = split_workers(workers, [len(part) for part in split])
+    shards: list[_Shard] = []
+    for device, part, count in zip(devices, split, counts, strict=True):
+        if not part:
+            continue
+        process = context.Process(
+            target=shard_main,
+            args=(len(shards), device, part, str(run_dir), record, count, share, out, stop),
+            daemon=False,  # a shard starts pool workers of its own
+        )
+        start_worker(process)
+        shards.append(_Shard(device, part, process))
+    stats = RunStats()
+    start = time.perf_counter()
+    try:
+        _collect(shards, out, on_result, stats, deadline=None)
+    except KeyboardInterrupt:
+        stats.interrupted = True
+        stop.set()
+        _collect(shards, out, on_result, stats, deadline=time.monotonic() + STOP_GRACE_S)
+    finally:
+        for shard in shards:
+            shard.process.join(timeout=5)
+            if shard.process.is_alive():
+                shard.process.kill()
+    stats.wall_time_s = time.perf_counter() - start
+    return stats
+
+
+def _collect(
+    shards: list[_Shard], out: Any, on_result: OnResult, stats: RunStats, deadline: float | None
+) -> None:
+    """Rows to ``on_result`` and stats into ``stats`` until every shard is done, has died (its
+    episodes without a row become ``error`` rows) or ``deadline`` passed (the shards still
+    running are terminated; the rows they had sent are kept)."""
+    while any(not shard.done for shard in shards):
+        overdue = deadline is not None and time.monotonic() > deadline
+        try:
+            index, payload = out.get_nowait() if overdue else out.get(timeout=1.0)
+        except queue.Empty:
+            if overdue:
+                for shard in shards:
+                    if not shard.done:
+                        shard.process.terminate()
+                        shard.done = True
+                return
+            for shard in shards:
+                if not shard.done and shard.process.exitcode is not None:
+                    _lost(shard, on_result, stats)
+            continue
+        shard = shards[index]
+        if isinstance(payload, dict):  # a row
+            shard.left.pop(str(payload.get("episode_id")), None)
+            on_result(payload)
+        else:  # the shard's RunStats: it ended
+            shard.done = True
+            merge_stats(stats, payload)
+
+
+def _lost(shard: _Shard, on_result: OnResult, stats: RunStats) -> None:
+    """A shard that died without its stats: an ``error`` row for each episode it left."""
+    from harness.runs.worker import error_row
+
+    shard.done = True
+    code = shard.process.exitcode
+    for episode in shard.left.values():
+        on_result(
+            error_row(episode, f"the device process of {shard.device} died (exit code {code})")
+        )
+        stats.finished += 1
+        stats.crashed += 1
+    stats.errors.append(f"{shard.device}: the device process died (exit code {code})")
+    shard.left.clear()
