@@ -41,7 +41,7 @@ from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
 if TYPE_CHECKING:
     from harness.engines.mjwarp.service import DeviceReply, DeviceService
     from harness.episode.spec import EpisodeSpec
-    from harness.runs.executors import OnResult, RunStats
+    from harness.runs.run_stats import OnResult, RunStats
 
 # The most episodes a worker holds at once (one planning, the others waiting for the device).
 # Chosen, no public source: the lanes need about two jobs in flight per lane to stay full

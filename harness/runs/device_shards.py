@@ -32,7 +32,7 @@ from harness.runs.spawning import start_worker
 
 if TYPE_CHECKING:
     from harness.episode.spec import EpisodeSpec
-    from harness.runs.executors import OnResult, RunStats
+    from harness.runs.run_stats import OnResult, RunStats
 
 # How long a stopped shard gets to send what it finished before it is terminated (its pool
 # stops its workers in seconds; chosen, no public source).
@@ -137,7 +137,7 @@ def shard_main(
 
     threading.Thread(target=stop_when_told, daemon=True).start()
     from harness.runs.device_pool import DevicePool, run_device_pool
-    from harness.runs.executors import RunStats
+    from harness.runs.run_stats import RunStats
 
     stats = RunStats()
     try:
@@ -170,7 +170,7 @@ def run_device_shards(
     """Every device's share of ``episodes`` in a shard process of its own (module docstring)."""
     import multiprocessing as mp
 
-    from harness.runs.executors import RunStats
+    from harness.runs.run_stats import RunStats
 
     context = mp.get_context("spawn")
     out, stop = context.Queue(), context.Event()

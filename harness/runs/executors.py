@@ -14,33 +14,20 @@ import multiprocessing as mp
 import os
 import signal
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from harness.config import ConfigError
+from harness.runs.run_stats import OnResult, RunStats
 from harness.runs.scheduling import share_groups, shared_order
 from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
 from harness.runs.worker import error_row, execute
 
 if TYPE_CHECKING:
     from harness.episode.spec import EpisodeSpec
-
-
-OnResult = Callable[[dict[str, Any]], None]
-
-
-@dataclass
-class RunStats:
-    finished: int = 0
-    crashed: int = 0  # episodes whose worker died on every attempt (stored as ``error`` rows)
-    retried: int = 0  # worker deaths whose episode was run again
-    interrupted: bool = False
-    wall_time_s: float = 0.0
-    errors: list[str] = field(default_factory=list)
-    device: Any = None  # StreamStats of the shared devices (mjwarp on the process pool)
 
 
 def run_serial(
