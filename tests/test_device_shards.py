@@ -164,6 +164,6 @@ def test_two_device_processes_give_the_rows_of_one(
     for row in two:
         twin = by_seed[row["seed"]]
         assert row["failure_reason"] != "timeout"
-        for column in ("success", "valid", "failure_reason", "lift_height_m", "candidate_id"):
+        for column in ("success", "valid", "failure_reason", "lift_height_m", "chosen_index"):
             assert row[column] == twin[column] or row[column] != row[column], column
     assert dataclasses.asdict(stats)["interrupted"] is False
