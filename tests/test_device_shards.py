@@ -136,6 +136,91 @@ def test_a_stop_keeps_the_rows_sent_and_ends_a_shard_that_overstays() -> None:
     assert stats.interrupted and not shard.process.terminated
 
 
+def _answer_every_job(engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+    """A stand-in lane stream: every job it takes is answered at once with a stub outcome."""
+    from harness.pick.outcome import PickOutcome
+
+    while (items := source(True)) is not None:
+        for tag, _ in items:
+            on_outcome(tag, PickOutcome(failure_reason="lift_below_threshold", control_steps=1))
+
+
+@pytest.fixture
+def stub_device(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``DeviceService`` on the stand-in stream; the shard's signal handlers put back after."""
+    import signal
+
+    from harness.engines.mjwarp import service
+
+    original = service.DeviceService.__init__
+
+    def with_stub(self: Any, devices: Any = None, **streams: Any) -> None:
+        original(self, ["stub"], lanes=4, make_engine=lambda d: d, run_stream=_answer_every_job)
+
+    monkeypatch.setattr(service.DeviceService, "__init__", with_stub)
+    monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu")  # the shard sets its own; put back after
+    monkeypatch.setenv("HARNESS_PROCESS_PER_DEVICE", "1")
+    handlers = {n: signal.getsignal(n) for n in (signal.SIGINT, signal.SIGUSR1)}
+    yield
+    for number, handler in handlers.items():
+        signal.signal(number, handler)
+
+
+def test_a_shard_sends_each_row_then_its_stats(tmp_path: Path, stub_device: None) -> None:
+    """A shard's pool (in this process, on the stand-in device): every episode's row, each
+    tagged with the shard's index, then its ``RunStats``."""
+    import threading
+
+    from harness.runs.device_shards import shard_main
+
+    episodes = _fr3_cones(1)
+    out: queue.Queue[Any] = queue.Queue()
+    shard_main(1, "cuda:1", episodes, str(tmp_path), "none", 1, True, out, threading.Event())
+    messages = [out.get_nowait() for _ in range(out.qsize())]
+    assert {index for index, _ in messages} == {1}
+    rows, stats = [m for _, m in messages[:-1]], messages[-1][1]
+    assert sorted(r["episode_id"] for r in rows) == sorted(e.resolved_id for e in episodes)
+    assert isinstance(stats, RunStats) and stats.finished == 3 and not stats.interrupted
+    assert stats.device.jobs >= 1 and all(r["engine"] == "mjwarp" for r in rows)
+
+
+class _StopOnFirstRow(queue.Queue):
+    """The shard's queue to the parent; the parent's stop is set when the first row comes."""
+
+    def __init__(self, stop: Any) -> None:
+        super().__init__()
+        self.stop = stop
+
+    def put(self, item: Any, block: bool = True, timeout: float | None = None) -> None:
+        super().put(item, block, timeout)
+        self.stop.set()
+
+
+def test_a_stopped_shard_ends_its_pool_and_says_so(tmp_path: Path, stub_device: None) -> None:
+    """The parent's stop (after Ctrl-C), set here once the shard's first row came: the pool
+    ends as Ctrl-C would end it, its stats say interrupted, and it sent a row only for the
+    episodes it finished. A stop before the pool starts runs nothing."""
+    import threading
+
+    from harness.runs.device_shards import shard_main
+
+    episodes = _fr3_cones(4)
+    stop = threading.Event()
+    out = _StopOnFirstRow(stop)
+    shard_main(0, "cuda:0", episodes, str(tmp_path), "none", 1, True, out, stop)
+    messages = [out.get_nowait() for _ in range(out.qsize())]
+    stats = messages[-1][1]
+    assert isinstance(stats, RunStats) and stats.interrupted
+    assert 1 <= len(messages) - 1 == stats.finished < len(episodes)
+    early: queue.Queue[Any] = queue.Queue()
+    stopped = threading.Event()
+    stopped.set()
+    shard_main(0, "cuda:0", episodes, str(tmp_path / "early"), "none", 1, True, early, stopped)
+    assert early.qsize() == 1
+    index, stats = early.get_nowait()
+    assert index == 0 and stats.interrupted and stats.finished == 0
+
+
 @pytest.mark.slow
 @pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")

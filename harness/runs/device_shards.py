@@ -37,6 +37,9 @@ if TYPE_CHECKING:
 # How long a stopped shard gets to send what it finished before it is terminated (its pool
 # stops its workers in seconds; chosen, no public source).
 STOP_GRACE_S = 60.0
+# The signal a shard's stop thread raises in its main thread (SIGINT is ignored there: a
+# Ctrl-C during its start-up would kill it mid-import).
+STOP_SIGNAL = signal.SIGUSR1
 
 
 def warp_devices() -> list[str]:
@@ -127,27 +130,40 @@ def shard_main(
     """Shard ``index``: the device pool of ``episodes`` on ``device``; each row, then its
     stats, to ``out`` with the index. ``stop`` set by the parent ends the pool as Ctrl-C
     would."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's; it sets ``stop``
+    state = {"running": False, "stopped": False}
+
+    def interrupt(signum: int, frame: Any) -> None:
+        """The stop, in the main thread: Ctrl-C's KeyboardInterrupt while the pool runs."""
+        state["stopped"] = True
+        if state["running"]:
+            raise KeyboardInterrupt
+
+    signal.signal(STOP_SIGNAL, interrupt)
     os.environ["HARNESS_WARP_DEVICE"] = device
     os.environ["HARNESS_PROCESS_PER_DEVICE"] = "0"  # this shard is one device's process
 
     def stop_when_told() -> None:
         stop.wait()
-        _thread.interrupt_main()
+        _thread.interrupt_main(STOP_SIGNAL)
 
     threading.Thread(target=stop_when_told, daemon=True).start()
     from harness.runs.device_pool import DevicePool, run_device_pool
     from harness.runs.run_stats import RunStats
 
     stats = RunStats()
+    pool = DevicePool(
+        episodes, Path(run_dir), record, lambda row: out.put((index, row)), stats, workers, share
+    )
+    state["running"] = True
     try:
-        pool = DevicePool(
-            episodes, Path(run_dir), record, lambda row: out.put((index, row)), stats, workers,
-            share,
-        )  # fmt: skip
-        run_device_pool(pool)
-    except KeyboardInterrupt:
-        stats.interrupted = True
+        if state["stopped"]:  # stopped while the pool was built: nothing started
+            stats.interrupted = True
+            pool.shutdown()
+        else:
+            run_device_pool(pool)  # a KeyboardInterrupt ends it as Ctrl-C does
+    finally:
+        state["running"] = False
     out.put((index, stats))
 
 
@@ -223,7 +239,7 @@ def _collect(
                 return
             for shard in shards:
                 if not shard.done and shard.process.exitcode is not None:
-                    _lost(shard, on_result, stats)
+                    _lost(shard, on_result, stats, stopping=deadline is not None)
             continue
         shard = shards[index]
         if isinstance(payload, dict):  # a row
@@ -234,12 +250,15 @@ def _collect(
             merge_stats(stats, payload)
 
 
-def _lost(shard: _Shard, on_result: OnResult, stats: RunStats) -> None:
-    """A shard that died without its stats: an ``error`` row for each episode it left."""
+def _lost(shard: _Shard, on_result: OnResult, stats: RunStats, stopping: bool) -> None:
+    """A shard that died without its stats: an ``error`` row for each episode it left, unless
+    the run is stopping (they stay unfinished, for the same command to continue)."""
     from harness.runs.worker import error_row
 
     shard.done = True
     code = shard.process.exitcode
+    if stopping:
+        return
     for episode in shard.left.values():
         on_result(
             error_row(episode, f"the device process of {shard.device} died (exit code {code})")
