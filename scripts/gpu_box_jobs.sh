@@ -119,18 +119,18 @@ for job in "$@"; do
         '  pick.approach_filter: [[downward, 120], [downward, 140], [downward, 160]]' \
         '  object.mesh: [cube]' 'episodes_per_point: 1000' 'seed: 0' 'record: none' \
         > /tmp/fr3_cube_cones.yaml; cat /tmp/fr3_cube_cones.yaml ;;
-    fr3_big_yaml)  # the same cones x 20,000 seeds (60,000 rows): a throughput sweep for two GPUs
-      sed 's/episodes_per_point: 1000/episodes_per_point: 20000/; s/fr3_cube_cones/fr3_big/' \
+    fr3_big_yaml)  # the same cones x 15,000 seeds (45,000 rows): a throughput sweep for two GPUs
+      sed 's/episodes_per_point: 1000/episodes_per_point: 15000/; s/fr3_cube_cones/fr3_big/' \
         /tmp/fr3_cube_cones.yaml > /tmp/fr3_big.yaml; cat /tmp/fr3_big.yaml ;;
     fr3_big_all)  # every GPU, a process per GPU (the default with several devices)
-      timeout 540 python3 -m harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp \
+      timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all" --no-progress --record none ;;
     fr3_big_oneproc)  # every GPU from one process (HARNESS_PROCESS_PER_DEVICE=0, as before)
-      HARNESS_PROCESS_PER_DEVICE=0 timeout 540 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
+      HARNESS_PROCESS_PER_DEVICE=0 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_oneproc" \
         --no-progress --record none ;;
     fr3_big_one)  # the first GPU alone, planning on the same cores
-      HARNESS_WARP_DEVICE=cuda:0 timeout 540 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
+      HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_one" --no-progress \
         --record none ;;
     compile_fr3)  # the sweep's kernels into Warp's cache, one progress line per model
