@@ -47,12 +47,21 @@ if TYPE_CHECKING:
 # Chosen, no public source: the lanes need about two jobs in flight per lane to stay full
 # (``depth_for``); past this a worker's threads cost more memory than they feed.
 MAX_DEPTH = 1024
+# The most episode threads of a pool's workers together. On a box of two H200s (2026-11-28), a
+# device process per GPU with 15 workers of 1,024 threads each (8,192 lanes, two jobs per lane)
+# failed to start threads ("RuntimeError: can't start new thread", about 30,000 threads on the
+# box) while 2,048 lanes (273 threads a worker, ~8,200 on the box) ran. Chosen from that: a
+# pool of 8,192 lanes keeps one job per lane in flight, not two.
+MAX_POOL_THREADS = 8192
 
 
 def depth_for(lanes: int, devices: int, workers: int) -> int:
     """Episodes per worker so that the workers together keep every device's lanes fed (two
-    jobs per lane: one stepping, one planned or judged), at least 2."""
-    return max(2, min(MAX_DEPTH, math.ceil(2 * lanes * devices / max(1, workers))))
+    jobs per lane: one stepping, one planned or judged), at least 2, with at most
+    ``MAX_POOL_THREADS`` threads over all the workers."""
+    workers = max(1, workers)
+    wanted = math.ceil(2 * lanes * devices / workers)
+    return max(2, min(MAX_DEPTH, MAX_POOL_THREADS // workers, wanted))
 
 
 @dataclass
