@@ -452,3 +452,39 @@ def test_report_of_a_sweep_whose_only_axis_is_the_object_mesh(
     markdown = paths.report_md.read_text(encoding="utf-8")
     assert "| fr3 | left | banana | default |" in markdown
     assert "| fr3 | left | cube | default |" in markdown
+
+
+@pytest.mark.parametrize(("rows", "labelled"), [(20, True), (50, False)])
+def test_a_large_success_heatmap_is_colour_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, rows: int, labelled: bool
+) -> None:
+    """A robot's heatmap of 20 x 10 cells carries each cell's counts as text; one of 50 x 10
+    (over ``MAX_LABELLED_CELLS``) is colour only (a tune's refine pass drew 4,000 unreadable
+    texts into an 8 MB PNG) and says where the counts are."""
+    from matplotlib.axes import Axes
+
+    from harness.report import plots
+
+    texts: list[str] = []
+    original = Axes.text
+
+    def counted(self: Axes, x: float, y: float, s: str, *args: object, **kwargs: object) -> object:
+        texts.append(s)
+        return original(self, x, y, s, *args, **kwargs)
+
+    monkeypatch.setattr(Axes, "text", counted)
+    records = [
+        {
+            **{"robot": "fr3", "arm": "left", "object": "cube", "point_id": i * 10 + j},
+            **{"param.pick.filter_z_dir": float(90 + j), "param.pick.filter_x_dir": float(i)},
+            **{"n": 10, "successes": (i + j) % 11, "n_judged": 10, "valid": (i * j) % 11},
+            "fallback": 0,
+        }
+        for i in range(rows)
+        for j in range(10)
+    ]
+    summary = pd.DataFrame(records)
+    path = plots.plot_success(summary, tmp_path / "success.png", "valid")
+    assert path.is_file()
+    cells = [t for t in texts if t.startswith("valid ")]
+    assert len(cells) == (rows * 10 if labelled else 0)

@@ -112,6 +112,13 @@ def _row_label(row: pd.Series, y_axis: str | None) -> str:
     return label + (f" · {format_value(row[y_axis])}" if y_axis else "")
 
 
+# The most cells of one robot's heatmap that carry their counts as text. Chosen, no public
+# source: a tune's refine pass (4,000 points) drew ~4,000 texts into a 10,347 x 5,611 px PNG
+# (8 MB) that took 20 s to render on 2 cores and could not be read at any zoom; past this the
+# cells are colour only and the counts stay in summary.csv and the page's tables.
+MAX_LABELLED_CELLS = 400
+
+
 def _success_heatmap(
     summary: pd.DataFrame, x_axis: str, y_axis: str | None, path: Path, objective: str
 ) -> Path:
@@ -121,7 +128,12 @@ def _success_heatmap(
     row_counts = [len(pooled(frame_of(summary[summary["robot"] == r]), by[:-1])) for r in robots]
     cell_width = max(1.0, max(len(format_value(v)) for v in x_values) * 0.09)
     width = 2.6 + cell_width * len(x_values)
-    fig, axes = _grid(len(robots), max(width, 4.0), 1.3 + 0.62 * max(row_counts))
+    labelled = max(row_counts) * len(x_values) <= MAX_LABELLED_CELLS
+    if not labelled:  # colour only: small cells
+        cell_width = min(cell_width, 0.25)
+        width = 2.6 + cell_width * len(x_values)
+    row_height = 0.62 if labelled else 0.12
+    fig, axes = _grid(len(robots), max(width, 4.0), 1.3 + row_height * max(row_counts))
     for ax, robot in zip(axes, robots, strict=True):
         cells = pooled(frame_of(summary[summary["robot"] == robot]), by)
         rows = pooled(frame_of(summary[summary["robot"] == robot]), by[:-1])
@@ -143,24 +155,28 @@ def _success_heatmap(
             texts[(i, j)] = text + (" *" if values.get("fallback", 0) else "")
         ax.imshow(np.ma.masked_invalid(rate), cmap=RATE_CMAP, vmin=0.0, vmax=1.0, aspect="auto")
         ax.set_facecolor("#eaeef2")
-        for (i, j), text in texts.items():
+        for (i, j), text in texts.items() if labelled else ():
             value = rate[i, j]
             dark = not np.isnan(value) and (value < 0.25 or value > 0.8)
             # Inside the axes (clipped to it): left out of the layout, which would measure
             # every cell's text for nothing.
             ax.text(j, i, text, ha="center", va="center", fontsize=7.5,
                     color="white" if dark else "#1f2328", in_layout=False)  # fmt: skip
-        ax.set_xticks(range(len(x_values)), [format_value(v) for v in x_values], fontsize=8)
-        ax.set_yticks(range(len(labels)), labels, fontsize=8)
+        ax.set_xticks(
+            range(len(x_values)), [format_value(v) for v in x_values], fontsize=8 if labelled else 5
+        )
+        ax.set_yticks(range(len(labels)), labels, fontsize=8 if labelled else 5)
         ax.set_xlabel(x_axis.split(".")[-1], fontsize=9)
         ax.set_title(robot, fontsize=11, fontweight="bold")
-        plt.setp(ax.get_xticklabels(), rotation=30 if cell_width > 1.0 else 0, ha="right")
+        turn = 30 if cell_width > 1.0 else 0
+        plt.setp(ax.get_xticklabels(), rotation=turn if labelled else 90, ha="right")
     cells = "valid, reference" if objective == "valid" else "reference, valid"
-    fig.suptitle(
-        f"{objective.capitalize()} rate per robot, arm and object (cells: {cells} successes/"
-        "episodes; * reference fallback ran)",
-        fontsize=10,
+    legend = (
+        f"cells: {cells} successes/episodes; * reference fallback ran"
+        if labelled
+        else f"colour only: over {MAX_LABELLED_CELLS} cells a robot; counts in summary.csv"
     )
+    fig.suptitle(f"{objective.capitalize()} rate per robot, arm and object ({legend})", fontsize=10)
     mappable = ScalarMappable(cmap=RATE_CMAP, norm=Normalize(0, 1))
     fig.colorbar(mappable, ax=axes, shrink=0.8, label=f"{objective} rate", format="{x:.0%}")
     return _save(fig, path)
