@@ -175,7 +175,7 @@ def test_a_shard_sends_each_row_then_its_stats(tmp_path: Path, stub_device: None
 
     episodes = _fr3_cones(1)
     out: queue.Queue[Any] = queue.Queue()
-    shard_main(1, "cuda:1", episodes, str(tmp_path), "none", 1, True, out, threading.Event())
+    shard_main(1, "cuda:1", episodes, str(tmp_path), "none", 1, True, out, threading.Event(), 64)
     messages = [out.get_nowait() for _ in range(out.qsize())]
     assert {index for index, _ in messages} == {1}
     rows, stats = [m for _, m in messages[:-1]], messages[-1][1]
@@ -207,7 +207,7 @@ def test_a_stopped_shard_ends_its_pool_and_says_so(tmp_path: Path, stub_device: 
     episodes = _fr3_cones(4)
     stop = threading.Event()
     out = _StopOnFirstRow(stop)
-    shard_main(0, "cuda:0", episodes, str(tmp_path), "none", 1, True, out, stop)
+    shard_main(0, "cuda:0", episodes, str(tmp_path), "none", 1, True, out, stop, 64)
     messages = [out.get_nowait() for _ in range(out.qsize())]
     stats = messages[-1][1]
     assert isinstance(stats, RunStats) and stats.interrupted
@@ -215,7 +215,7 @@ def test_a_stopped_shard_ends_its_pool_and_says_so(tmp_path: Path, stub_device: 
     early: queue.Queue[Any] = queue.Queue()
     stopped = threading.Event()
     stopped.set()
-    shard_main(0, "cuda:0", episodes, str(tmp_path / "early"), "none", 1, True, early, stopped)
+    shard_main(0, "cuda:0", episodes, str(tmp_path / "early"), "none", 1, True, early, stopped, 64)
     assert early.qsize() == 1
     index, stats = early.get_nowait()
     assert index == 0 and stats.interrupted and stats.finished == 0

@@ -47,21 +47,21 @@ if TYPE_CHECKING:
 # Chosen, no public source: the lanes need about two jobs in flight per lane to stay full
 # (``depth_for``); past this a worker's threads cost more memory than they feed.
 MAX_DEPTH = 1024
-# The most episode threads of a pool's workers together. On a box of two H200s (2026-11-28), a
-# device process per GPU with 15 workers of 1,024 threads each (8,192 lanes, two jobs per lane)
-# failed to start threads ("RuntimeError: can't start new thread", about 30,000 threads on the
-# box) while 2,048 lanes (273 threads a worker, ~8,200 on the box) ran. Chosen from that: a
-# pool of 8,192 lanes keeps one job per lane in flight, not two.
+# The most episode threads of the device pools' workers on one box (``device_shards`` shares
+# them). Two H200s (2026-11-28), a process per GPU of 15 workers x 1,024 threads (8,192 lanes,
+# two jobs a lane): "RuntimeError: can't start new thread" at ~30,000 threads on the box; 2,048
+# lanes a GPU (273 threads a worker, ~8,200 on the box) ran. Chosen from that: a pool of 8,192
+# lanes keeps one job per lane in flight, not two.
 MAX_POOL_THREADS = 8192
 
 
-def depth_for(lanes: int, devices: int, workers: int) -> int:
+def depth_for(lanes: int, devices: int, workers: int, threads: int = MAX_POOL_THREADS) -> int:
     """Episodes per worker so that the workers together keep every device's lanes fed (two
-    jobs per lane: one stepping, one planned or judged), at least 2, with at most
-    ``MAX_POOL_THREADS`` threads over all the workers."""
+    jobs per lane: one stepping, one planned or judged), at least 2, with at most ``threads``
+    episode threads over all the workers."""
     workers = max(1, workers)
     wanted = math.ceil(2 * lanes * devices / workers)
-    return max(2, min(MAX_DEPTH, MAX_POOL_THREADS // workers, wanted))
+    return max(2, min(MAX_DEPTH, threads // workers, wanted))
 
 
 @dataclass
@@ -195,7 +195,10 @@ class DevicePool:
         workers: int,
         share: bool = True,
         service: DeviceService | None = None,
+        threads: int = MAX_POOL_THREADS,
     ) -> None:
+        """``threads``: the most episode threads of this pool's workers (``depth_for``; a
+        device process gets its share of the box's ``MAX_POOL_THREADS``)."""
         import multiprocessing as mp
 
         self.context = mp.get_context("spawn")
@@ -218,7 +221,7 @@ class DevicePool:
         except Exception:  # a task that cannot be read fails as its episode's row
             service.streams.expected = {}
         service.streams.prepare()  # device models load while the workers start
-        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count)
+        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count, threads)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers

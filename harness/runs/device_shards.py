@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from harness.runs.device_pool import MAX_POOL_THREADS
 from harness.runs.scheduling import share_groups
 from harness.runs.spawning import start_worker
 
@@ -126,10 +127,11 @@ def shard_main(
     share: bool,
     out: Any,
     stop: Any,
+    threads: int,
 ) -> None:
-    """Shard ``index``: the device pool of ``episodes`` on ``device``; each row, then its
-    stats, to ``out`` with the index. ``stop`` set by the parent ends the pool as Ctrl-C
-    would."""
+    """Shard ``index``: the device pool of ``episodes`` on ``device`` (its workers with at most
+    ``threads`` episode threads); each row, then its stats, to ``out`` with the index. ``stop``
+    set by the parent ends the pool as Ctrl-C would."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's; it sets ``stop``
     state = {"running": False, "stopped": False}
 
@@ -153,8 +155,9 @@ def shard_main(
 
     stats = RunStats()
     pool = DevicePool(
-        episodes, Path(run_dir), record, lambda row: out.put((index, row)), stats, workers, share
-    )
+        episodes, Path(run_dir), record, lambda row: out.put((index, row)), stats, workers, share,
+        threads=threads,
+    )  # fmt: skip
     state["running"] = True
     try:
         if state["stopped"]:  # stopped while the pool was built: nothing started
@@ -192,6 +195,7 @@ def run_device_shards(
     out, stop = context.Queue(), context.Event()
     split = split_groups(episodes, len(devices), share)
     counts = split_workers(workers, [len(part) for part in split])
+    threads = MAX_POOL_THREADS // len(devices)  # the box's episode threads, per device
     shards: list[_Shard] = []
     for device, part, count in zip(devices, split, counts, strict=True):
         if not part:
@@ -199,6 +203,7 @@ def run_device_shards(
         process = context.Process(
             target=shard_main,
             args=(len(shards), device, part, str(run_dir), record, count, share, out, stop),
+            kwargs={"threads": threads},
             daemon=False,  # a shard starts pool workers of its own
         )
         start_worker(process)
