@@ -133,6 +133,14 @@ for job in "$@"; do
       HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_one" --no-progress \
         --record none ;;
+    fr3_big_all_tug8)  # fr3_big_all with tug rounds of 8 physics steps a CUDA graph
+      HARNESS_TUG_STEPS_PER_GRAPH=8 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all_tug8" \
+        --no-progress --record none ;;
+    demo_gpu_tug8)  # the demo with tug rounds of 8 physics steps a CUDA graph
+      HARNESS_TUG_STEPS_PER_GRAPH=8 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_tug8" \
+        --no-progress --record none ;;
     compile_fr3)  # the sweep's kernels into Warp's cache, one progress line per model
       python3 -m harness.cli compile /tmp/fr3_cube_cones.yaml ;;
     compile_demo)

@@ -104,3 +104,21 @@ def test_a_failed_top_rung_asks_the_next_level_and_the_others_at_it() -> None:
     assert (0, ("+x", 1.0)) in log[1] and (0, ("+x", 0.5)) in log[1]
     assert (stats.rounds, stats.rungs) == (2, 14)
     assert walk(known[0]).result == _full(pattern)
+
+
+def test_a_tug_rounds_graphs_cover_its_steps() -> None:
+    """``graph_plan`` (how ``steps.replay`` cuts a run of steps): after the first (eager)
+    step, graphs of ``per_graph`` steps and one for the rest replay every step once (a tug round
+    of 250 steps at 8 a graph: 31 replays of 8 and one of 1)."""
+    from harness.engines.mjwarp.graph_plan import graph_plan
+
+    assert graph_plan(250, 1) == [(1, 249)]  # the default: a launch per physics step
+    assert graph_plan(250, 8) == [(8, 31), (1, 1)]
+    assert graph_plan(9, 8) == [(8, 1)]
+    assert graph_plan(3, 8) == [(2, 1)]
+    assert graph_plan(1, 8) == []
+    for times in range(1, 60):
+        for per_graph in (1, 3, 8, 64):
+            plan = graph_plan(times, per_graph)
+            assert 1 + sum(calls * launches for calls, launches in plan) == times
+            assert len(plan) <= 2

@@ -170,10 +170,12 @@ class Profiler:
 
         from harness.engines.mjwarp.steps import launch_in_place
 
-        def replay(device: str, fn: Callable[[], None], times: int, launch: Any = None) -> None:
+        def replay(
+            device: str, fn: Callable[[], None], times: int, launch: Any = None, per_graph: int = 1
+        ) -> None:
             launch = launch or launch_in_place
             if fn.__name__ != "control_step" or not wp.get_device(device).is_cuda or times < 2:
-                original(device, fn, times, launch)
+                original(device, fn, times, launch, per_graph=per_graph)
                 return
             fn()
             with wp.ScopedCapture(device=device) as capture:

@@ -39,7 +39,13 @@ from harness.engines.mjwarp.signals import (
 )
 from harness.engines.mjwarp.slot import DeviceSlot
 from harness.engines.mjwarp.steps import LARGE, SMALL, BatchTimings, Buffers
-from harness.engines.mjwarp.tug import DEFAULT_POLICY, RoundPolicy, Rung, run_rounds
+from harness.engines.mjwarp.tug import (
+    DEFAULT_POLICY,
+    RoundPolicy,
+    Rung,
+    run_rounds,
+    steps_per_graph,
+)
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import (
     TUG_DIRECTIONS,
@@ -221,8 +227,9 @@ class WorldBatch:
         rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
         use = steps.BufferUse(nt)
         steps.replay(
-            dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps, self.slot.launch
-        )
+            dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps, self.slot.launch,
+            per_graph=steps_per_graph(),
+        )  # fmt: skip
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)
         # the rungs' penetration is not judged: each rung row measures its own start

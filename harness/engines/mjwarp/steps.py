@@ -15,6 +15,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp.graph_plan import graph_plan
 from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
 
@@ -105,10 +106,10 @@ def launch_in_place(graph: Any, times: int = 1) -> None:
         wp.capture_launch(graph)
 
 
-def replay(device: str, fn, times: int, launch=launch_in_place) -> None:  # type: ignore[no-untyped-def]
+def replay(device: str, fn, times: int, launch=launch_in_place, per_graph: int = 1) -> None:  # type: ignore[no-untyped-def]
     """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
-    one captured CUDA graph with ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on
-    the CPU device: eagerly)."""
+    captured CUDA graphs of ``per_graph`` calls each (``graph_plan``) with
+    ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on the CPU device: eagerly)."""
     if times <= 0:
         return
     fn()
@@ -118,11 +119,13 @@ def replay(device: str, fn, times: int, launch=launch_in_place) -> None:  # type
         for _ in range(times - 1):
             fn()
         return
-    with wp.ScopedCapture(device=device) as capture:
-        fn()
-    graph = capture.graph
-    assert graph is not None
-    launch(graph, times - 1)
+    for calls, launches in graph_plan(times, per_graph):
+        with wp.ScopedCapture(device=device) as capture:
+            for _ in range(calls):
+                fn()
+        graph = capture.graph
+        assert graph is not None
+        launch(graph, launches)
 
 
 def world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:

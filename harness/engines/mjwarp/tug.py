@@ -25,6 +25,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 
+from harness.engines.mjwarp.lane_sizes import env_int
 from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug_ladder
 
 # A tug rung: (direction name, level in g).
@@ -50,6 +51,15 @@ class RoundPolicy(Enum):
 # (docs/engines.md: on a device a round of a few worlds costs about what one of a thousand
 # does, so rounds cost more than the rungs they save).
 DEFAULT_POLICY = RoundPolicy.PATH_LOWER_ALL
+
+
+def steps_per_graph() -> int:
+    """Physics steps a tug round captures in one CUDA graph (``HARNESS_TUG_STEPS_PER_GRAPH``;
+    default 1, a graph launch per physics step, as measured so far). A round issues its 0.5 s of
+    steps one launch at a time: on two H200s the tug took 51-55 s of each stream's ~150 s, all
+    of it issuing (docs/engines.md, "The sittings of 2026-11-28"); more steps a graph issue fewer
+    launches for the same kernels. Not yet measured on a GPU, so off."""
+    return env_int("HARNESS_TUG_STEPS_PER_GRAPH") or 1
 
 
 @dataclass(frozen=True)
