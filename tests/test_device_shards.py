@@ -67,12 +67,25 @@ def test_planning_workers_follow_the_shards_sizes() -> None:
     assert sum(split_workers(15, [7, 3, 5])) == 15
 
 
-def test_one_process_for_one_device_or_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_process_per_device_for_a_large_run_or_when_asked(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Several devices get a process each when each has a stream's worth of episodes (the
+    45,000-row sweep on two H200s: 1.6x one), not for a tune's race round of a few thousand
+    (one process keeps its device models between rounds); ``HARNESS_PROCESS_PER_DEVICE`` 1 or 0
+    decides instead."""
+    from harness.runs.device_shards import SHARD_MIN_EPISODES
+
     monkeypatch.delenv("HARNESS_PROCESS_PER_DEVICE", raising=False)
-    assert not process_per_device(["cuda:0"])
-    assert process_per_device(["cuda:0", "cuda:1"])
+    two = ["cuda:0", "cuda:1"]
+    assert not process_per_device(["cuda:0"], 10**6)
+    assert process_per_device(two, 45_000)
+    assert process_per_device(two, 2 * SHARD_MIN_EPISODES)
+    assert not process_per_device(two, 7_012)  # the canonical tune's first race round
+    monkeypatch.setenv("HARNESS_PROCESS_PER_DEVICE", "1")
+    assert process_per_device(two, 3) and not process_per_device(["cuda:0"], 10**6)
     monkeypatch.setenv("HARNESS_PROCESS_PER_DEVICE", "0")
-    assert not process_per_device(["cuda:0", "cuda:1"])
+    assert not process_per_device(two, 45_000)
 
 
 def test_the_shards_stats_add_up() -> None:
@@ -227,7 +240,7 @@ def test_a_stopped_shard_ends_its_pool_and_says_so(tmp_path: Path, stub_device: 
 def test_two_device_processes_give_the_rows_of_one(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """FR3 seeds 0-2 on two Warp CPU devices (``HARNESS_WARP_DEVICE=cpu,cpu``: a process each,
+    """FR3 seeds 0-2 on two Warp CPU devices (``HARNESS_WARP_DEVICE=cpu,cpu``, a process each:
     groups 2 + 1, one planning worker each) and on one: the same rows, field for field, with
     the device stats summed over both processes."""
     from harness.runs.executors import run_process_pool
@@ -237,6 +250,7 @@ def test_two_device_processes_give_the_rows_of_one(
     episodes = [EpisodeSpec(task=task, seed=s, episode_index=s, engine="mjwarp") for s in range(3)]
     monkeypatch.setenv("HARNESS_LANES", "2")
     monkeypatch.setenv("HARNESS_WARP_DEVICE", "cpu,cpu")
+    monkeypatch.setenv("HARNESS_PROCESS_PER_DEVICE", "1")  # three episodes: a process each
     two: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path / "two", "none", two.append, workers=2)
     assert stats.finished == 3 and not stats.device.errors and stats.device.jobs == 3

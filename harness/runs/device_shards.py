@@ -13,7 +13,8 @@ Ctrl-C reaches only this process (the shards start with SIGINT blocked, as pool 
 tells every shard to stop, each stops its pool as Ctrl-C would and sends what it finished, so
 nothing finished is lost. A shard that dies leaves an ``error`` row, naming its device, for
 each of its episodes without a row. ``HARNESS_PROCESS_PER_DEVICE=0`` keeps one process for all
-devices (the behaviour before).
+devices (the behaviour before), ``1`` a process per device whatever the run's size; unset, a
+run gets a process per device when each device has ``SHARD_MIN_EPISODES`` of its episodes.
 """
 
 from __future__ import annotations
@@ -38,6 +39,12 @@ if TYPE_CHECKING:
 # How long a stopped shard gets to send what it finished before it is terminated (its pool
 # stops its workers in seconds; chosen, no public source).
 STOP_GRACE_S = 60.0
+# The fewest episodes per device for a process each. A smaller run is latency-bound on one
+# device (issue 34's 3,000-row FR3 sweep: 53.9 s on one H200, 58.0 s on two from one process)
+# and a process per device would load every device model again for each run, where one process
+# keeps them between a tune's rounds (``devices._ENGINES``). Chosen, no public source: a
+# stream's most lanes (``lane_sizes.CUDA_LANES``) for each device.
+SHARD_MIN_EPISODES = 8192
 # The signal a shard's stop thread raises in its main thread (SIGINT is ignored there: a
 # Ctrl-C during its start-up would kill it mid-import).
 STOP_SIGNAL = signal.SIGUSR1
@@ -55,9 +62,14 @@ def warp_devices() -> list[str]:
         return []
 
 
-def process_per_device(devices: list[str]) -> bool:
-    """Several devices, unless ``HARNESS_PROCESS_PER_DEVICE=0``."""
-    return len(devices) > 1 and os.environ.get("HARNESS_PROCESS_PER_DEVICE", "1") != "0"
+def process_per_device(devices: list[str], episodes: int) -> bool:
+    """A process per device for a run of ``episodes`` on ``devices``: with several devices,
+    when each gets at least ``SHARD_MIN_EPISODES`` (``HARNESS_PROCESS_PER_DEVICE``: ``1``
+    always, ``0`` never)."""
+    chosen = os.environ.get("HARNESS_PROCESS_PER_DEVICE", "").strip()
+    if len(devices) < 2 or chosen == "0":
+        return False
+    return chosen == "1" or episodes >= SHARD_MIN_EPISODES * len(devices)
 
 
 def split_groups(

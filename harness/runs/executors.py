@@ -242,7 +242,7 @@ def run_process_pool(
         from harness.runs.device_shards import process_per_device, run_device_shards, warp_devices
 
         devices = warp_devices()
-        if process_per_device(devices):
+        if process_per_device(devices, len(episodes)):
             return run_device_shards(episodes, run_dir, record, on_result, workers, devices, share)
         stats = RunStats()
         run_device_pool(DevicePool(episodes, run_dir, record, on_result, stats, workers, share))
