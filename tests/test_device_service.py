@@ -355,7 +355,7 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     carries the device's outcome and the engine's name; the job count is the rows executed."""
     stub = _Streams(hold=4)
     _stub_service(monkeypatch, stub)
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 3)
     episodes = _fr3_device_episodes(6)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=2)
@@ -378,7 +378,7 @@ def test_a_share_groups_next_episode_plans_while_the_one_before_is_on_the_device
     its row would hold one job and wait out the stub's patience."""
     stub = _Streams(hold=2, patience_s=20.0)
     _stub_service(monkeypatch, stub)
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 1)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 1)
     episodes = _cone_episodes((100, 140, 160))
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
@@ -423,7 +423,7 @@ def test_a_worker_that_dies_inside_a_pipelined_group_loses_no_episode(
     from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
     _stub_service(monkeypatch, _Streams())
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 1)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 1)
     episodes = _cone_episodes((100, 140, 160))
     monkeypatch.setenv(FAULT_ENV, episodes[1].resolved_id)
     monkeypatch.setenv(FAULT_ONCE_ENV, str(tmp_path))
@@ -506,7 +506,7 @@ def test_a_pool_replays_a_pick_through_the_table_on_the_cpu_engine(
     scene = get_scene(fr3(), {}).scene
     stub = _TableStreams(contact_key(contact_bits(scene.model)))
     _stub_service(monkeypatch, stub)  # type: ignore[arg-type]
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers: 3)
+    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 3)
     episodes = _fr3_device_episodes(3)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)

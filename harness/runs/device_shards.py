@@ -48,6 +48,7 @@ SHARD_MIN_EPISODES = 8192
 # The signal a shard's stop thread raises in its main thread (SIGINT is ignored there: a
 # Ctrl-C during its start-up would kill it mid-import).
 STOP_SIGNAL = signal.SIGUSR1
+STOP_POLL_S = 0.2  # how often a shard's watcher looks at the parent's stop (chosen)
 
 
 def warp_devices() -> list[str]:
@@ -157,11 +158,16 @@ def shard_main(
     os.environ["HARNESS_WARP_DEVICE"] = device
     os.environ["HARNESS_PROCESS_PER_DEVICE"] = "0"  # this shard is one device's process
 
-    def stop_when_told() -> None:
-        stop.wait()
-        _thread.interrupt_main(STOP_SIGNAL)
+    ended = threading.Event()
 
-    threading.Thread(target=stop_when_told, daemon=True).start()
+    def stop_when_told() -> None:
+        while not ended.is_set():
+            if stop.wait(STOP_POLL_S):
+                _thread.interrupt_main(STOP_SIGNAL)
+                return
+
+    watcher = threading.Thread(target=stop_when_told, daemon=True)
+    watcher.start()
     from harness.runs.device_pool import DevicePool, run_device_pool
     from harness.runs.run_stats import RunStats
 
@@ -179,6 +185,8 @@ def shard_main(
             run_device_pool(pool)  # a KeyboardInterrupt ends it as Ctrl-C does
     finally:
         state["running"] = False
+        ended.set()
+    watcher.join()
     out.put((index, stats))
 
 
