@@ -98,36 +98,21 @@ def split_workers(workers: int, sizes: list[int]) -> list[int]:
 
 
 def merge_stats(total: RunStats, shard: RunStats) -> None:
-    """Add a shard's ``RunStats`` (and its devices' ``StreamStats``) to ``total``: counts and
-    lists summed; the lanes and streams at once, the larger; device seconds, the longest
-    shard's (the shards run side by side)."""
+    """Add a shard's ``RunStats`` to ``total``: counts and errors summed, interrupted if any
+    was; its devices' ``StreamStats`` as devices that ran side by side (``add_side_by_side``)."""
     total.finished += shard.finished
     total.crashed += shard.crashed
     total.retried += shard.retried
     total.interrupted = total.interrupted or shard.interrupted
     total.errors.extend(shard.errors)
-    mine, theirs = total.device, shard.device
-    if theirs is None:
+    if shard.device is None:
         return
-    if mine is None:
-        total.device = theirs
+    if total.device is None:
+        total.device = shard.device
         return
-    from harness.engines.mjwarp.stream_stats import add_timings
+    from harness.engines.mjwarp.stream_stats import add_side_by_side
 
-    mine.jobs += theirs.jobs
-    mine.streams += theirs.streams
-    mine.lanes = max(mine.lanes, theirs.lanes)
-    mine.concurrent = max(mine.concurrent, theirs.concurrent)
-    mine.device_s = max(mine.device_s, theirs.device_s)
-    for name, count in theirs.by_device.items():
-        mine.by_device[name] = mine.by_device.get(name, 0) + count
-    mine.compile_s.update(theirs.compile_s)
-    mine.errors.extend(theirs.errors)
-    if theirs.timings is not None:
-        if mine.timings is None:
-            mine.timings = theirs.timings
-        else:
-            add_timings(mine.timings, theirs.timings)
+    add_side_by_side(total.device, shard.device)
 
 
 def shard_main(

@@ -54,3 +54,23 @@ def add_timings(total: Any, more: Any) -> None:
         mine, theirs = getattr(total, item.name), getattr(more, item.name)
         combined = max(mine, theirs) if item.name.startswith("peak_") else mine + theirs
         setattr(total, item.name, combined)
+
+
+def add_side_by_side(total: StreamStats, more: StreamStats) -> None:
+    """Add the stats of devices that ran at the same time as ``total``'s (a process per device):
+    counts, lists and timings summed; lanes and streams at once, the larger; device seconds,
+    the longer (the union of spans is not known across processes)."""
+    total.jobs += more.jobs
+    total.streams += more.streams
+    total.lanes = max(total.lanes, more.lanes)
+    total.concurrent = max(total.concurrent, more.concurrent)
+    total.device_s = max(total.device_s, more.device_s)
+    for name, count in more.by_device.items():
+        total.by_device[name] = total.by_device.get(name, 0) + count
+    total.compile_s.update(more.compile_s)
+    total.errors.extend(more.errors)
+    if more.timings is not None:
+        if total.timings is None:
+            total.timings = more.timings
+        else:
+            add_timings(total.timings, more.timings)
