@@ -29,7 +29,7 @@ for job in "$@"; do
   echo "$job started $(date -u +%T)" >> "$R/status"
   case "$job" in
     info)
-      { nvidia-smi; nproc; free -g; python3 -c "import numpy, pandas, scipy, mujoco, mujoco_warp, warp; print(numpy.__version__, pandas.__version__, scipy.__version__, mujoco.__version__, mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '', warp.__version__)"; git log --oneline -1; } ;;
+      { nvidia-smi; nproc; free -g; python3 -c "import numpy, pandas, scipy, mujoco, mujoco_warp, warp; print(numpy.__version__, pandas.__version__, scipy.__version__, mujoco.__version__, mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '', warp.__version__)"; git log --oneline -1; cat /proc/sys/kernel/pid_max /proc/sys/kernel/threads-max /sys/fs/cgroup/pids.max; ulimit -u; } ;;
     agree)  # five arms x cube, banana x 32 seeds on both engines
       python3 -m harness.benchmarks.engines 32 "$R/agree" ;;
     sweep_cpu)
@@ -137,6 +137,14 @@ for job in "$@"; do
       HARNESS_TUG_STEPS_PER_GRAPH=8 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all_tug8" \
         --no-progress --record none ;;
+    demo_gpu_streams16)  # the demo with every task model's stream at once (16 slots for 10 keys)
+      HARNESS_STREAMS_PER_DEVICE=16 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_streams16" \
+        --no-progress --record none ;;
+    fr3_big_one_tug8)  # fr3_big_one with tug rounds of 8 physics steps a CUDA graph
+      HARNESS_TUG_STEPS_PER_GRAPH=8 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m \
+        harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/fr3_big_one_tug8" --no-progress --record none ;;
     demo_gpu_tug8)  # the demo with tug rounds of 8 physics steps a CUDA graph
       HARNESS_TUG_STEPS_PER_GRAPH=8 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_tug8" \

@@ -314,13 +314,14 @@ def test_the_baton_lets_one_thread_plan_while_another_waits_for_its_reply() -> N
 
 
 def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
-    assert device_pool.depth_for(2048, 1, 31) == 133  # ceil(2 * 2048 / 31)
-    assert device_pool.depth_for(8192, 1, 31) == 264  # 8,192 threads over 31 workers at most
-    assert device_pool.depth_for(2048, 1, 15, threads=4096) == 273  # a GPU's share of two
-    assert device_pool.depth_for(4, 1, 2) == 4
-    assert device_pool.depth_for(1, 1, 32) == 2  # at least one planning and one waiting
-    assert device_pool.depth_for(10**6, 1, 1) == device_pool.MAX_DEPTH
-    assert device_pool.depth_for(10**6, 1, 10**5) == 2  # a planning and a waiting one at least
+    box = 16384  # half of Linux's default pid_max (harness.runs.thread_budget)
+    assert device_pool.depth_for(2048, 1, 31, box) == 133  # ceil(2 * 2048 / 31)
+    assert device_pool.depth_for(8192, 1, 31, threads=8192) == 264  # 8,192 threads over 31
+    assert device_pool.depth_for(8192, 1, 15, threads=box // 2) == 546  # a GPU's share of two
+    assert device_pool.depth_for(4, 1, 2, box) == 4
+    assert device_pool.depth_for(1, 1, 32, box) == 2  # at least one planning and one waiting
+    assert device_pool.depth_for(10**6, 1, 1, box) == device_pool.MAX_DEPTH
+    assert device_pool.depth_for(10**6, 1, 10**5, box) == 2  # a planning and a waiting one
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:

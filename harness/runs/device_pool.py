@@ -27,6 +27,7 @@ import functools
 import math
 import os
 import signal
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -37,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 from harness.runs.scheduling import share_groups
 from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
+from harness.runs.thread_budget import box_episode_threads
 
 if TYPE_CHECKING:
     from harness.engines.mjwarp.service import DeviceReply, DeviceService
@@ -47,19 +49,14 @@ if TYPE_CHECKING:
 # Chosen, no public source: the lanes need about two jobs in flight per lane to stay full
 # (``depth_for``); past this a worker's threads cost more memory than they feed.
 MAX_DEPTH = 1024
-# The most episode threads of the device pools' workers on one box (``device_shards`` shares
-# them). Two H200s (2026-11-28), a process per GPU of 15 workers x 1,024 threads (8,192 lanes,
-# two jobs a lane): "RuntimeError: can't start new thread" at ~30,000 threads on the box; 2,048
-# lanes a GPU (273 threads a worker, ~8,200 on the box) ran. Chosen from that: a pool of 8,192
-# lanes keeps one job per lane in flight, not two.
-MAX_POOL_THREADS = 8192
 
 
-def depth_for(lanes: int, devices: int, workers: int, threads: int = MAX_POOL_THREADS) -> int:
+def depth_for(lanes: int, devices: int, workers: int, threads: int | None = None) -> int:
     """Episodes per worker so that the workers together keep every device's lanes fed (two
     jobs per lane: one stepping, one planned or judged), at least 2, with at most ``threads``
-    episode threads over all the workers."""
+    episode threads over all the workers (default: the box's, ``box_episode_threads``)."""
     workers = max(1, workers)
+    threads = box_episode_threads() if threads is None else threads
     wanted = math.ceil(2 * lanes * devices / workers)
     return max(2, min(MAX_DEPTH, threads // workers, wanted))
 
@@ -195,10 +192,10 @@ class DevicePool:
         workers: int,
         share: bool = True,
         service: DeviceService | None = None,
-        threads: int = MAX_POOL_THREADS,
+        threads: int | None = None,
     ) -> None:
         """``threads``: the most episode threads of this pool's workers (``depth_for``; a
-        device process gets its share of the box's ``MAX_POOL_THREADS``)."""
+        device process gets its share of the box's, ``box_episode_threads``)."""
         import multiprocessing as mp
 
         self.context = mp.get_context("spawn")
@@ -221,7 +218,10 @@ class DevicePool:
         except Exception:  # a task that cannot be read fails as its episode's row
             service.streams.expected = {}
         service.streams.prepare()  # device models load while the workers start
+        threads = box_episode_threads() if threads is None else threads
         self.depth = depth_for(service.streams.planned_lanes(), 1, self.count, threads)
+        say = f"{self.count} worker(s) x {self.depth} episodes at once ({threads} threads at most)"
+        print(f"mjwarp: {say}", file=sys.stderr, flush=True)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers

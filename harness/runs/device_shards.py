@@ -28,9 +28,9 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from harness.runs.device_pool import MAX_POOL_THREADS
 from harness.runs.scheduling import share_groups
 from harness.runs.spawning import start_worker
+from harness.runs.thread_budget import box_episode_threads
 
 if TYPE_CHECKING:
     from harness.episode.spec import EpisodeSpec
@@ -200,7 +200,7 @@ def run_device_shards(
     out, stop = context.Queue(), context.Event()
     split = split_groups(episodes, len(devices), share)
     counts = split_workers(workers, [len(part) for part in split])
-    threads = MAX_POOL_THREADS // len(devices)  # the box's episode threads, per device
+    threads = box_episode_threads() // len(devices)  # the box's episode threads, per device
     shards: list[_Shard] = []
     for device, part, count in zip(devices, split, counts, strict=True):
         if not part:

@@ -1,0 +1,61 @@
+"""How many episode threads the device pools of one box may start: the kernel's limits, read.
+
+With ``--engine mjwarp`` every episode in flight holds a thread in its worker (planning, or
+waiting for its outcome), and the lanes need one to two jobs a lane in flight, so a box's
+threads bound the lanes it can feed. Linux counts a thread as a task: each takes a PID below
+``/proc/sys/kernel/pid_max`` and counts against ``/proc/sys/kernel/threads-max``, the cgroup's
+``pids.max`` and ``RLIMIT_NPROC`` (proc(5), setrlimit(2), the kernel's cgroup-v2 pids
+controller). On two H200s (2026-11-28) a box of ~30,000 threads failed with ``can't start new
+thread``, as it would under the default ``pid_max`` of 32,768.
+
+The pools get ``EPISODE_SHARE`` of the least of those limits; the rest is for every other task
+on the box (each process's own threads: the interpreter's, Warp's, BLAS's, the pipes').
+"""
+
+from __future__ import annotations
+
+import resource
+from pathlib import Path
+
+# The part of the box's task limit the episode threads may take. Chosen, no public source: the
+# rest covers the processes' own threads and whatever else runs on the box.
+EPISODE_SHARE = 0.5
+# Where no limit can be read (not Linux): the most threads a box has been seen to start with
+# room to spare (8,200 threads on two H200s, 2026-11-28, docs/engines.md).
+UNKNOWN_LIMIT_THREADS = 8192
+# Fewest episode threads, whatever the limits say (a pool needs a planning and a waiting one a
+# worker; a box that cannot start these fails loudly anyway).
+MIN_THREADS = 64
+
+KERNEL_FILES = (
+    Path("/proc/sys/kernel/pid_max"),
+    Path("/proc/sys/kernel/threads-max"),
+    Path("/sys/fs/cgroup/pids.max"),
+)
+
+
+def read_limit(path: Path) -> int | None:
+    """The integer in ``path`` (``max``, a missing or unreadable file: no limit)."""
+    try:
+        text = path.read_text().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def task_limit(files: tuple[Path, ...] = KERNEL_FILES) -> int | None:
+    """The least of the kernel's limits on this box's tasks (threads), None where none is set."""
+    limits = [limit for path in files if (limit := read_limit(path)) is not None]
+    soft, _ = resource.getrlimit(resource.RLIMIT_NPROC)
+    if soft != resource.RLIM_INFINITY and soft > 0:
+        limits.append(int(soft))
+    return min(limits) if limits else None
+
+
+def box_episode_threads(files: tuple[Path, ...] = KERNEL_FILES) -> int:
+    """The episode threads every device pool of this box may hold together: ``EPISODE_SHARE``
+    of ``task_limit``, else ``UNKNOWN_LIMIT_THREADS``."""
+    limit = task_limit(files)
+    if limit is None:
+        return UNKNOWN_LIMIT_THREADS
+    return max(MIN_THREADS, int(limit * EPISODE_SHARE))
