@@ -24,7 +24,7 @@ from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
-from harness.runs import device_pool
+from harness.runs import device_pool, thread_budget
 from harness.runs.executors import run_process_pool
 from harness.sim.budget import budget_paused, check_deadline, episode_budget
 
@@ -320,8 +320,12 @@ def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
     assert device_pool.depth_for(8192, 1, 15, threads=box // 2) == 546  # a GPU's share of two
     assert device_pool.depth_for(4, 1, 2, box) == 4
     assert device_pool.depth_for(1, 1, 32, box) == 2  # at least one planning and one waiting
-    assert device_pool.depth_for(10**6, 1, 1, box) == device_pool.MAX_DEPTH
+    assert device_pool.depth_for(10**6, 1, 1, box) == thread_budget.MAX_DEPTH
     assert device_pool.depth_for(10**6, 1, 10**5, box) == 2  # a planning and a waiting one
+    # share groups of three cones: a thread per episode, so a third of the groups; two GPUs
+    # of 15 workers each under the default pid_max held 8,192 threads a GPU, not 24,000
+    assert device_pool.depth_for(8192, 1, 15, threads=box // 2, group=3) == 182
+    assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 46  # 2 a lane
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -356,7 +360,9 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     carries the device's outcome and the engine's name; the job count is the rows executed."""
     stub = _Streams(hold=4)
     _stub_service(monkeypatch, stub)
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 3)
+    monkeypatch.setattr(
+        device_pool, "depth_for", lambda lanes, devices, workers, threads=0, group=1: 3
+    )
     episodes = _fr3_device_episodes(6)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=2)
@@ -379,7 +385,9 @@ def test_a_share_groups_next_episode_plans_while_the_one_before_is_on_the_device
     its row would hold one job and wait out the stub's patience."""
     stub = _Streams(hold=2, patience_s=20.0)
     _stub_service(monkeypatch, stub)
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 1)
+    monkeypatch.setattr(
+        device_pool, "depth_for", lambda lanes, devices, workers, threads=0, group=1: 1
+    )
     episodes = _cone_episodes((100, 140, 160))
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)
@@ -424,7 +432,9 @@ def test_a_worker_that_dies_inside_a_pipelined_group_loses_no_episode(
     from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
     _stub_service(monkeypatch, _Streams())
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 1)
+    monkeypatch.setattr(
+        device_pool, "depth_for", lambda lanes, devices, workers, threads=0, group=1: 1
+    )
     episodes = _cone_episodes((100, 140, 160))
     monkeypatch.setenv(FAULT_ENV, episodes[1].resolved_id)
     monkeypatch.setenv(FAULT_ONCE_ENV, str(tmp_path))
@@ -507,7 +517,9 @@ def test_a_pool_replays_a_pick_through_the_table_on_the_cpu_engine(
     scene = get_scene(fr3(), {}).scene
     stub = _TableStreams(contact_key(contact_bits(scene.model)))
     _stub_service(monkeypatch, stub)  # type: ignore[arg-type]
-    monkeypatch.setattr(device_pool, "depth_for", lambda lanes, devices, workers, threads=0: 3)
+    monkeypatch.setattr(
+        device_pool, "depth_for", lambda lanes, devices, workers, threads=0, group=1: 3
+    )
     episodes = _fr3_device_episodes(3)
     rows: list[dict[str, Any]] = []
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=1)

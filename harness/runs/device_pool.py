@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import math
 import os
 import signal
 import sys
@@ -38,27 +37,12 @@ from typing import TYPE_CHECKING, Any
 
 from harness.runs.scheduling import share_groups
 from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
-from harness.runs.thread_budget import box_episode_threads
+from harness.runs.thread_budget import box_episode_threads, depth_for
 
 if TYPE_CHECKING:
     from harness.engines.mjwarp.service import DeviceReply, DeviceService
     from harness.episode.spec import EpisodeSpec
     from harness.runs.run_stats import OnResult, RunStats
-
-# The most episodes a worker holds at once (one planning, the others waiting for the device).
-# Chosen, no public source: the lanes need about two jobs in flight per lane to stay full
-# (``depth_for``); past this a worker's threads cost more memory than they feed.
-MAX_DEPTH = 1024
-
-
-def depth_for(lanes: int, devices: int, workers: int, threads: int | None = None) -> int:
-    """Episodes per worker so that the workers together keep every device's lanes fed (two
-    jobs per lane: one stepping, one planned or judged), at least 2, with at most ``threads``
-    episode threads over all the workers (default: the box's, ``box_episode_threads``)."""
-    workers = max(1, workers)
-    threads = box_episode_threads() if threads is None else threads
-    wanted = math.ceil(2 * lanes * devices / workers)
-    return max(2, min(MAX_DEPTH, threads // workers, wanted))
 
 
 @dataclass
@@ -202,6 +186,7 @@ class DevicePool:
         self.run_dir, self.record, self.share = run_dir, record, share
         self.on_result, self.stats = on_result, stats
         groups = share_groups(episodes) if share else [[e] for e in episodes]
+        group = max((len(g) for g in groups), default=1)  # a thread per episode of a group
         self.pending: Iterator[list[EpisodeSpec]] = iter(groups)
         self.requeued: list[list[EpisodeSpec]] = []  # groups (or their rests) to run again
         self.attempts: dict[str, int] = {}
@@ -219,8 +204,8 @@ class DevicePool:
             service.streams.expected = {}
         service.streams.prepare()  # device models load while the workers start
         threads = box_episode_threads() if threads is None else threads
-        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count, threads)
-        say = f"{self.count} worker(s) x {self.depth} episodes at once ({threads} threads at most)"
+        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count, threads, group)
+        say = f"{self.count} worker(s) x {self.depth} group(s) of up to {group} ({threads} threads)"
         print(f"mjwarp: {say}", file=sys.stderr, flush=True)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 

@@ -10,10 +10,14 @@ thread``, as it would under the default ``pid_max`` of 32,768.
 
 The pools get ``EPISODE_SHARE`` of the least of those limits; the rest is for every other task
 on the box (each process's own threads: the interpreter's, Warp's, BLAS's, the pipes').
+``depth_for`` turns the budget into share groups per worker: a group's episodes each hold a
+thread (three cones of one seed: three threads), which the first cut of this bound missed (two
+H200s, 2026-11-28: 15 workers x 546 groups of three, ``can't start new thread`` again).
 """
 
 from __future__ import annotations
 
+import math
 import resource
 from pathlib import Path
 
@@ -59,3 +63,23 @@ def box_episode_threads(files: tuple[Path, ...] = KERNEL_FILES) -> int:
     if limit is None:
         return UNKNOWN_LIMIT_THREADS
     return max(MIN_THREADS, int(limit * EPISODE_SHARE))
+
+
+# The most share groups a device-pool worker holds at once (one planning, the others waiting
+# for the device). Chosen, no public source: the lanes need about two episodes in flight per
+# lane to stay full (``depth_for``); past this a worker's threads cost more memory than they
+# feed.
+MAX_DEPTH = 1024
+
+
+def depth_for(
+    lanes: int, devices: int, workers: int, threads: int | None = None, group: int = 1
+) -> int:
+    """Share groups per worker (``group`` episodes each, a thread apiece) so that the workers
+    together keep every device's lanes fed (two episodes per lane: one stepping, one planned or
+    judged), at least 2, with at most ``threads`` episode threads over all the workers
+    (default: the box's, ``box_episode_threads``)."""
+    workers, group = max(1, workers), max(1, group)
+    threads = box_episode_threads() if threads is None else threads
+    wanted = math.ceil(2 * lanes * devices / (workers * group))
+    return max(2, min(MAX_DEPTH, threads // (workers * group), wanted))
