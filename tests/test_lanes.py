@@ -142,6 +142,10 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
     assert t.visits == replays if ahead == "0" else t.visits >= replays  # ahead: + the last
     assert 0 < t.launch_s + t.wait_s <= t.physics_s
     assert f"{t.motion_steps // 2:,} physics steps in {t.visits} visits" in stream.summary()
+    assert (
+        len(stream.trace) == t.visits and "by tenths, busy/queued/free slots: " in stream.summary()
+    )
+    assert max(busy for _, busy, _, _ in stream.trace) <= 2  # two lanes
     assert any(o.validity is not None and o.validity.measure.robustness_g > 0 for o in lockstep)
 
 

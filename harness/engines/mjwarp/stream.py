@@ -34,7 +34,7 @@ from harness.engines.mjwarp.lanes import Finished, LaneRun
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
 from harness.engines.mjwarp.slot import DeviceSlot
-from harness.engines.mjwarp.stream_stats import add_timings
+from harness.engines.mjwarp.stream_stats import add_timings, occupancy
 from harness.engines.mjwarp.tug import Rung
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import RungOutcome, validity_enabled
@@ -109,13 +109,15 @@ class LaneStream:
         self._tug_batch: WorldBatch | None = None
         self._tugs: list[tuple[Future[_Tugged], list[int]]] = []  # in flight, with their slots
         self.wall_s = 0.0  # the last ``run``'s wall time
+        # at each visit: (seconds into the run, busy lanes, jobs queued here, free job slots)
+        self.trace: list[tuple[float, int, int, int]] = []
         # queue each replay before collecting the last (``HARNESS_LANE_AHEAD=1``; not yet
         # measured on a GPU: off by default)
         self.ahead = os.environ.get(AHEAD_ENV, "0") not in ("", "0")
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
         """Every job ``source`` gives, by key, once it gives ``None``."""
-        started = time.perf_counter()
+        started = self._started = time.perf_counter()
         try:
             return self._run(source)
         finally:
@@ -179,6 +181,8 @@ class LaneStream:
                 self._fill(lanes, pending)
                 if self._stepping(lanes):
                     done, replay_s = self._replay(lanes, tugged, replay_s)
+                    now = time.perf_counter() - self._started
+                    self.trace.append((now, lanes.busy, len(pending), len(self._free_slots)))
                     if done and not group:
                         group_since = time.perf_counter()
                     group += done
@@ -252,7 +256,7 @@ class LaneStream:
             f"visits: {per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait "
             f"{t.wait_s:.1f} s of {t.physics_s:.1f} s), upload {t.upload_s:.1f} s, "
             f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s, "
-            f"tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
+            f"tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)" + occupancy(self.trace, self.wall_s)
         )
 
     def _fill(self, lanes: LaneRun, pending: deque[tuple[Hashable, DeviceJob]]) -> None:

@@ -3,6 +3,7 @@ compiles, failures, and where the streams' host time went (their ``BatchTimings`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -74,3 +75,17 @@ def add_side_by_side(total: StreamStats, more: StreamStats) -> None:
             total.timings = more.timings
         else:
             add_timings(total.timings, more.timings)
+
+
+def occupancy(trace: list[tuple[float, int, int, int]], wall_s: float) -> str:
+    """Where a stream's lanes idled: at the first visit of each tenth of its wall time, its
+    busy lanes, the jobs queued for it and its free job slots (a job keeps its slot until
+    its tug is done), e.g. ``; by tenths, busy/queued/free slots: 8192/2048/0 ...``."""
+    if not trace or wall_s <= 0:
+        return ""
+    marks, tenth = [], 0
+    for at, busy, queued, free in trace:
+        if at >= tenth * wall_s / 10:
+            marks.append(f"{busy}/{queued}/{free}")
+            tenth = math.floor(10 * at / wall_s) + 1
+    return "; by tenths, busy/queued/free slots: " + " ".join(marks)
