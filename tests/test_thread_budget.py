@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from harness.runs import thread_budget
-from harness.runs.thread_budget import box_episode_threads, read_limit, task_limit
+from harness.runs.thread_budget import box_episode_threads, read_limit, starved_note, task_limit
 
 
 def _limits(tmp_path: Path, **values: str) -> tuple[Path, ...]:
@@ -58,3 +58,13 @@ def test_this_box_can_start_its_budget_share() -> None:
     limit = task_limit()
     budget = box_episode_threads()
     assert limit is None or budget <= limit
+
+
+def test_a_starved_feed_names_the_limit_to_raise() -> None:
+    # two GPUs of 15 workers, 8,192 lanes each, groups of three under pid_max 32,768: 182
+    # groups a worker hold 8,190 episodes for 8,192 lanes; 183 hold 8,235
+    assert "8190 episodes in flight for 8192 lanes" in starved_note(8192, 15, 182, 3)
+    assert starved_note(8192, 15, 183, 3) == ""
+    assert "180 episodes in flight for 8192 lanes" in starved_note(8192, 15, 4, 3)
+    assert "kernel.pid_max" in starved_note(8192, 15, 4, 3)
+    assert starved_note(64, 15, 2, 3) == ""  # 90 episodes for 64 lanes: fed

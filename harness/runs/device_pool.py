@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from harness.runs.scheduling import share_groups
 from harness.runs.spawning import CRASH_RETRIES, KILL_GRACE_S, start_worker
-from harness.runs.thread_budget import box_episode_threads, depth_for
+from harness.runs.thread_budget import box_episode_threads, depth_for, starved_note
 
 if TYPE_CHECKING:
     from harness.engines.mjwarp.service import DeviceReply, DeviceService
@@ -204,9 +204,10 @@ class DevicePool:
             service.streams.expected = {}
         service.streams.prepare()  # device models load while the workers start
         threads = box_episode_threads() if threads is None else threads
-        self.depth = depth_for(service.streams.planned_lanes(), 1, self.count, threads, group)
+        lanes = service.streams.planned_lanes()
+        self.depth = depth_for(lanes, 1, self.count, threads, group)
         say = f"{self.count} worker(s) x {self.depth} group(s) of up to {group} ({threads} threads)"
-        print(f"mjwarp: {say}", file=sys.stderr, flush=True)
+        print(f"mjwarp: {say}{starved_note(lanes, self.count, self.depth, group)}", file=sys.stderr)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers
