@@ -71,6 +71,8 @@ def clean_rows(tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
     tmp = tmp_path_factory.mktemp("clean")
     outcome = run_sweep(write_sweep(tmp, episodes=2), out=tmp / "run", workers=2, progress=False)
     assert outcome.stats.finished == 4 and outcome.stats.crashed == 0
+    arrivals = outcome.stats.arrivals  # each row's arrival, for the run's pace
+    assert len(arrivals) == 4 and arrivals == sorted(arrivals) and arrivals[0] > 0
     return rows(outcome.run_dir)
 
 

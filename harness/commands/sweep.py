@@ -11,6 +11,7 @@ from rich.console import Console
 
 from harness.commands.console import make_console, say, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
+from harness.runs.pace import pace_line
 from harness.runs.sweep import run_sweep
 
 
@@ -74,6 +75,9 @@ def main(args: argparse.Namespace) -> int:
         f"{stats.finished} episode(s) in {stats.wall_time_s:.1f} s"
         + (f", {stats.crashed} worker crash(es) recorded as errors" if stats.crashed else "")
     )
+    pace = pace_line(stats.arrivals, stats.wall_time_s)
+    if pace is not None:
+        console.print(pace)
     if stats.device is not None:  # mjwarp on the process pool: the shared device(s)
         device = stats.device
         spread = (

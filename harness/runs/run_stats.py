@@ -23,3 +23,5 @@ class RunStats:
     wall_time_s: float = 0.0
     errors: list[str] = field(default_factory=list)
     device: Any = None  # StreamStats of the shared devices (mjwarp on the process pool)
+    # when each row of this call arrived, seconds from the executor's start (``harness.runs.pace``)
+    arrivals: list[float] = field(default_factory=list)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -169,14 +170,18 @@ def run_sweep(
         label = progress if isinstance(progress, str) else "sweep"  # e.g. "tune screen"
         already = len(episodes) - len(todo)
         with SweepProgress(len(episodes), already, bool(progress), pool, label) as on_row:
+            arrivals: list[float] = []
 
             def on_result(row: dict[str, Any]) -> None:
                 run.append(row)
                 on_row(row)
+                arrivals.append(time.perf_counter() - started)
 
             executor = executor_for(backend, workers, address)
             shared = sweep.share if share is None else share
+            started = time.perf_counter()
             stats = executor(todo, run.path, sweep.record, on_result, share=shared)
+            stats.arrivals = arrivals
 
         run.finalize()
     finally:

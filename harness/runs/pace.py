@@ -1,0 +1,61 @@
+"""A run's pace from the times its rows arrived: its steady rate, start-up and tail aside.
+
+A run's wall time mixes a fixed start (workers, device models, the first episode span on a GPU)
+with its streaming rate, so two runs of different sizes or device counts compare badly on wall
+time alone: on two H200s (2026-11-28) 45,000 rows took 173.5 s on two GPUs, and a first GPU
+alone streamed at 636,000 episodes/h, figures from different spans of the runs. The steady rate
+here is the rows between the ``STEADY_FROM`` and ``STEADY_TO`` quantiles of arrival over the
+time between them, the same definition for every engine and device count.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass
+
+# The arrivals that bound the steady part of a run (quantiles of its rows). Chosen, no public
+# source: the first tenth holds the start-up (a GPU's first span), the last the tail.
+STEADY_FROM = 0.1
+STEADY_TO = 0.9
+# The fewest rows whose pace is worth a line.
+MIN_ROWS = 100
+
+
+@dataclass(frozen=True)
+class Pace:
+    """``rows`` rows arrived in the ``seconds`` after the ``STEADY_FROM`` quantile's row up to
+    the ``STEADY_TO`` quantile's; ``tenths``: the rows arrived by the end of each tenth of the
+    run's wall time."""
+
+    rows: int
+    seconds: float
+    tenths: list[int]
+
+    @property
+    def per_hour(self) -> float:
+        return 3600.0 * self.rows / self.seconds if self.seconds > 0 else float("inf")
+
+
+def pace_of(arrivals: list[float], wall_s: float) -> Pace | None:
+    """The pace of rows that arrived at ``arrivals`` (seconds from the run's start, in order)
+    of a run of ``wall_s`` (at least the last arrival); None below ``MIN_ROWS`` rows."""
+    n = len(arrivals)
+    if n < MIN_ROWS:
+        return None
+    wall_s = max(wall_s, arrivals[-1])
+    first, last = int(STEADY_FROM * n), int(STEADY_TO * n) - 1
+    tenths = [bisect.bisect_right(arrivals, wall_s * k / 10) for k in range(1, 11)]
+    return Pace(last - first, arrivals[last] - arrivals[first], tenths)
+
+
+def pace_line(arrivals: list[float], wall_s: float) -> str | None:
+    """``pace: ...`` for the sweep's summary, or None (too few rows)."""
+    pace = pace_of(arrivals, wall_s)
+    if pace is None:
+        return None
+    low, high = round(100 * STEADY_FROM), round(100 * STEADY_TO)
+    return (
+        f"pace: {pace.rows} rows from the {low}% to the {high}% arrival in {pace.seconds:.1f} s "
+        f"= {pace.per_hour:,.0f} episodes/h; rows by each tenth of the wall: "
+        + " ".join(str(count) for count in pace.tenths)
+    )
