@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from harness.runs.pace import MIN_ROWS, pace_line, pace_of
+from harness.runs.pace import MIN_ROWS, Arrivals, pace_line, pace_of
 
 
 def test_the_steady_rate_leaves_out_the_start_and_the_tail() -> None:
@@ -31,3 +31,10 @@ def test_too_few_rows_no_line() -> None:
     assert pace_line([1.0] * (MIN_ROWS - 1), 10.0) is None
     # a run whose executor stopped its clock before its last row: the wall is that row's
     assert pace_of([float(k) for k in range(MIN_ROWS)], 5.0) is not None
+
+
+def test_arrivals_count_from_their_making() -> None:
+    arrivals = Arrivals()
+    arrivals.mark()
+    arrivals.mark()
+    assert len(arrivals.times) == 2 and 0 <= arrivals.times[0] <= arrivals.times[1] < 5

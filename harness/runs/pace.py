@@ -11,6 +11,7 @@ time between them, the same definition for every engine and device count.
 from __future__ import annotations
 
 import bisect
+import time
 from dataclasses import dataclass
 
 # The arrivals that bound the steady part of a run (quantiles of its rows). Chosen, no public
@@ -19,6 +20,18 @@ STEADY_FROM = 0.1
 STEADY_TO = 0.9
 # The fewest rows whose pace is worth a line.
 MIN_ROWS = 100
+
+
+class Arrivals:
+    """When each row of a run arrives, in seconds from this object's making (just before the
+    executor starts)."""
+
+    def __init__(self) -> None:
+        self.start = time.perf_counter()
+        self.times: list[float] = []
+
+    def mark(self) -> None:
+        self.times.append(time.perf_counter() - self.start)
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ from harness.runs.engine_check import (
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
+from harness.runs.pace import Arrivals
 from harness.runs.preflight import check_tasks
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
@@ -150,12 +150,8 @@ def run_sweep(
         with recording_reads() as inputs:  # the files the tasks load, hashed for --resume
             check_tasks([e.task for e in episodes[:: sweep.episodes_per_point]])
         if resume_dir is None:
-            run.create(
-                sweep,
-                tasks,
-                taken="run directory already holds a sweep; use --resume to continue it",
-                inputs=inputs,
-            )
+            taken = "run directory already holds a sweep; use --resume to continue it"
+            run.create(sweep, tasks, taken=taken, inputs=inputs)
             if notes:
                 run.write_notes(notes)
         write_engine(run.path, engine)
@@ -170,18 +166,17 @@ def run_sweep(
         label = progress if isinstance(progress, str) else "sweep"  # e.g. "tune screen"
         already = len(episodes) - len(todo)
         with SweepProgress(len(episodes), already, bool(progress), pool, label) as on_row:
-            arrivals: list[float] = []
+            arrivals = Arrivals()  # for the run's pace
 
             def on_result(row: dict[str, Any]) -> None:
                 run.append(row)
                 on_row(row)
-                arrivals.append(time.perf_counter() - started)
+                arrivals.mark()
 
             executor = executor_for(backend, workers, address)
             shared = sweep.share if share is None else share
-            started = time.perf_counter()
             stats = executor(todo, run.path, sweep.record, on_result, share=shared)
-            stats.arrivals = arrivals
+            stats.arrivals = arrivals.times
 
         run.finalize()
     finally:
