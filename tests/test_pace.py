@@ -23,8 +23,8 @@ def test_the_line_names_rate_and_tenths() -> None:
     arrivals = [float(k) for k in range(1, 201)]  # 200 rows, one a second
     line = pace_line(arrivals, 200.0)
     assert line is not None
-    assert line.startswith("pace: 159 rows from the 10% to the 90% arrival in 159.0 s = 3,600")
-    assert line.endswith("rows by each tenth of the wall: 20 40 60 80 100 120 140 160 180 200")
+    assert line.startswith("pace: 159 rows (10%-90% arrivals) in 159.0 s = 3,600 episodes/h")
+    assert line.endswith("rows by tenths of the wall: 20 40 60 80 100 120 140 160 180 200")
 
 
 def test_too_few_rows_no_line() -> None:

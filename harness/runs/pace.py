@@ -68,7 +68,7 @@ def pace_line(arrivals: list[float], wall_s: float) -> str | None:
         return None
     low, high = round(100 * STEADY_FROM), round(100 * STEADY_TO)
     return (
-        f"pace: {pace.rows} rows from the {low}% to the {high}% arrival in {pace.seconds:.1f} s "
-        f"= {pace.per_hour:,.0f} episodes/h; rows by each tenth of the wall: "
+        f"pace: {pace.rows} rows ({low}%-{high}% arrivals) in {pace.seconds:.1f} s = "
+        f"{pace.per_hour:,.0f} episodes/h; rows by tenths of the wall: "
         + " ".join(str(count) for count in pace.tenths)
     )
