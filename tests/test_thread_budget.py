@@ -61,10 +61,9 @@ def test_this_box_can_start_its_budget_share() -> None:
 
 
 def test_a_starved_feed_names_the_limit_to_raise() -> None:
-    # two GPUs of 15 workers, 8,192 lanes each, groups of three under pid_max 32,768: 182
-    # groups a worker hold 8,190 episodes for 8,192 lanes; 183 hold 8,235
-    assert "8190 episodes in flight for 8192 lanes" in starved_note(8192, 15, 182, 3)
-    assert starved_note(8192, 15, 183, 3) == ""
-    assert "180 episodes in flight for 8192 lanes" in starved_note(8192, 15, 4, 3)
-    assert "kernel.pid_max" in starved_note(8192, 15, 4, 3)
-    assert starved_note(64, 15, 2, 3) == ""  # 90 episodes for 64 lanes: fed
+    # two GPUs under pid_max 32,768: 8,192 threads a GPU hold one episode for each of 8,192
+    # lanes; 4,096 threads do not, and the line says what to raise
+    assert starved_note(8192, 8192) == ""
+    note = starved_note(8192, 4096)
+    assert "4096 episode threads for 8192 lanes" in note and "kernel.pid_max" in note
+    assert starved_note(64, 16384) == ""

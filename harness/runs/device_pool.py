@@ -207,7 +207,7 @@ class DevicePool:
         lanes = service.streams.planned_lanes()
         self.depth = depth_for(lanes, 1, self.count, threads, group)
         say = f"{self.count} worker(s) x {self.depth} group(s) of up to {group} ({threads} threads)"
-        print(f"mjwarp: {say}{starved_note(lanes, self.count, self.depth, group)}", file=sys.stderr)
+        print(f"mjwarp: {say}{starved_note(lanes, threads)}", file=sys.stderr)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers

@@ -85,15 +85,14 @@ def depth_for(
     return max(2, min(MAX_DEPTH, threads // (workers * group), wanted))
 
 
-def starved_note(lanes: int, workers: int, depth: int, group: int) -> str:
-    """A hint where the threads bound the lanes' feed below one episode a lane (the lanes then
+def starved_note(lanes: int, threads: int) -> str:
+    """A hint where the pool's episode threads cannot hold one episode a lane (the lanes then
     step empty while the planners wait for threads): the limit to raise, else ``""``."""
-    in_flight = workers * depth * max(1, group)
-    if in_flight >= lanes:
+    if threads >= lanes:
         return ""
     limit = task_limit()
     return (
-        f"; {in_flight} episodes in flight for {lanes} lanes: the box's task limit "
+        f"; {threads} episode threads for {lanes} lanes: the box's task limit "
         f"({limit if limit is not None else 'unknown'}) bounds them; raise kernel.pid_max "
         f"(4194304 on 64-bit Linux, what systemd sets) or use fewer lanes (HARNESS_LANES)"
     )
