@@ -108,8 +108,13 @@ def scene_for(task: Any, scenes: dict[Any, Any], lock: threading.Lock, contact: 
         return scenes[variant]
 
 
+# When this process's device side was loaded: the device lines carry the seconds since, so a
+# sitting's log shows where the gaps between streams, phases and first outcomes lie.
+_LOADED = time.perf_counter()
+
+
 def _log(message: str) -> None:
-    print(f"mjwarp: {message}", file=sys.stderr, flush=True)
+    print(f"mjwarp {time.perf_counter() - _LOADED:6.1f} s: {message}", file=sys.stderr, flush=True)
 
 
 class DeviceStreams:
