@@ -444,3 +444,13 @@ def test_a_garbage_race_fill_is_one_line(monkeypatch: pytest.MonkeyPatch) -> Non
     monkeypatch.setenv("HARNESS_RACE_FILL", "lots")
     with pytest.raises(HarnessError, match="HARNESS_RACE_FILL='lots'"):
         round_fill("mjwarp")
+
+
+def test_the_tune_says_where_its_time_went(tuned) -> None:
+    """One line of laps in the order the phases ran, then their total (issue 34: a tune's
+    reports and outputs had no figure of their own)."""
+    parts = tuned.timing.removeprefix("time: ").split(", ")
+    laps = {part.rsplit(" ", 2)[0]: float(part.rsplit(" ", 2)[1]) for part in parts[:-1]}
+    assert list(laps) == ["screen", "screen report", "race and outputs"]
+    total = float(parts[-1].removesuffix(" s in all"))
+    assert all(s >= 0 for s in laps.values()) and sum(laps.values()) <= total + 2  # rounding

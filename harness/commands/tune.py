@@ -122,4 +122,6 @@ def main(args: argparse.Namespace) -> int:
     rows += [("written", path) for path in result.written]
     for label, path in rows:
         console.print(f"  {label:9s} {path}", soft_wrap=True, highlight=False)
+    if result.timing:
+        console.print(result.timing, soft_wrap=True, highlight=False)
     return 130 if result.interrupted else 0

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
 
@@ -56,6 +56,7 @@ from harness.tuning.options import (
     check_continuation,
     stored_options,
 )
+from harness.tuning.phase_clock import PhaseClock
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, round_fill, run_race
 from harness.tuning.write import write_copy
@@ -82,6 +83,7 @@ class TuneResult:
     heatmaps: list[Path] = field(default_factory=list)
     written: list[Path] = field(default_factory=list)
     log: RaceLog = field(default_factory=RaceLog)
+    timing: str = ""  # where the tune's wall time went (``PhaseClock.line``; a tune that ran)
 
 
 def tune(
@@ -119,8 +121,8 @@ def tune(
         check_continuation(out, stored, options)
         options = TuneOptions(**{**asdict(options), "plans": stored.plans})
     run = {"workers": workers, "backend": backend, "progress": progress, "engine": options.engine}
-    started = time.perf_counter()
-    outcome = _screen(first, out, SCREEN_DIR, run, options.objective)
+    started, clock = time.perf_counter(), PhaseClock()
+    outcome = _screen(first, out, SCREEN_DIR, run, options.objective, clock)
     ran, interrupted = outcome.stats.finished, outcome.stats.interrupted
     if options.coarse and not interrupted:
         directions = best_directions(out / SCREEN_DIR, first, tasks, options.objective)
@@ -130,7 +132,7 @@ def tune(
                 f"{directions[1]}"
             )
         second = tune_sweep(tasks, axes, **grid, directions=directions, name="tune-refine")  # type: ignore[arg-type]
-        outcome = _screen(second, out, REFINE_DIR, run, options.objective)
+        outcome = _screen(second, out, REFINE_DIR, run, options.objective, clock)
         ran, interrupted = ran + outcome.stats.finished, outcome.stats.interrupted
     elapsed = time.perf_counter() - started
     sources = {t.name: str(Path(t.source).resolve()) for t in tasks if t.source}
@@ -139,7 +141,7 @@ def tune(
     write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
     if interrupted:
         return TuneResult(out, True, pd.DataFrame())
-    return decide(
+    result = decide(
         out,
         options,
         backend=backend,
@@ -149,6 +151,8 @@ def tune(
         announce=announce,
         progress=progress,
     )
+    clock.lap("race and outputs")  # the race rounds, their report, heatmaps, tuned.md
+    return replace(result, timing=clock.line())
 
 
 TUNE_FILES = (
@@ -165,10 +169,12 @@ def check_tune_dir(out: Path) -> None:
         check_outputs(out, TUNE_FILES, (TUNE_DIR, f"{TUNE_DIR}/heatmaps"))
 
 
-def _screen(sweep: SweepConfig, out: Path, name: str, run: dict[str, Any], objective: str) -> Any:
-    """Run (or resume) the screening pass ``out/name`` and build its report. The generated sweep
-    lives in the tune directory while the pass starts (no temp folder that a killed tune would
-    leave in /tmp); the run keeps its own sweep.yaml."""
+def _screen(
+    sweep: SweepConfig, out: Path, name: str, run: dict[str, Any], objective: str, clock: PhaseClock
+) -> Any:
+    """Run (or resume) the screening pass ``out/name`` and build its report (each a lap of
+    ``clock``). The generated sweep lives in the tune directory while the pass starts (no temp
+    folder that a killed tune would leave in /tmp); the run keeps its own sweep.yaml."""
     folder = out / name
     label = f"tune {name}" if run["progress"] else False
     if (folder / "sweep.yaml").is_file():
@@ -183,7 +189,9 @@ def _screen(sweep: SweepConfig, out: Path, name: str, run: dict[str, Any], objec
             outcome = run_sweep(path, out=folder, max_points=None, **{**run, "progress": label})
         finally:
             path.unlink(missing_ok=True)
+    clock.lap(name)
     finish_run(outcome.run_dir, objective)
+    clock.lap(f"{name} report")
     return outcome
 
 
