@@ -144,6 +144,14 @@ for job in "$@"; do
       HARNESS_STREAMS_PER_DEVICE=16 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_streams16" \
         --no-progress --record none ;;
+    fr3_big_all_2048)  # fr3_big_all at 2,048 lanes a GPU (today's default there: 8,192)
+      HARNESS_LANES=2048 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all_2048" \
+        --no-progress --record none ;;
+    fr3_big_one_2048)  # fr3_big_one at 2,048 lanes
+      HARNESS_LANES=2048 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m harness.cli sweep \
+        /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/fr3_big_one_2048" --no-progress --record none ;;
     fr3_big_one_tug8)  # fr3_big_one with tug rounds of 8 physics steps a CUDA graph
       HARNESS_TUG_STEPS_PER_GRAPH=8 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m \
         harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
