@@ -233,6 +233,16 @@ for job in "$@"; do
     demo_gpu)
       python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu" --no-progress --record none ;;
+    demo_gpu_beside)  # the demo with the tug in rounds beside the lanes (before 2026-11-28 noon)
+      HARNESS_TUG_LANES=0 python3 -m harness.cli sweep tasks/sweeps/demo.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_beside" --no-progress --record none ;;
+    fr3_gpu_beside)  # fr3_gpu with the tug in rounds beside the lanes
+      HARNESS_TUG_LANES=0 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_beside" --no-progress --record none ;;
+    fr3_big_one_beside)  # fr3_big_one with the tug in rounds beside the lanes
+      HARNESS_TUG_LANES=0 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m harness.cli sweep \
+        /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/fr3_big_one_beside" --no-progress --record none ;;
     tune_canon_gpu)  # issue 35: the default (power-sized) tune of the canonical tasks
       python3 -m harness.cli tune tasks/sweeps/canonical.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/tune_canon" --write "$R/tune_canon/written" ;;

@@ -101,14 +101,16 @@ def test_jobs_through_two_lanes_keep_the_lockstep_rows(ahead: bool) -> None:
 @pytest.mark.slow
 @pytest.mark.gpu
 @needs_warp
-@pytest.mark.parametrize("ahead", ["0", "1"])
+@pytest.mark.parametrize(("ahead", "tug_lanes"), [("0", "1"), ("0", "0"), ("1", "1")])
 def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
-    ahead: str, monkeypatch: pytest.MonkeyPatch
+    ahead: str, tug_lanes: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Three whole FR3 cube episodes (seeds 0-2) handed over in two installments to a stream
-    of two lanes whose tug groups hold two jobs: each outcome (the verdict, its measures, the
-    validity phase with its tug ladder) equals the lockstep batch's, field by field, with
-    each replay collected before the next or (``HARNESS_LANE_AHEAD=1``) after it is queued."""
+    of two lanes: each outcome (the verdict, its measures, the validity phase with its tug
+    ladder) equals the lockstep batch's, field by field, with the tug's rungs in the lanes
+    (the default) or in rounds beside them (``HARNESS_TUG_LANES=0``: tug groups of two jobs),
+    and with each replay collected before the next or (``HARNESS_LANE_AHEAD=1``, whose tug
+    runs beside) after it is queued."""
     from harness.benchmarks.engines import _SCENES
     from harness.engines.mjwarp.engine import MjwarpEngine
     from harness.engines.mjwarp.stream import LaneStream
@@ -126,14 +128,23 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
         None,
     ]
     monkeypatch.setenv("HARNESS_LANE_AHEAD", ahead)
+    monkeypatch.setenv("HARNESS_TUG_LANES", tug_lanes)
     stream = LaneStream(engine.batch(scene, task), nlane=2, group=2)
     assert stream.ahead == (ahead == "1")
+    in_lanes = ahead == "0" and tug_lanes == "1"
+    assert (stream.ladders is not None) == in_lanes
     outcomes = stream.run(lambda block, want: installments.pop(0))  # type: ignore[arg-type,return-value]
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
         assert same_fields(outcomes[key], expected), key
     t = stream.timings
     assert t.tug_rounds >= 2 and t.reruns == 0
+    # in the lanes: every rung is a lane's (no batch beside them, no time of its own), and
+    # the rung-steps count as busy lane-steps
+    assert (t.tug_s == 0.0) == in_lanes and t.tug_rungs >= 6
+    assert ("tug in the lanes: " in stream.summary()) == in_lanes
+    if in_lanes:
+        assert t.world_steps == t.motion_steps and t.span_steps <= t.motion_steps
     # every host visit replayed one interval of every lane; the launch and the wait are parts
     # of the visits' wall time, and the stream's line reports them
     assert stream.lanes is not None

@@ -222,12 +222,10 @@ class WorldBatch:
                 td.xfrc_applied,
             ],
         )  # fmt: skip
-        substeps = round(float(start.jobs[0].task.control_dt) / float(dm.mj_model.opt.timestep))
-        substeps = max(1, substeps)
-        rung_steps = tug_rung_steps(substeps * float(dm.mj_model.opt.timestep))
+        physics_steps = rung_physics_steps(dm, float(start.jobs[0].task.control_dt))
         use = steps.BufferUse(nt)
         steps.replay(
-            dm.device, steps.stepper(dm.model, td, use), rung_steps * substeps, self.slot.launch,
+            dm.device, steps.stepper(dm.model, td, use), physics_steps, self.slot.launch,
             per_graph=steps_per_graph(),
         )  # fmt: skip
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
@@ -240,12 +238,20 @@ class WorldBatch:
         rows = to_host(out)[:, 0]
         over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock
-        self.timings.world_steps += nt * rung_steps * substeps
+        self.timings.world_steps += nt * physics_steps
         if over and buffers != LARGE:
             self.timings.reruns += nt
             return self._rungs(start, batch, LARGE)
         self._overflowed.update(batch[r][0] for r in over)
         return rows
+
+
+def rung_physics_steps(dm: DeviceModel, control_dt: float) -> int:
+    """A tug rung's physics steps: ``tug_rung_steps`` control steps of the task's control
+    period, in whole physics steps."""
+    timestep = float(dm.mj_model.opt.timestep)
+    substeps = max(1, round(control_dt / timestep))
+    return tug_rung_steps(substeps * timestep) * substeps
 
 
 @dataclass

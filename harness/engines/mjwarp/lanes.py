@@ -8,6 +8,10 @@ steps for the whole run; when a lane's job has recorded its span (control schedu
 validity window) the lane is free, and the host loads the next waiting job into it between two
 replays of ``interval`` physics steps. A lane idles at most one interval per job.
 
+A free lane may run a tug rung instead (``load_rungs``): the held state of a job slot with
+the rung's pull, for the rung's physics steps, then one end row (``collect``'s ``rungs``). The
+tug then costs lane-steps that would otherwise idle, not a batch of its own beside the lanes.
+
 The jobs' arrays live in *job slots* (``capacity`` of them): the control schedule, the signal
 rows, the warm-up row, the saved validity-window states, the held controls and mocap poses (the
 tug's rungs start from them after the lane has moved on). A slot is freed by the caller once
@@ -39,11 +43,23 @@ from harness.engines.mjwarp.steps import BatchTimings, Buffers
 @dataclass
 class Finished:
     """Jobs whose span ended in the last replay: their slots, signal rows (each cut to its
-    span), warm-up rows, and whether their rows or contacts did not fit the buffers."""
+    span), warm-up rows, and whether their rows or contacts did not fit the buffers; and the
+    rungs that ended in it (``RungsFinished``)."""
 
     slots: list[int]
     rows: list[np.ndarray]
     warm: list[np.ndarray]
+    overflowed: list[bool]
+    rungs: RungsFinished | None = None
+
+
+@dataclass
+class RungsFinished:
+    """Tug rungs whose steps ended in the last replay: the caller's tags, their end rows, and
+    whether their rows or contacts did not fit the buffers."""
+
+    tags: list[int]
+    rows: list[np.ndarray]
     overflowed: list[bool]
 
 
@@ -103,6 +119,11 @@ class LaneRun:
         self.row_of = wp.full(nlane, kernels.NO_ROW, dtype=wp.int32)
         self.peak_rows = wp.zeros(nlane, dtype=wp.int32)
         self.peak_contacts = wp.zeros(1, dtype=wp.int32)
+        self.rung_left = wp.zeros(nlane, dtype=wp.int32)  # a rung's physics steps to go
+        self.rung_row = wp.full(nlane, kernels.NO_ROW, dtype=wp.int32)
+        self.rung_out = wp.zeros((nlane, 1, SIGNALS), dtype=wp.float32)  # a rung's end row
+        self.rung_pen = dm.penetration_start(nlane)  # (a rung's penetration is not judged)
+        self.lane_index = wp.array(np.arange(nlane, dtype=np.int32), dtype=wp.int32)
         # per job slot
         nchunks = len(chunk_sizes)
         self.table = wp.zeros((capacity, rows * nchunks, nu), dtype=wp.float32)
@@ -121,6 +142,9 @@ class LaneRun:
         self.chunk_at = wp.array(chunk_at, dtype=wp.int32)
         # the host's view: the job slot in each lane (-1: free), what each lane's job spans
         self.lane_job = np.full(nlane, -1, dtype=np.int64)
+        self.lane_rung = np.full(nlane, -1, dtype=np.int64)  # the caller's tag of a lane's rung
+        self.rung_steps = 0  # a rung's physics steps (set by ``load_rungs``)
+        self._rung_flagged = np.zeros(nlane, dtype=bool)  # rung lanes while the pool was full
         self.span_host = np.zeros(capacity, dtype=np.int64)
         self.warmup_host = np.zeros(capacity, dtype=np.int64)
         self.motion_host = np.zeros(capacity, dtype=np.int32)  # the tug's ``RungStart.motion``
@@ -140,10 +164,39 @@ class LaneRun:
 
     @property
     def busy(self) -> int:
-        return int(np.count_nonzero(self.lane_job >= 0))
+        """Lanes holding a job or a rung."""
+        return int(np.count_nonzero((self.lane_job >= 0) | (self.lane_rung >= 0)))
 
     def free_lanes(self) -> np.ndarray:
-        return np.flatnonzero(self.lane_job < 0)
+        return np.flatnonzero((self.lane_job < 0) & (self.lane_rung < 0))
+
+    def load_rungs(
+        self,
+        lanes: np.ndarray,
+        tags: np.ndarray,
+        job_slots: np.ndarray,
+        saved: np.ndarray,
+        forces: np.ndarray,
+        steps_each: int,
+    ) -> None:
+        """Start tug rungs in ``lanes`` (free): each from its job slot's saved state
+        ``saved`` (the end of the hold) with its pull ``forces`` (N, world frame) on the
+        object, for ``steps_each`` physics steps; ``tags`` name them in ``collect``."""
+        d, dm = self.d, self.dm
+        ints = [wp.array(np.asarray(v, dtype=np.int32), dtype=wp.int32)
+                for v in (lanes, job_slots, saved)]  # fmt: skip
+        wp.launch(
+            lk.lane_load_rungs, dim=len(lanes),
+            inputs=[
+                *ints, wp.array(np.asarray(forces, dtype=np.float32), dtype=wp.vec3),
+                steps_each, *self.saved, self.hold_ctrl, *self.mocap, dm.obj_body, d.qpos,
+                d.qvel, d.qacc_warmstart, d.ctrl, d.mocap_pos, d.mocap_quat, d.xfrc_applied,
+                self.rung_left, self.peak_rows,
+            ],
+        )  # fmt: skip
+        self.lane_rung[lanes] = tags
+        self.loaded_at[lanes] = self._visit + 1
+        self.rung_steps = steps_each
 
     def load(
         self, lanes: np.ndarray, slots: np.ndarray, jobs: list[DeviceJob], span: np.ndarray
@@ -211,6 +264,12 @@ class LaneRun:
         )  # fmt: skip
         dm.record(d, self.row_of, self.out, self.warm, self.pen_initial, self.job_of)
         wp.launch(
+            lk.lane_rung_tick,
+            dim=self.nlane,
+            inputs=[self.rung_left, dm.obj_body, d.xfrc_applied, self.rung_row],
+        )
+        dm.record(d, self.rung_row, self.rung_out, self.rung_out, self.rung_pen, self.lane_index)
+        wp.launch(
             kernels.save_state, dim=self.nlane,
             inputs=[
                 d.qpos, d.qvel, d.qacc_warmstart, self.first_row, self.slots, self.row_of,
@@ -245,12 +304,47 @@ class LaneRun:
 
     def collect(self, timings: BatchTimings) -> Finished:
         """After the queued steps are done: the jobs whose span ended (their lanes are free)."""
-        job_of, peak_rows, contacts = to_host_all([self.job_of, self.peak_rows, self.peak_contacts])
+        job_of, peak_rows, contacts, rung_left = to_host_all(
+            [self.job_of, self.peak_rows, self.peak_contacts, self.rung_left]
+        )
+        rungs = self._rungs_ended(rung_left, peak_rows, int(contacts[0]), timings)
         slots, spans, over = self._retire(job_of, peak_rows, int(contacts[0]), timings)
         if len(slots) == 0:
-            return Finished([], [], [], [])
+            return Finished([], [], [], [], rungs)
         rows, warm = to_host_all(list(self._gather(slots)[1:]))
-        return _finished(slots, spans, over, rows, warm)
+        finished = _finished(slots, spans, over, rows, warm)
+        finished.rungs = rungs
+        return finished
+
+    def _rungs_ended(
+        self, rung_left: np.ndarray, peak_rows: np.ndarray, contacts: int, timings: BatchTimings
+    ) -> RungsFinished | None:
+        """The rungs whose steps ended in the last replay leave their lanes: their tags, end
+        rows (downloaded now) and whether they did not fit the buffers (their constraint rows,
+        or a full contact pool in the replay)."""
+        ran = self.lane_rung >= 0
+        if not ran.any():
+            return None
+        if contacts > self.d.naconmax:  # every rung that ran may have lost a contact
+            self._rung_flagged[ran] = True
+        lanes = np.flatnonzero(ran & (rung_left <= 0))
+        tags = self.lane_rung[lanes].copy()
+        flagged = self._rung_flagged[lanes].copy()
+        self.lane_rung[lanes] = -1
+        self._rung_flagged[lanes] = False
+        timings.span_steps += len(lanes) * self.rung_steps
+        timings.tug_rungs += len(lanes)
+        if len(lanes) == 0:
+            return None
+        index = wp.array(lanes.astype(np.int32), dtype=wp.int32)
+        rows = wp.empty((len(lanes), 1, SIGNALS), dtype=float)
+        wp.launch(lk.gather_rows, dim=rows.shape, inputs=[self.rung_out, index, rows])
+        host_rows = to_host_all([rows])[0]
+        over = (peak_rows[lanes] > self.buffers.njmax) | flagged
+        return RungsFinished(
+            [int(t) for t in tags], [host_rows[k, 0] for k in range(len(lanes))],
+            [bool(v) for v in over],
+        )  # fmt: skip
 
     def _retire(
         self,

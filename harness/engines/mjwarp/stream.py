@@ -1,8 +1,12 @@
 """Jobs streamed through lanes (``lanes``) as they are planned, judged in groups.
 
 The caller hands jobs over while it plans more (``source``); each free lane takes the next one.
-Between two replays the host collects the jobs whose span ended and judges the previous group
-while the device steps. Finished jobs wait in a group until ``group`` of them, the end of the
+Between two replays the host collects the jobs whose span ended and judges earlier ones while
+the device steps. A finished job that the validity phase tugs opens its ladder (``lane_tug``):
+its rungs queue for free lanes, ahead of new jobs, and each ladder asks for its next rungs as
+soon as its last ones ended; its slot is freed when the ladder is complete. With
+``HARNESS_TUG_LANES=0`` (and with ``HARNESS_LANE_AHEAD=1``) the tug runs as before: finished
+jobs wait in a group until ``group`` of them, the end of the
 stream, ``GROUP_WAIT_S`` since the group's first, or as many as the lanes still step (so that a
 caller waiting for its outcomes before it plans more is never held back by a group that cannot
 fill): their tug ladders then run in rounds (``WorldBatch.tug``: the rounds are as large as the
@@ -27,10 +31,17 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from harness.engines.mjwarp.batch import LARGE, RungStart, WorldBatch, hold_windows
+from harness.engines.mjwarp.batch import (
+    LARGE,
+    RungStart,
+    WorldBatch,
+    hold_windows,
+    rung_physics_steps,
+)
 from harness.engines.mjwarp.judge import judge_started
 from harness.engines.mjwarp.lane_sizes import env_int
-from harness.engines.mjwarp.lanes import Finished, LaneRun
+from harness.engines.mjwarp.lane_tug import Ladder, LaneLadders
+from harness.engines.mjwarp.lanes import Finished, LaneRun, RungsFinished
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
 from harness.engines.mjwarp.slot import DeviceSlot
@@ -52,6 +63,10 @@ TUG_GROUP = 4096
 # Queue the lanes' next replay before the host collects the last one (a lane then idles up to
 # two replays per job instead of one, and the device never waits for the host's visit).
 AHEAD_ENV = "HARNESS_LANE_AHEAD"
+# Where the tug's rungs run: in the stream's own free lanes (the default) or, with
+# ``HARNESS_TUG_LANES=0`` (and always with ``HARNESS_LANE_AHEAD=1``), in rounds of a batch of their
+# own on a CUDA stream beside the lanes (``_tug``), as before 2026-11-28.
+TUG_LANES_ENV = "HARNESS_TUG_LANES"
 # The longest a finished job waits in a group for its tug (s). Chosen, no public source: long
 # against a tug round (~0.2 s of device time), short against an episode's planning on a pool.
 GROUP_WAIT_S = 10.0
@@ -114,6 +129,11 @@ class LaneStream:
         # queue each replay before collecting the last (``HARNESS_LANE_AHEAD=1``; not yet
         # measured on a GPU: off by default)
         self.ahead = os.environ.get(AHEAD_ENV, "0") not in ("", "0")
+        # the rungs in the lanes (``lane_tug``), each job's ladder at its own pace
+        in_lanes = os.environ.get(TUG_LANES_ENV, "1") not in ("", "0")
+        in_lanes = in_lanes and not self.ahead
+        self.ladders = LaneLadders(batch.dm.weight, batch.policy) if in_lanes else None
+        self._laddered: list[_Tugged] = []  # jobs whose ladder ended: to judge
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
         """Every job ``source`` gives, by key, once it gives ``None``."""
@@ -136,6 +156,8 @@ class LaneStream:
                 finally:
                     self._tugs_done(wait_all=True)
                     self._merge(self._tug_batch)
+                    if self.ladders is not None:
+                        self.timings.tug_rounds += self.ladders.rounds
         return self.outcomes
 
     def _make(self, job: DeviceJob) -> LaneRun:
@@ -143,6 +165,7 @@ class LaneStream:
         window = window_steps(job.task.pick.hold_time, schedule.control_dt)
         substeps = sum(schedule.chunk_sizes)
         capacity = 2 * self.nlane + self.group
+        self._rung_steps = rung_physics_steps(self.batch.dm, float(job.task.control_dt))
         self._free_slots = list(range(capacity - 1, -1, -1))
         return LaneRun(
             self.batch.dm, self.nlane, capacity, LANE_ROWS, window, schedule.chunk_sizes,
@@ -178,15 +201,22 @@ class LaneStream:
                 self.lanes = self._make(pending[0][1])
             lanes = self.lanes
             if lanes is not None:
+                self._fill_rungs(lanes)
                 self._fill(lanes, pending)
                 if self._stepping(lanes):
                     done, replay_s = self._replay(lanes, tugged, replay_s)
                     now = time.perf_counter() - self._started
                     self.trace.append((now, lanes.busy, len(pending), len(self._free_slots)))
-                    if done and not group:
-                        group_since = time.perf_counter()
-                    group += done
+                    if self.ladders is not None:
+                        self._start_ladders(lanes, done)
+                        tugged += self._laddered
+                        self._laddered = []
+                    else:
+                        if done and not group:
+                            group_since = time.perf_counter()
+                        group += done
             drained = closed and not pending and (lanes is None or not self._stepping(lanes))
+            drained = drained and (self.ladders is None or not self.ladders.open)
             if group and (
                 len(group) >= self.group
                 or drained
@@ -208,8 +238,10 @@ class LaneStream:
         return max(0, free + self.nlane // 4 - len(pending))
 
     def _stepping(self, lanes: LaneRun) -> bool:
-        """A lane holds a job, or (ahead) a replay or download is not yet collected."""
-        return lanes.busy > 0 or (self.ahead and lanes.in_flight)
+        """A lane holds a job or a rung, a rung waits for a lane, or (ahead) a replay or
+        download is not yet collected."""
+        queued = self.ladders is not None and bool(self.ladders.queue)
+        return lanes.busy > 0 or queued or (self.ahead and lanes.in_flight)
 
     def _replay(
         self, lanes: LaneRun, tugged: list[_Tugged], last_s: float
@@ -256,8 +288,73 @@ class LaneStream:
             f"visits: {per_step:.2f} ms a step (launch {t.launch_s:.1f} s, wait "
             f"{t.wait_s:.1f} s of {t.physics_s:.1f} s), upload {t.upload_s:.1f} s, "
             f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s, "
-            f"tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)" + occupancy(self.trace, self.wall_s)
+            + self._tug_summary()
+            + occupancy(self.trace, self.wall_s)
         )
+
+    def _tug_summary(self) -> str:
+        t = self.timings
+        if self.ladders is not None:
+            return f"tug in the lanes: {t.tug_rungs} rungs, {t.tug_rounds} ladder round(s)"
+        return f"tug {t.tug_s:.1f} s in {t.tug_rounds} round(s)"
+
+    def _fill_rungs(self, lanes: LaneRun) -> None:
+        """Load queued tug rungs into free lanes (before new jobs: a rung frees its job's slot
+        sooner)."""
+        if self.ladders is None or not self.ladders.queue:
+            return
+        free = lanes.free_lanes()
+        requests = self.ladders.take(len(free))
+        if not requests:
+            return
+        clock = time.perf_counter()
+        lanes.load_rungs(
+            free[: len(requests)],
+            np.array([r.tag for r in requests], dtype=np.int64),
+            np.array([r.slot for r in requests], dtype=np.int64),
+            np.array([r.saved for r in requests], dtype=np.int64),
+            np.array([r.force for r in requests], dtype=np.float64),
+            self._rung_steps,
+        )
+        self.timings.upload_s += time.perf_counter() - clock
+
+    def _start_ladders(self, lanes: LaneRun, done: list[_Done]) -> None:
+        """The finished jobs: those the validity phase tugs open their ladders (their rungs
+        queue for the lanes); the others are ready to judge, their slots freed."""
+        if not done:
+            return
+        assert self.ladders is not None
+        jobs = [item.job for item in done]
+        slots = [item.slot for item in done]
+        validity = [validity_enabled(job.task.pick) for job in jobs]
+        windows, tugged = hold_windows(jobs, slots, {i.slot: i.rows for i in done}, validity, set())
+        laddered = set(tugged)
+        plain = [item for item in done if item.slot not in laddered]
+        if plain:
+            self._laddered.append(_Tugged(plain, windows, {}, set()))
+            self._release(lanes, [item.slot for item in plain])
+        for item in done:
+            window = windows[item.slot]
+            if item.slot in laddered and window is not None:
+                motion = int(lanes.motion_host[item.slot])
+                self.ladders.start(item, item.slot, window, item.rows, motion)
+
+    def _rungs_ended(self, lanes: LaneRun, rungs: RungsFinished) -> None:
+        """Rungs back from the lanes: complete ladders are ready to judge; a ladder whose rung
+        did not fit the buffers reruns its job whole (lockstep on ``LARGE``, which tugs it
+        there), as a rung round that did not fit even ``LARGE`` does."""
+        assert self.ladders is not None
+        complete, dropped = self.ladders.ended(rungs.tags, rungs.rows, rungs.overflowed)
+        ended: list[Ladder] = complete + dropped
+        for ladder in complete:
+            item = ladder.item
+            self._laddered.append(
+                _Tugged([item], {item.slot: ladder.window}, {item.slot: ladder.known}, set())
+            )
+        for ladder in dropped:
+            self._rerun.append((ladder.item.key, ladder.item.job))
+        if ended:
+            self._release(lanes, [ladder.slot for ladder in ended])
 
     def _fill(self, lanes: LaneRun, pending: deque[tuple[Hashable, DeviceJob]]) -> None:
         free = lanes.free_lanes()
@@ -290,6 +387,8 @@ class LaneStream:
             clock = time.perf_counter()
             finished = lanes.collect(self.timings)
             self.timings.download_s += time.perf_counter() - clock
+        if finished.rungs is not None:
+            self._rungs_ended(lanes, finished.rungs)
         done = []
         for slot, rows, warm, over in zip(
             finished.slots, finished.rows, finished.warm, finished.overflowed, strict=True

@@ -26,7 +26,8 @@ class StreamStats:
 
     def breakdown(self) -> str:
         """Where the streams' host time went (summed over streams, so it can exceed the wall),
-        and how much of the lanes' stepping was within a job's span."""
+        and how much of the lanes' stepping was busy (within a job's span, or a tug rung run in
+        a lane)."""
         t = self.timings
         if t is None:
             return ""
@@ -35,8 +36,8 @@ class StreamStats:
             f"streams' time: physics {t.physics_s:.1f} s, tug {t.tug_s:.1f} s (issuing "
             f"{t.tug_issue_s:.1f} s; {t.tug_rounds} round(s), {t.tug_rungs} rung-world(s)), "
             f"upload {t.upload_s:.1f} s, "
-            f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s; lanes within a job's "
-            f"span {100 * busy:.0f}% of {t.motion_steps:,} lane-steps"
+            f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s; lanes busy (a job's "
+            f"span or a rung) {100 * busy:.0f}% of {t.motion_steps:,} lane-steps"
         )
 
     # the names the sweep's summary line reads (it predates lane streams)
