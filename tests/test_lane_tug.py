@@ -102,7 +102,8 @@ def test_ladders_in_lanes_know_what_the_rounds_know(
     assert ladders.rounds == sum(rounds_of)
     directions = dict(TUG_DIRECTIONS)
     for request in loaded:
-        assert request.saved == 100 + request.slot - 89  # the hold's end, past the motion's last row
+        # the hold's end (100 + slot), counted from the motion's last row (89)
+        assert request.saved == 100 + request.slot - 89
         name, k = request.rung
         assert np.allclose(request.force, np.asarray(directions[name]) * k * WEIGHT)
 
