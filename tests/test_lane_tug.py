@@ -9,11 +9,12 @@ import random
 from unittest import mock
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from harness.engines.mjwarp import lane_tug
-from harness.engines.mjwarp.lane_tug import LaneLadders, RungRequest
+from harness.engines.mjwarp.lane_tug import LaneLadders, RungRequest, tug_in_lanes
 from harness.engines.mjwarp.signals import HoldWindow
 from harness.engines.mjwarp.tug import RUNGS, RoundPolicy, Rung, run_rounds
 from harness.pick.validity import TUG_DIRECTIONS, RungOutcome
@@ -124,3 +125,14 @@ def test_an_overflowed_rung_drops_its_ladder_once_and_its_queued_rungs() -> None
     assert dropped == [0] and list(known) == [1] and ladders.open == 0
     assert [r.slot for r in loaded].count(0) == 1  # only the overflowed one ran
     assert len(known[1]) == len(TUG_DIRECTIONS)  # held the top level in every direction
+
+
+def test_rungs_run_in_the_lanes_only_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Off by default (measured no faster); ``HARNESS_TUG_LANES=1`` turns it on, except for a
+    stream whose replays are queued ahead."""
+    monkeypatch.delenv("HARNESS_TUG_LANES", raising=False)
+    assert not tug_in_lanes()
+    monkeypatch.setenv("HARNESS_TUG_LANES", "1")
+    assert tug_in_lanes() and not tug_in_lanes(ahead=True)
+    monkeypatch.setenv("HARNESS_TUG_LANES", "0")
+    assert not tug_in_lanes()

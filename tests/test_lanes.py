@@ -108,7 +108,7 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
     """Three whole FR3 cube episodes (seeds 0-2) handed over in two installments to a stream
     of two lanes: each outcome (the verdict, its measures, the validity phase with its tug
     ladder) equals the lockstep batch's, field by field, with the tug's rungs in the lanes
-    (the default) or in rounds beside them (``HARNESS_TUG_LANES=0``: tug groups of two jobs),
+    (``HARNESS_TUG_LANES=1``) or in rounds beside them (the default: tug groups of two jobs),
     and with each replay collected before the next or (``HARNESS_LANE_AHEAD=1``, whose tug
     runs beside) after it is queued."""
     from harness.benchmarks.engines import _SCENES
@@ -132,11 +132,11 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
     stream = LaneStream(engine.batch(scene, task), nlane=2, group=2)
     assert stream.ahead == (ahead == "1")
     in_lanes = ahead == "0" and tug_lanes == "1"
-    assert (stream.ladders is not None) == in_lanes
     outcomes = stream.run(lambda block, want: installments.pop(0))  # type: ignore[arg-type,return-value]
     assert sorted(outcomes) == ["a", "b", "c"]
     for key, expected in zip("abc", lockstep, strict=True):
         assert same_fields(outcomes[key], expected), key
+    assert (stream.ladders is not None) == in_lanes
     t = stream.timings
     assert t.tug_rounds >= 2 and t.reruns == 0
     # in the lanes: every rung is a lane's (no batch beside them, no time of its own), and

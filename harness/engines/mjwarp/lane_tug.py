@@ -8,12 +8,15 @@ on when or beside what it runs, so each ladder's rungs and result are those of t
 
 The rungs wait in ``queue`` until the stream loads them into free lanes
 (``LaneRun.load_rungs``), before new jobs: a rung frees its job's slot sooner, and its steps
-would otherwise be a batch of their own beside the lanes (measured on two H100s, 2026-11-28:
-tug rounds took 81-98 s of each stream's ~200 s while 63% of the lane-steps idled).
+would otherwise be a batch of their own beside the lanes (on two H100s, 2026-11-28 morning, tug
+rounds took 81-98 s of each stream's ~200 s while 63% of the lane-steps idled). Measured since:
+no faster where planning feeds the lanes, slower for streams of a few jobs; so it is off by
+default (``tug_in_lanes``).
 """
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,6 +29,22 @@ from harness.engines.mjwarp.tug import DEFAULT_POLICY, RoundPolicy, Rung, round_
 from harness.pick.validity import TUG_DIRECTIONS, RungOutcome
 
 _DIRECTIONS = dict(TUG_DIRECTIONS)
+
+# Where the tug's rungs run: with ``HARNESS_TUG_LANES=1``, in the stream's own free lanes;
+# by default (and always with ``HARNESS_LANE_AHEAD=1``) in rounds of a batch of their own on a
+# CUDA stream beside the lanes (``stream.LaneStream._tug``). Measured on one H100 (16 cores,
+# 2026-11-28, docs/engines.md "The sitting of 2026-11-28, noon"), beside against in the lanes:
+# the demo 94.1 s against 121.0 s (its streams of 128 lanes hold a few jobs each, so a ladder's
+# rounds in line lengthen them), issue 34's FR3 sweep 53.9 s against 56.5 s (1,024 lanes), its
+# 45,000-row version 297.8 s against 296.5 s (8,192 lanes, planning the bound). No win: off.
+TUG_LANES_ENV = "HARNESS_TUG_LANES"
+
+
+def tug_in_lanes(ahead: bool = False) -> bool:
+    """Whether a stream runs its tug rungs in its lanes: as ``HARNESS_TUG_LANES`` says (1 or
+    0; default 0), never when its replays are queued ahead (a lane's rung row would be read
+    one visit late)."""
+    return not ahead and os.environ.get(TUG_LANES_ENV, "0") not in ("", "0")
 
 
 @dataclass

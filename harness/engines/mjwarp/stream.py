@@ -2,11 +2,11 @@
 
 The caller hands jobs over while it plans more (``source``); each free lane takes the next one.
 Between two replays the host collects the jobs whose span ended and judges earlier ones while
-the device steps. A finished job that the validity phase tugs opens its ladder (``lane_tug``):
-its rungs queue for free lanes, ahead of new jobs, and each ladder asks for its next rungs as
-soon as its last ones ended; its slot is freed when the ladder is complete. With
-``HARNESS_TUG_LANES=0`` (and with ``HARNESS_LANE_AHEAD=1``) the tug runs as before: finished
-jobs wait in a group until ``group`` of them, the end of the
+the device steps. With ``HARNESS_TUG_LANES=1`` a finished job that the validity phase
+tugs opens its ladder (``lane_tug``): its rungs queue for free lanes, ahead of new jobs, and
+each ladder asks for its next rungs as soon as its last ones ended; its slot is freed when the
+ladder is complete. By default (measured no faster, ``lane_tug.tug_in_lanes``) finished jobs
+wait in a group until ``group`` of them, the end of the
 stream, ``GROUP_WAIT_S`` since the group's first, or as many as the lanes still step (so that a
 caller waiting for its outcomes before it plans more is never held back by a group that cannot
 fill): their tug ladders then run in rounds (``WorldBatch.tug``: the rounds are as large as the
@@ -40,7 +40,7 @@ from harness.engines.mjwarp.batch import (
 )
 from harness.engines.mjwarp.judge import judge_started
 from harness.engines.mjwarp.lane_sizes import env_int
-from harness.engines.mjwarp.lane_tug import Ladder, LaneLadders
+from harness.engines.mjwarp.lane_tug import Ladder, LaneLadders, tug_in_lanes
 from harness.engines.mjwarp.lanes import Finished, LaneRun, RungsFinished
 from harness.engines.mjwarp.schedule import DeviceJob
 from harness.engines.mjwarp.signals import HoldWindow, window_steps
@@ -63,10 +63,6 @@ TUG_GROUP = 4096
 # Queue the lanes' next replay before the host collects the last one (a lane then idles up to
 # two replays per job instead of one, and the device never waits for the host's visit).
 AHEAD_ENV = "HARNESS_LANE_AHEAD"
-# Where the tug's rungs run: in the stream's own free lanes (the default) or, with
-# ``HARNESS_TUG_LANES=0`` (and always with ``HARNESS_LANE_AHEAD=1``), in rounds of a batch of their
-# own on a CUDA stream beside the lanes (``_tug``), as before 2026-11-28.
-TUG_LANES_ENV = "HARNESS_TUG_LANES"
 # The longest a finished job waits in a group for its tug (s). Chosen, no public source: long
 # against a tug round (~0.2 s of device time), short against an episode's planning on a pool.
 GROUP_WAIT_S = 10.0
@@ -129,10 +125,9 @@ class LaneStream:
         # queue each replay before collecting the last (``HARNESS_LANE_AHEAD=1``; not yet
         # measured on a GPU: off by default)
         self.ahead = os.environ.get(AHEAD_ENV, "0") not in ("", "0")
-        # the rungs in the lanes (``lane_tug``), each job's ladder at its own pace
-        in_lanes = os.environ.get(TUG_LANES_ENV, "1") not in ("", "0")
-        in_lanes = in_lanes and not self.ahead
-        self.ladders = LaneLadders(batch.dm.weight, batch.policy) if in_lanes else None
+        # the rungs in the lanes (``lane_tug``), each job's ladder at its own pace (made with
+        # the lanes, ``_make``; None: the tug runs beside the lanes)
+        self.ladders: LaneLadders | None = None
         self._laddered: list[_Tugged] = []  # jobs whose ladder ended: to judge
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
@@ -166,6 +161,8 @@ class LaneStream:
         substeps = sum(schedule.chunk_sizes)
         capacity = 2 * self.nlane + self.group
         self._rung_steps = rung_physics_steps(self.batch.dm, float(job.task.control_dt))
+        if tug_in_lanes(self.ahead):
+            self.ladders = LaneLadders(self.batch.dm.weight, self.batch.policy)
         self._free_slots = list(range(capacity - 1, -1, -1))
         return LaneRun(
             self.batch.dm, self.nlane, capacity, LANE_ROWS, window, schedule.chunk_sizes,
