@@ -122,6 +122,16 @@ for job in "$@"; do
     fr3_big_yaml)  # the same cones x 15,000 seeds (45,000 rows): a throughput sweep for two GPUs
       sed 's/episodes_per_point: 1000/episodes_per_point: 15000/; s/fr3_cube_cones/fr3_big/' \
         /tmp/fr3_cube_cones.yaml > /tmp/fr3_big.yaml; cat /tmp/fr3_big.yaml ;;
+    fr3_mid_yaml)  # the cones x 5,000 seeds (15,000 rows): the two-GPU ratio within a short sitting
+      sed 's/episodes_per_point: 1000/episodes_per_point: 5000/; s/fr3_cube_cones/fr3_mid/' \
+        /tmp/fr3_cube_cones.yaml > /tmp/fr3_mid.yaml; cat /tmp/fr3_mid.yaml ;;
+    fr3_mid_all)  # every GPU, a process per GPU
+      timeout 240 python3 -m harness.cli sweep /tmp/fr3_mid.yaml --engine mjwarp \
+        --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_mid_all" --no-progress --record none ;;
+    fr3_mid_one)  # the first GPU alone, planning on the same cores
+      HARNESS_WARP_DEVICE=cuda:0 timeout 240 python3 -m harness.cli sweep /tmp/fr3_mid.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_mid_one" --no-progress \
+        --record none ;;
     fr3_big_all)  # every GPU, a process per GPU (the default with several devices)
       timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all" --no-progress --record none ;;

@@ -774,6 +774,48 @@ def test_two_devices_share_one_keys_jobs_a_streams_room_at_a_time(fr3_jobs) -> N
     assert sorted(taken) == ["cuda:0", "cuda:1"] and min(taken.values()) >= 2, taken
 
 
+def test_two_devices_serving_one_key_take_even_shares_of_what_waits(fr3_jobs) -> None:
+    """Both devices' streams of one key have room for every job and lanes at work; 42 jobs
+    wait: each takes half (before, the first to ask took them all and the other device idled;
+    a stream whose lanes are idle still takes what it has room for)."""
+    from harness.engines.mjwarp.devices import DeviceStreams
+
+    both = threading.Barrier(2)
+    queued = threading.Event()
+    taken: dict[str, int] = {}
+    lock = threading.Lock()
+
+    def stream(engine: Any, scene: Any, source: Any, on_outcome: Any, lanes: int) -> None:
+        both.wait(timeout=60)  # both streams serve the key before the jobs are queued
+        assert queued.wait(timeout=60)
+        block = False  # a stream with work in its lanes: it takes its share, not its room
+        while (jobs := source(block, 100)) is not None:
+            block = not jobs
+            with lock:
+                taken[engine] = taken.get(engine, 0) + len(jobs)
+            time.sleep(0.2)  # the device steps them
+            for tag, _ in jobs:
+                on_outcome(tag, None)
+
+    streams = DeviceStreams(
+        ["cuda:0", "cuda:1"], make_engine=lambda d: d, run_stream=stream, per_device=1
+    )
+    done = threading.Semaphore(0)
+    for tag in range(2):  # one job each starts a stream on each device
+        streams.submit(tag, fr3_jobs[0], lambda outcome, error: done.release())
+    deadline = time.monotonic() + 60
+    while streams._serving(stream_key(fr3_jobs[0])) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for tag in range(2, 42):
+        streams.submit(tag, fr3_jobs[0], lambda outcome, error: done.release())
+    queued.set()
+    for _ in range(42):
+        assert done.acquire(timeout=60)
+    streams.close()
+    assert sum(taken.values()) == 42
+    assert sorted(taken) == ["cuda:0", "cuda:1"] and min(taken.values()) >= 20, taken
+
+
 def test_stream_timings_add_up_and_keep_the_larger_peaks() -> None:
     """``add_timings`` sums every field of two streams' timings except the peaks, which keep
     the larger (a field added to the timings is summed without being listed anywhere)."""

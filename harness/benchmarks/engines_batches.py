@@ -13,7 +13,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from harness.engines.mjwarp.busy_time import union_length
-from harness.engines.mjwarp.devices import DeviceStreams, scene_for
+from harness.engines.mjwarp.devices import DeviceStreams
+from harness.engines.mjwarp.stream_keys import scene_for
 from harness.pick.outcome import PickOutcome
 
 
