@@ -814,6 +814,7 @@ def test_two_devices_serving_one_key_take_even_shares_of_what_waits(fr3_jobs) ->
     streams.close()
     assert sum(taken.values()) == 42
     assert sorted(taken) == ["cuda:0", "cuda:1"] and min(taken.values()) >= 20, taken
+    assert streams.stats.jobs_by_device == taken  # what the sweep's device line shows
 
 
 def test_stream_timings_add_up_and_keep_the_larger_peaks() -> None:

@@ -91,7 +91,10 @@ def test_a_process_per_device_for_a_large_run_or_when_asked(
 def test_the_shards_stats_add_up() -> None:
     total = RunStats(finished=3, errors=["a"])
     first = StreamStats(jobs=5, streams=2, lanes=64, device_s=10.0, by_device={"cuda:0": 2})
+    first.jobs_by_device = {"cuda:0": 5}
+    assert first.spread() == ""  # one device: nothing to compare
     second = StreamStats(jobs=7, streams=1, lanes=128, device_s=12.5, by_device={"cuda:1": 1})
+    second.jobs_by_device = {"cuda:1": 7}
     merge_stats(total, RunStats(finished=4, crashed=1, device=first))
     merge_stats(total, RunStats(finished=6, interrupted=True, errors=["b"], device=second))
     assert (total.finished, total.crashed, total.interrupted) == (13, 1, True)
@@ -100,6 +103,8 @@ def test_the_shards_stats_add_up() -> None:
     assert (device.jobs, device.streams, device.lanes) == (12, 3, 128)
     assert device.device_s == 12.5  # side by side: the longest shard's
     assert device.by_device == {"cuda:0": 2, "cuda:1": 1}
+    assert device.jobs_by_device == {"cuda:0": 5, "cuda:1": 7}
+    assert device.spread() == " (cuda:0: 2 stream(s), 5 job(s); cuda:1: 1 stream(s), 7 job(s))"
 
 
 class _Process:

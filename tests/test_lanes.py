@@ -207,7 +207,7 @@ def test_host_visits_follow_the_lane_interval_setting(monkeypatch: pytest.Monkey
 
     job = fr3_device_jobs(1)[0]
     made: list[int] = []
-    monkeypatch.setattr(stream_module, "LaneRun", lambda *args: made.append(args[-1]))
+    monkeypatch.setattr(stream_module, "LaneRun", lambda *args, **kw: made.append(args[-1]))
     batch = SimpleNamespace(dm=None, buffers=None, timings=None, data=lambda n, b: None)
     substeps = sum(job.schedule.chunk_sizes)
     stream = stream_module.LaneStream(batch, nlane=2)  # type: ignore[arg-type]

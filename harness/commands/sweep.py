@@ -80,13 +80,8 @@ def main(args: argparse.Namespace) -> int:
         console.print(pace)
     if stats.device is not None:  # mjwarp on the process pool: the shared device(s)
         device = stats.device
-        spread = (
-            " (" + ", ".join(f"{n} on {name}" for name, n in sorted(device.by_device.items())) + ")"
-            if len(device.by_device) > 1
-            else ""
-        )
         console.print(
-            f"device: {device.jobs} job(s) in {device.streams} lane stream(s){spread} of "
+            f"device: {device.jobs} job(s) in {device.streams} lane stream(s){device.spread()} of "
             f"up to {device.lanes} lanes, {max(1, device.concurrent)} at once per "
             f"device, {device.device_s:.1f} s"
             + (f"; {len(device.errors)} failed stream(s)" if device.errors else "")

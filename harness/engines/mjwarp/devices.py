@@ -379,6 +379,7 @@ class DeviceStreams:
             answer = taken.pop(tag, None)
             with self._cond:
                 self.stats.jobs += 1
+                self.stats.jobs_by_device[device] = self.stats.jobs_by_device.get(device, 0) + 1
                 said = label in self.stats.compile_s
                 if first and not said:
                     self.stats.compile_s[label] = time.perf_counter() - started
@@ -409,16 +410,20 @@ class DeviceStreams:
                 answer(None, message)
             taken.clear()
         finally:
-            end = time.perf_counter()
-            with self._cond:
-                self._held.pop((device, key), None)
-                self._spans.append((started, end))
-                self.stats.device_s = union_length(self._spans)
-                self.stats.streams += 1
-                self.stats.lanes = max(self.stats.lanes, lanes)
-                self.stats.by_device[device] = self.stats.by_device.get(device, 0) + 1
+            self._stream_ended(device, key, started, lanes)
         for answer in taken.values():  # a stream that ended without judging a job it took
             answer(None, f"the lane stream of {label} ended without the job's outcome")
+
+    def _stream_ended(self, device: str, key: StreamKey, started: float, lanes: int) -> None:
+        """Count a stream that ended: its span of device time, its lanes, its device."""
+        end = time.perf_counter()
+        with self._cond:
+            self._held.pop((device, key), None)
+            self._spans.append((started, end))
+            self.stats.device_s = union_length(self._spans)
+            self.stats.streams += 1
+            self.stats.lanes = max(self.stats.lanes, lanes)
+            self.stats.by_device[device] = self.stats.by_device.get(device, 0) + 1
 
     def _slot(self, engine: Any) -> Any:
         """This thread's device slot: a CUDA stream of its own on the engine's device, made

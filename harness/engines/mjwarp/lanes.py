@@ -100,9 +100,12 @@ class LaneRun:
         buffers: Buffers,
         make_data: Callable[[int], mjw.Data],
         interval: int,
+        rungs: bool = False,
     ) -> None:
         """``rows``: the longest span a slot holds (control steps); ``window``: the validity
-        window's control steps; ``interval``: physics steps between two host visits."""
+        window's control steps; ``interval``: physics steps between two host visits;
+        ``rungs``: lanes may run tug rungs (``load_rungs``; else their kernels stay out of the
+        graph)."""
         if dm.mj_model.na:
             raise ValueError("lanes do not reset actuator activations (model with na > 0)")
         self.dm, self.nlane, self.capacity, self.rows = dm, nlane, capacity, rows
@@ -124,6 +127,7 @@ class LaneRun:
         self.rung_out = wp.zeros((nlane, 1, SIGNALS), dtype=wp.float32)  # a rung's end row
         self.rung_pen = dm.penetration_start(nlane)  # (a rung's penetration is not judged)
         self.lane_index = wp.array(np.arange(nlane, dtype=np.int32), dtype=wp.int32)
+        self.rungs = rungs
         # per job slot
         nchunks = len(chunk_sizes)
         self.table = wp.zeros((capacity, rows * nchunks, nu), dtype=wp.float32)
@@ -182,6 +186,8 @@ class LaneRun:
         """Start tug rungs in ``lanes`` (free): each from its job slot's saved state
         ``saved`` (the end of the hold) with its pull ``forces`` (N, world frame) on the
         object, for ``steps_each`` physics steps; ``tags`` name them in ``collect``."""
+        if not self.rungs:
+            raise ValueError("these lanes were made without rungs (LaneRun(rungs=True))")
         d, dm = self.d, self.dm
         ints = [wp.array(np.asarray(v, dtype=np.int32), dtype=wp.int32)
                 for v in (lanes, job_slots, saved)]  # fmt: skip
@@ -263,12 +269,13 @@ class LaneRun:
             ],
         )  # fmt: skip
         dm.record(d, self.row_of, self.out, self.warm, self.pen_initial, self.job_of)
-        wp.launch(
-            lk.lane_rung_tick,
-            dim=self.nlane,
-            inputs=[self.rung_left, dm.obj_body, d.xfrc_applied, self.rung_row],
-        )
-        dm.record(d, self.rung_row, self.rung_out, self.rung_out, self.rung_pen, self.lane_index)
+        if self.rungs:
+            wp.launch(
+                lk.lane_rung_tick, dim=self.nlane,
+                inputs=[self.rung_left, dm.obj_body, d.xfrc_applied, self.rung_row],
+            )  # fmt: skip
+            rung_rows = self.rung_row, self.rung_out, self.rung_out, self.rung_pen
+            dm.record(d, *rung_rows, self.lane_index)
         wp.launch(
             kernels.save_state, dim=self.nlane,
             inputs=[
@@ -304,10 +311,13 @@ class LaneRun:
 
     def collect(self, timings: BatchTimings) -> Finished:
         """After the queued steps are done: the jobs whose span ended (their lanes are free)."""
-        job_of, peak_rows, contacts, rung_left = to_host_all(
-            [self.job_of, self.peak_rows, self.peak_contacts, self.rung_left]
+        state = [self.job_of, self.peak_rows, self.peak_contacts]
+        job_of, peak_rows, contacts, *rung_left = to_host_all(
+            [*state, self.rung_left] if self.rungs else state
         )
-        rungs = self._rungs_ended(rung_left, peak_rows, int(contacts[0]), timings)
+        rungs = None
+        if rung_left:
+            rungs = self._rungs_ended(rung_left[0], peak_rows, int(contacts[0]), timings)
         slots, spans, over = self._retire(job_of, peak_rows, int(contacts[0]), timings)
         if len(slots) == 0:
             return Finished([], [], [], [], rungs)

@@ -128,6 +128,7 @@ class LaneStream:
         # the rungs in the lanes (``lane_tug``), each job's ladder at its own pace (made with
         # the lanes, ``_make``; None: the tug runs beside the lanes)
         self.ladders: LaneLadders | None = None
+        self._rung_steps = 0  # a rung's physics steps (with ladders)
         self._laddered: list[_Tugged] = []  # jobs whose ladder ended: to judge
 
     def run(self, source: Source) -> dict[Hashable, PickOutcome]:
@@ -160,14 +161,15 @@ class LaneStream:
         window = window_steps(job.task.pick.hold_time, schedule.control_dt)
         substeps = sum(schedule.chunk_sizes)
         capacity = 2 * self.nlane + self.group
-        self._rung_steps = rung_physics_steps(self.batch.dm, float(job.task.control_dt))
         if tug_in_lanes(self.ahead):
             self.ladders = LaneLadders(self.batch.dm.weight, self.batch.policy)
+            self._rung_steps = rung_physics_steps(self.batch.dm, float(job.task.control_dt))
         self._free_slots = list(range(capacity - 1, -1, -1))
         return LaneRun(
             self.batch.dm, self.nlane, capacity, LANE_ROWS, window, schedule.chunk_sizes,
             self.batch.buffers, lambda n: self.batch.data(n, self.batch.buffers),
             (env_int("HARNESS_LANE_INTERVAL") or INTERVAL_CONTROL_STEPS) * substeps,
+            rungs=self.ladders is not None,
         )  # fmt: skip
 
     def _loop(self, source: Source) -> None:

@@ -19,10 +19,23 @@ class StreamStats:
     lanes: int = 0
     device_s: float = 0.0
     by_device: dict[str, int] = field(default_factory=dict)
+    jobs_by_device: dict[str, int] = field(default_factory=dict)  # jobs answered on each
     compile_s: dict[str, float] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
     timings: Any = None  # the streams' BatchTimings, summed (bench figures)
     concurrent: int = 0
+
+    def spread(self) -> str:
+        """With several devices, the streams and jobs each ran, e.g. `` (cuda:0: 1 stream(s),
+        10,240 job(s); cuda:1: 1 stream(s), 844 job(s))``; '' with one (an uneven split shows
+        here: on two H200s one GPU took 10,240 of 11,084 jobs, 2026-11-28)."""
+        if len(self.by_device) < 2:
+            return ""
+        parts = [
+            f"{name}: {n} stream(s), {self.jobs_by_device.get(name, 0):,} job(s)"
+            for name, n in sorted(self.by_device.items())
+        ]
+        return " (" + "; ".join(parts) + ")"
 
     def breakdown(self) -> str:
         """Where the streams' host time went (summed over streams, so it can exceed the wall),
@@ -69,6 +82,8 @@ def add_side_by_side(total: StreamStats, more: StreamStats) -> None:
     total.device_s = max(total.device_s, more.device_s)
     for name, count in more.by_device.items():
         total.by_device[name] = total.by_device.get(name, 0) + count
+    for name, count in more.jobs_by_device.items():
+        total.jobs_by_device[name] = total.jobs_by_device.get(name, 0) + count
     total.compile_s.update(more.compile_s)
     total.errors.extend(more.errors)
     if more.timings is not None:
