@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import trimesh
 import yaml
+from hypothesis import strategies as st
 
 from harness.config import TaskConfig
 from harness.config.robot_registry import available_robots, canonical_task_files
@@ -363,3 +364,13 @@ def write_handover_file(examples: Path, folder: Path) -> Path:
     path = folder / "split_aloha_handover.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
+
+
+# A tug rung's outcome as the judge makes it (survived, slip in m, between the fingers):
+# survived only when still between the fingers (tests/test_tug_rounds.py, test_lane_tug.py).
+rung_outcomes = st.builds(
+    lambda survived, slip, between: (survived and between, slip, between or survived),
+    st.booleans(),
+    st.floats(0.0, 0.05),
+    st.booleans(),
+)

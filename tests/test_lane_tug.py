@@ -10,6 +10,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
+from helpers import rung_outcomes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -19,13 +20,9 @@ from harness.engines.mjwarp.signals import HoldWindow
 from harness.engines.mjwarp.tug import RUNGS, RoundPolicy, Rung, run_rounds
 from harness.pick.validity import TUG_DIRECTIONS, RungOutcome
 
-outcomes = st.builds(
-    lambda survived, slip, between: (survived and between, slip, between or survived),
-    st.booleans(),
-    st.floats(0.0, 0.05),
-    st.booleans(),
+patterns = st.lists(
+    st.fixed_dictionaries({r: rung_outcomes for r in RUNGS}), min_size=1, max_size=5
 )
-patterns = st.lists(st.fixed_dictionaries({r: outcomes for r in RUNGS}), min_size=1, max_size=5)
 WEIGHT = 2.0  # N
 
 

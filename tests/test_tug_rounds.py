@@ -4,6 +4,7 @@ survived rungs, for every round policy."""
 
 from __future__ import annotations
 
+from helpers import rung_outcomes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -12,14 +13,9 @@ from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug
 
 TOP = TUG_LEVELS_G[-1]
 
-# A rung outcome as the judge makes it: survived only when still between the fingers.
-outcomes = st.builds(
-    lambda survived, slip, between: (survived and between, slip, between or survived),
-    st.booleans(),
-    st.floats(0.0, 0.05),
-    st.booleans(),
+patterns = st.lists(
+    st.fixed_dictionaries({r: rung_outcomes for r in RUNGS}), min_size=1, max_size=6
 )
-patterns = st.lists(st.fixed_dictionaries({r: outcomes for r in RUNGS}), min_size=1, max_size=6)
 
 
 def _full(pattern: dict[Rung, RungOutcome]) -> tuple[float, str]:

@@ -214,6 +214,7 @@ class WorldBatch:
         wp.launch(
             kernels.load_rungs, dim=nt,
             inputs=[
+                wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32),
                 wp.array(np.asarray(source, dtype=np.int32), dtype=wp.int32),
                 wp.array(np.asarray(slot, dtype=np.int32), dtype=wp.int32),
                 *start.saved, start.hold_ctrl, *start.mocap,

@@ -321,45 +321,11 @@ def carry_state(
         ctrl_out[w, i] = ctrl[b, i]
 
 
-@wp.func
-def start_rung(
-    r: int,  # the world of the data that runs the rung
-    b: int,  # its episode's world (or job slot) in the saved arrays
-    k: int,  # the saved slot (end of the hold)
-    saved_qpos: wp.array3d(dtype=wp.float32),
-    saved_qvel: wp.array3d(dtype=wp.float32),
-    saved_warm: wp.array3d(dtype=wp.float32),
-    hold_ctrl: wp.array2d(dtype=wp.float32),
-    mocap_pos_src: wp.array2d(dtype=wp.vec3),
-    mocap_quat_src: wp.array2d(dtype=wp.quat),
-    f: wp.vec3,
-    obj_body: int,
-    qpos: wp.array2d(dtype=wp.float32),
-    qvel: wp.array2d(dtype=wp.float32),
-    warm: wp.array2d(dtype=wp.float32),
-    ctrl: wp.array2d(dtype=wp.float32),
-    mocap_pos: wp.array2d(dtype=wp.vec3),
-    mocap_quat: wp.array2d(dtype=wp.quat),
-    xfrc: wp.array2d(dtype=wp.spatial_vector),
-):
-    """World ``r`` takes episode ``b``'s held state with the pull ``f`` on the object."""
-    for i in range(qpos.shape[1]):
-        qpos[r, i] = saved_qpos[b, k, i]
-    for i in range(qvel.shape[1]):
-        qvel[r, i] = saved_qvel[b, k, i]
-        warm[r, i] = saved_warm[b, k, i]
-    for i in range(ctrl.shape[1]):
-        ctrl[r, i] = hold_ctrl[b, i]
-    for i in range(mocap_pos.shape[1]):
-        mocap_pos[r, i] = mocap_pos_src[b, i]
-        mocap_quat[r, i] = mocap_quat_src[b, i]
-    xfrc[r, obj_body] = wp.spatial_vector(f[0], f[1], f[2], 0.0, 0.0, 0.0)
-
-
 @wp.kernel
 def load_rungs(
-    source: wp.array(dtype=wp.int32),  # per rung world: its episode world
-    slot: wp.array(dtype=wp.int32),  # per rung world: the saved slot (end of the hold)
+    dest: wp.array(dtype=wp.int32),  # per rung: the world of the data that runs it
+    source: wp.array(dtype=wp.int32),  # per rung: its episode world (or job slot)
+    slot: wp.array(dtype=wp.int32),  # per rung: the saved slot (end of the hold)
     saved_qpos: wp.array3d(dtype=wp.float32),
     saved_qvel: wp.array3d(dtype=wp.float32),
     saved_warm: wp.array3d(dtype=wp.float32),
@@ -376,9 +342,21 @@ def load_rungs(
     mocap_quat: wp.array2d(dtype=wp.quat),
     xfrc: wp.array2d(dtype=wp.spatial_vector),
 ):
-    """Start each tug rung world from its episode's held state with its pull applied."""
-    r = wp.tid()
-    start_rung(
-        r, source[r], slot[r], saved_qpos, saved_qvel, saved_warm, hold_ctrl, mocap_pos_src,
-        mocap_quat_src, force[r], obj_body, qpos, qvel, warm, ctrl, mocap_pos, mocap_quat, xfrc,
-    )  # fmt: skip
+    """Start each tug rung in its world from its episode's held state with its pull applied
+    (a round's own data: world ``r``; a stream's lanes: a free lane)."""
+    i = wp.tid()
+    r = dest[i]
+    b = source[i]
+    k = slot[i]
+    for j in range(qpos.shape[1]):
+        qpos[r, j] = saved_qpos[b, k, j]
+    for j in range(qvel.shape[1]):
+        qvel[r, j] = saved_qvel[b, k, j]
+        warm[r, j] = saved_warm[b, k, j]
+    for j in range(ctrl.shape[1]):
+        ctrl[r, j] = hold_ctrl[b, j]
+    for j in range(mocap_pos.shape[1]):
+        mocap_pos[r, j] = mocap_pos_src[b, j]
+        mocap_quat[r, j] = mocap_quat_src[b, j]
+    f = force[i]
+    xfrc[r, obj_body] = wp.spatial_vector(f[0], f[1], f[2], 0.0, 0.0, 0.0)

@@ -8,7 +8,8 @@ row at the end of the warm-up), the signal kernels of ``kernels`` record, and
 ``lane_release`` frees the lanes whose span ended. The host loads new jobs into free lanes
 between replays (``scatter_*``) and gathers the finished jobs' rows (``gather_rows``).
 
-A free lane can also run a tug *rung* (``lane_load_rungs``): the held state of a job slot with
+A free lane can also run a tug *rung* (``kernels.load_rungs`` into the lane, then
+``lane_rung_start``): the held state of a job slot with
 the rung's pull on the object, for ``rung_left`` physics steps; ``lane_rung_tick`` counts them
 down, marks the lane's rung row (``BASELINE``: the rung's one end row, recorded into the
 lanes' rung rows) at the last, and takes the pull off.
@@ -26,7 +27,7 @@ from typing import Any
 
 import warp as wp
 
-from harness.engines.mjwarp.kernels import BASELINE, NO_ROW, start_rung
+from harness.engines.mjwarp.kernels import BASELINE, NO_ROW
 
 
 @wp.kernel
@@ -96,36 +97,14 @@ def lane_release(job_of: wp.array(dtype=wp.int32), ended: wp.array(dtype=wp.int3
 
 
 @wp.kernel
-def lane_load_rungs(
-    lanes: wp.array(dtype=wp.int32),  # per rung: the free lane that runs it
-    source: wp.array(dtype=wp.int32),  # per rung: its job slot
-    slot: wp.array(dtype=wp.int32),  # per rung: the saved slot (end of the hold)
-    force: wp.array(dtype=wp.vec3),
+def lane_rung_start(
+    lanes: wp.array(dtype=wp.int32),  # per rung: its lane (its state set by ``load_rungs``)
     steps: int,  # the rung's physics steps
-    saved_qpos: wp.array3d(dtype=wp.float32),
-    saved_qvel: wp.array3d(dtype=wp.float32),
-    saved_warm: wp.array3d(dtype=wp.float32),
-    hold_ctrl: wp.array2d(dtype=wp.float32),
-    mocap_pos_src: wp.array2d(dtype=wp.vec3),
-    mocap_quat_src: wp.array2d(dtype=wp.quat),
-    obj_body: int,
-    qpos: wp.array2d(dtype=wp.float32),
-    qvel: wp.array2d(dtype=wp.float32),
-    warm: wp.array2d(dtype=wp.float32),
-    ctrl: wp.array2d(dtype=wp.float32),
-    mocap_pos: wp.array2d(dtype=wp.vec3),
-    mocap_quat: wp.array2d(dtype=wp.quat),
-    xfrc: wp.array2d(dtype=wp.spatial_vector),
     rung_left: wp.array(dtype=wp.int32),
     peak_rows: wp.array(dtype=wp.int32),
 ):
-    """Start each rung in its lane (``kernels.load_rungs``' state) with its steps to go."""
-    r = wp.tid()
-    lane = lanes[r]
-    start_rung(
-        lane, source[r], slot[r], saved_qpos, saved_qvel, saved_warm, hold_ctrl, mocap_pos_src,
-        mocap_quat_src, force[r], obj_body, qpos, qvel, warm, ctrl, mocap_pos, mocap_quat, xfrc,
-    )  # fmt: skip
+    """Each rung's lane counts its steps down from ``steps``, its buffer use from 0."""
+    lane = lanes[wp.tid()]
     rung_left[lane] = steps
     peak_rows[lane] = 0
 

@@ -189,16 +189,20 @@ class LaneRun:
         if not self.rungs:
             raise ValueError("these lanes were made without rungs (LaneRun(rungs=True))")
         d, dm = self.d, self.dm
-        ints = [wp.array(np.asarray(v, dtype=np.int32), dtype=wp.int32)
-                for v in (lanes, job_slots, saved)]  # fmt: skip
+        lanes_w, source, slot = (wp.array(np.asarray(v, dtype=np.int32), dtype=wp.int32)
+                                 for v in (lanes, job_slots, saved))  # fmt: skip
         wp.launch(
-            lk.lane_load_rungs, dim=len(lanes),
+            kernels.load_rungs, dim=len(lanes),
             inputs=[
-                *ints, wp.array(np.asarray(forces, dtype=np.float32), dtype=wp.vec3),
-                steps_each, *self.saved, self.hold_ctrl, *self.mocap, dm.obj_body, d.qpos,
-                d.qvel, d.qacc_warmstart, d.ctrl, d.mocap_pos, d.mocap_quat, d.xfrc_applied,
-                self.rung_left, self.peak_rows,
+                lanes_w, source, slot, *self.saved, self.hold_ctrl, *self.mocap,
+                wp.array(np.asarray(forces, dtype=np.float32), dtype=wp.vec3), dm.obj_body,
+                d.qpos, d.qvel, d.qacc_warmstart, d.ctrl, d.mocap_pos, d.mocap_quat,
+                d.xfrc_applied,
             ],
+        )  # fmt: skip
+        wp.launch(
+            lk.lane_rung_start, dim=len(lanes),
+            inputs=[lanes_w, steps_each, self.rung_left, self.peak_rows],
         )  # fmt: skip
         self.lane_rung[lanes] = tags
         self.loaded_at[lanes] = self._visit + 1
