@@ -44,11 +44,12 @@ from harness.engines.mjwarp.tug import (
     RoundPolicy,
     Rung,
     run_rounds,
+    rung_pull,
+    rung_start_slot,
     steps_per_graph,
 )
 from harness.pick.outcome import PickOutcome
 from harness.pick.validity import (
-    TUG_DIRECTIONS,
     RungOutcome,
     tug_rung_steps,
     validity_enabled,
@@ -203,12 +204,11 @@ class WorldBatch:
         are noted (``self._overflowed``)."""
         clock = time.perf_counter()
         dm = self.dm
-        directions = dict(TUG_DIRECTIONS)
         source, slot, force = [], [], []
-        for w, (name, k) in batch:
+        for w, rung in batch:
             source.append(w)
-            slot.append(_window(start.windows[w]).hold_end - (int(start.motion[w]) - 1))
-            force.append(np.asarray(directions[name]) * k * dm.weight)
+            slot.append(rung_start_slot(_window(start.windows[w]).hold_end, int(start.motion[w])))
+            force.append(rung_pull(rung, dm.weight))
         nt = len(batch)
         td = self.data(nt, buffers)
         wp.launch(

@@ -25,15 +25,20 @@ import numpy as np
 
 from harness.engines.mjwarp.judge import held_in_tcp, rung_outcome
 from harness.engines.mjwarp.signals import HoldWindow
-from harness.engines.mjwarp.tug import DEFAULT_POLICY, RoundPolicy, Rung, round_rungs
-from harness.pick.validity import TUG_DIRECTIONS, RungOutcome
-
-_DIRECTIONS = dict(TUG_DIRECTIONS)
+from harness.engines.mjwarp.tug import (
+    DEFAULT_POLICY,
+    RoundPolicy,
+    Rung,
+    round_rungs,
+    rung_pull,
+    rung_start_slot,
+)
+from harness.pick.validity import RungOutcome
 
 # Where the tug's rungs run: with ``HARNESS_TUG_LANES=1``, in the stream's own free lanes;
 # by default (and always with ``HARNESS_LANE_AHEAD=1``) in rounds of a batch of their own on a
 # CUDA stream beside the lanes (``stream.LaneStream._tug``). Measured on one H100 (16 cores,
-# 2026-11-28, docs/engines.md "The sitting of 2026-11-28, noon"), beside against in the lanes:
+# 2026-11-28, docs/engines.md "The sittings of 2026-11-28, noon"), beside against in the lanes:
 # the demo 94.1 s against 121.0 s (its streams of 128 lanes hold a few jobs each, so a ladder's
 # rounds in line lengthen them), issue 34's FR3 sweep 53.9 s against 56.5 s (1,024 lanes), its
 # 45,000-row version 297.8 s against 296.5 s (8,192 lanes, planning the bound). No win: off.
@@ -92,8 +97,7 @@ class LaneLadders:
     ) -> None:
         """Open ``item``'s ladder (its job in ``slot``, signal ``rows``, ``motion`` control
         steps) and queue its first rungs (every policy asks for some at first)."""
-        # the saved states start at the motion's last row (``kernels.save_state``)
-        saved = window.hold_end - (motion - 1)
+        saved = rung_start_slot(window.hold_end, motion)
         ladder = Ladder(item, slot, window, saved, held_in_tcp(rows, window))
         self.open += 1
         self._ask(ladder)
@@ -105,12 +109,11 @@ class LaneLadders:
             return False
         self.rounds += 1
         for rung in rungs:
-            name, k = rung
             tag = self._next_tag
             self._next_tag += 1
             self._tags[tag] = (ladder, rung)
             ladder.waiting.add(rung)
-            force = np.asarray(_DIRECTIONS[name], dtype=float) * k * self.weight
+            force = rung_pull(rung, self.weight)
             self.queue.append(RungRequest(tag, ladder.slot, ladder.saved, rung, force))
         return True
 

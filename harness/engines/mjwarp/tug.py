@@ -25,6 +25,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 
+import numpy as np
+
 from harness.engines.mjwarp.lane_sizes import env_int
 from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug_ladder
 
@@ -32,6 +34,23 @@ from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug
 Rung = tuple[str, float]
 # Every rung, direction-major, levels ascending.
 RUNGS: tuple[Rung, ...] = tuple((name, k) for name, _ in TUG_DIRECTIONS for k in TUG_LEVELS_G)
+_DIRECTIONS = dict(TUG_DIRECTIONS)
+
+
+def rung_pull(rung: Rung, weight: float) -> np.ndarray:
+    """A rung's pull on the object (N, world frame): its direction times its level (g) times
+    the object's ``weight`` (N)."""
+    name, k = rung
+    return np.asarray(_DIRECTIONS[name], dtype=float) * k * weight
+
+
+def rung_start_slot(hold_end: int, motion: int) -> int:
+    """The saved state a rung starts from, the end of the hold (signal row ``hold_end``), as an
+    index of a world's saved states, which start at its motion's last row
+    (``kernels.save_state``; ``motion`` control steps)."""
+    return hold_end - (motion - 1)
+
+
 # Runs one round's (world, rung) pairs on the engine; their outcomes in the same order.
 RoundRunner = Callable[[list[tuple[int, Rung]]], list[RungOutcome]]
 # What a round assumes of a rung not yet computed: survived (the optimistic path).
