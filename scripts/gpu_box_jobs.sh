@@ -150,6 +150,10 @@ for job in "$@"; do
     raise_pid_max)  # 4,194,304: the kernel's PID_MAX_LIMIT on 64-bit, what systemd >= 243 sets
       # (the box boots with 32,768; a thread takes a PID, harness.runs.thread_budget)
       echo 4194304 > /proc/sys/kernel/pid_max; cat /proc/sys/kernel/pid_max ;;
+    demo_gpu_streams8)  # the demo with 8 streams a device (the default before 2026-11-28 evening)
+      HARNESS_STREAMS_PER_DEVICE=8 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_streams8" \
+        --no-progress --record none ;;
     demo_gpu_streams16)  # the demo with every task model's stream at once (16 slots for 10 keys)
       HARNESS_STREAMS_PER_DEVICE=16 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_streams16" \

@@ -253,6 +253,37 @@ def test_a_streams_lanes_follow_its_task_models_jobs(
     assert streams.planned_lanes() == 512
 
 
+def test_ten_task_models_stream_at_once_within_the_devices_budget(
+    fr3_jobs, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A tune's refinement on one GPU: ten task models of 4,000 jobs each. Each wants 2,048
+    lanes (a third of its jobs), but eight of those fill the device's 16,384 and two would wait
+    a whole stream; with the budget split evenly, all ten run at once with 1,600 lanes."""
+    from harness.engines.mjwarp.devices import DeviceStreams
+    from harness.engines.mjwarp.lane_sizes import CUDA_DEVICE_LANES, CUDA_STREAMS, even_share
+
+    monkeypatch.delenv("HARNESS_LANES", raising=False)
+    monkeypatch.delenv("HARNESS_DEVICE_LANES", raising=False)
+    monkeypatch.delenv("HARNESS_STREAMS_PER_DEVICE", raising=False)
+    assert CUDA_STREAMS >= 10 and CUDA_DEVICE_LANES == 16384
+    assert even_share(16384, [2048] * 10, 64) == 1600  # 1,638 in multiples of the floor
+    assert even_share(16384, [2048] * 8, 64) == 16384  # all fit: no cap
+    assert even_share(16384, [128, 8192, 8192], 64) == 8128  # the small one's rest shared
+    assert even_share(512, [1024, 128], 64) == 384 and even_share(100, [512] * 10, 64) == 64
+    jobs = [_keyed(fr3_jobs[0], k) for k in range(10)]
+    stub = _Concurrent(threading.Barrier(10))
+    streams = DeviceStreams(["cuda:0"], make_engine=lambda d: d, run_stream=stub)
+    streams.expect([job.task for job in jobs for _ in range(4000)])
+    assert streams.planned_lanes() == 10 * 1600
+    done = threading.Semaphore(0)
+    for tag, job in enumerate(jobs):
+        streams.submit(tag, job, lambda outcome, error: done.release())
+    for _ in jobs:
+        assert done.acquire(timeout=60)  # the barrier needs all ten streams at once
+    streams.close()
+    assert stub.most == 10 and stub.lanes == [1600] * 10
+
+
 def test_the_wait_for_the_device_is_not_the_episodes_time() -> None:
     with episode_budget(0.2, 10):
         with budget_paused():

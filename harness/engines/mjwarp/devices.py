@@ -37,6 +37,7 @@ from harness.engines.mjwarp.lane_sizes import (
     MIN_CUDA_LANES,
     default_lanes,
     env_int,
+    even_share,
     is_cuda,
     streams_per_device,
 )
@@ -166,8 +167,10 @@ class DeviceStreams:
                     self.expected or [0]
                 )
             else:
+                cap = self._even_share(device)
                 each = sorted(
-                    (default_lanes(device, n) for n in self.expected.values()), reverse=True
+                    (min(cap, default_lanes(device, n)) for n in self.expected.values()),
+                    reverse=True,
                 )
             total += min(self._budget(device), sum(each[: self.per_device[device]]))
         return total
@@ -234,7 +237,18 @@ class DeviceStreams:
             return default_lanes(device, self.episodes)
         tkey = key[:TASK_KEY_LENGTH]
         left = self.expected.get(tkey, 0) - self._taken.get(tkey, 0)
-        return default_lanes(device, max(len(self._queues.get(key, ())), left))
+        wanted = default_lanes(device, max(len(self._queues.get(key, ())), left))
+        return min(wanted, self._even_share(device))
+
+    def _even_share(self, device: str) -> int:
+        """(Holding the condition) the most lanes a stream of ``device`` takes: its budget
+        filled evenly over the lanes the task models with jobs still to come want (the largest
+        that it runs at once)."""
+        left = [n - self._taken.get(k, 0) for k, n in self.expected.items()]
+        wants = sorted((default_lanes(device, n) for n in left if n > 0), reverse=True)
+        return even_share(
+            self._budget(device), wants[: self.per_device[device]], self._floor(device)
+        )
 
     # ---- device threads
 

@@ -17,10 +17,12 @@ import os
 CUDA_LANES = 8192
 CPU_LANES = 4
 # Lane streams in flight at once on one CUDA device (``HARNESS_STREAMS_PER_DEVICE`` overrides).
-# Chosen, no public source: a sweep's task models (the demo has ten) mostly fit; each stream
-# holds its lanes' data and up to 4 job slots per lane (memory not yet measured on a GPU).
-# Warp's CPU device has no streams (its slots take turns): one.
-CUDA_STREAMS = 8
+# Chosen, no public source: every task model of a sweep or a tune round (the demo and the
+# canonical tune have ten) streams at once. At 8, two of the ten waited for a whole stream to
+# end (the tune's phases on one H100, 2026-11-28 morning: eight streams, then two). The lanes of
+# all streams stay within the device's budget (``even_share``). Warp's CPU device has no streams
+# (its slots take turns): one.
+CUDA_STREAMS = 16
 CPU_STREAMS = 1
 # The lanes of all of a CUDA device's streams together (``HARNESS_DEVICE_LANES`` overrides).
 # Chosen, no public source: the physics tops out near 16,384-32,768 worlds on an H100
@@ -84,3 +86,19 @@ def default_lanes(device: str, episodes: int | None = None) -> int:
         return max(MIN_CUDA_LANES, 1 << (max(1, episodes) - 1).bit_length())
     wanted = math.ceil(episodes / EPISODES_PER_LANE)
     return max(SPAN_LANES, min(CUDA_LANES, 1 << (wanted - 1).bit_length()))
+
+
+def even_share(budget: int, wants: list[int], floor: int) -> int:
+    """The most lanes one stream takes while task models wanting ``wants`` lanes stream at once:
+    the device's ``budget`` filled evenly (a model wanting less than an even share leaves the
+    rest to the others), in whole multiples of ``floor`` and at least ``floor``; ``budget`` when
+    all fit. So every model streams at once, rather than the first few taking the budget and the
+    rest waiting a whole stream (a tune's refinement on one H100: ten models of 4,000 jobs
+    wanted 2,048 lanes each, eight filled the 16,384 and two waited)."""
+    left, ordered = budget, sorted(wants)
+    for i, want in enumerate(ordered):
+        share = left // (len(ordered) - i)
+        if want > share:
+            return max(floor, share // floor * floor)
+        left -= want
+    return budget
