@@ -135,6 +135,14 @@ for job in "$@"; do
     fr3_big_all)  # every GPU, a process per GPU (the default with several devices)
       timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp \
         --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all" --no-progress --record none ;;
+    fr3_big_all_flight2)  # fr3_big_all with 2 episodes a lane in flight (the rule before 2026-11-28 evening)
+      HARNESS_IN_FLIGHT_PER_LANE=2 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_all_flight2" \
+        --no-progress --record none ;;
+    fr3_big_one_flight2)  # fr3_big_one with 2 episodes a lane in flight
+      HARNESS_IN_FLIGHT_PER_LANE=2 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m harness.cli \
+        sweep /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
+        --out "$R/fr3_big_one_flight2" --no-progress --record none ;;
     fr3_big_oneproc)  # every GPU from one process (HARNESS_PROCESS_PER_DEVICE=0, as before)
       HARNESS_PROCESS_PER_DEVICE=0 timeout 360 python3 -m harness.cli sweep /tmp/fr3_big.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_big_oneproc" \

@@ -344,19 +344,23 @@ def test_the_baton_lets_one_thread_plan_while_another_waits_for_its_reply() -> N
     assert holders == [0, 1, 0]
 
 
-def test_depth_keeps_two_jobs_per_lane_in_flight() -> None:
+def test_depth_keeps_four_episodes_per_lane_in_flight(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("HARNESS_IN_FLIGHT_PER_LANE", raising=False)
+    assert thread_budget.IN_FLIGHT_PER_LANE == 4
     box = 16384  # half of Linux's default pid_max (harness.runs.thread_budget)
-    assert device_pool.depth_for(2048, 1, 31, box) == 133  # ceil(2 * 2048 / 31)
+    assert device_pool.depth_for(2048, 1, 31, box) == 265  # ceil(4 * 2048 / 31)
     assert device_pool.depth_for(8192, 1, 31, threads=8192) == 264  # 8,192 threads over 31
     assert device_pool.depth_for(8192, 1, 15, threads=box // 2) == 546  # a GPU's share of two
-    assert device_pool.depth_for(4, 1, 2, box) == 4
+    assert device_pool.depth_for(4, 1, 2, box) == 8
     assert device_pool.depth_for(1, 1, 32, box) == 2  # at least one planning and one waiting
     assert device_pool.depth_for(10**6, 1, 1, box) == thread_budget.MAX_DEPTH
     assert device_pool.depth_for(10**6, 1, 10**5, box) == 2  # a planning and a waiting one
     # share groups of three cones: a thread per episode, so a third of the groups; two GPUs
     # of 15 workers each under the default pid_max held 8,192 threads a GPU, not 24,000
     assert device_pool.depth_for(8192, 1, 15, threads=box // 2, group=3) == 182
-    assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 46  # 2 a lane
+    assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 92  # 4 a lane
+    monkeypatch.setenv("HARNESS_IN_FLIGHT_PER_LANE", "2")  # the rule before 2026-11-28 evening
+    assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 46
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -399,6 +403,8 @@ def test_a_pool_plans_on_while_its_jobs_wait_for_the_device(
     stats = run_process_pool(episodes, tmp_path, "none", rows.append, workers=2)
     assert stats.finished == 6 and not stats.crashed
     assert sorted(r["seed"] for r in rows) == list(range(6))
+    # every row's life counted, at most the run's wall each (Little's law line of the sweep)
+    assert stats.lives == 6 and 0 < stats.lives_s <= 6 * stats.wall_time_s
     executed = [r for r in rows if r["error_message"].startswith("stream ")]
     assert len(executed) == stats.device.jobs >= 4
     assert sum(len(s) for s in stub.streams) == stats.device.jobs

@@ -11,7 +11,7 @@ from rich.console import Console
 
 from harness.commands.console import make_console, say, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
-from harness.runs.pace import pace_line
+from harness.runs.pace import flight_line, pace_line
 from harness.runs.sweep import run_sweep
 
 
@@ -78,6 +78,9 @@ def main(args: argparse.Namespace) -> int:
     pace = pace_line(stats.arrivals, stats.wall_time_s)
     if pace is not None:
         console.print(pace)
+    flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)
+    if flight is not None:
+        console.print(flight)
     if stats.device is not None:  # mjwarp on the process pool: the shared device(s)
         device = stats.device
         console.print(

@@ -125,6 +125,7 @@ class _Thread:
     episode: EpisodeSpec
     on_device: bool = False
     waiting: bool = False  # for an outcome another thread's job will bring (``Holding(None)``)
+    started: float = field(default_factory=time.monotonic)  # its life: to its row
 
 
 @dataclass
@@ -340,6 +341,8 @@ class DevicePool:
                 worker.holder = None
         thread = worker.threads.pop(message.thread, None)
         if thread is not None:
+            self.stats.lives += 1
+            self.stats.lives_s += time.monotonic() - thread.started
             self.advance(worker, thread.track, message.thread)  # it never reached the device
             track = worker.tracks.get(thread.track)
             if track is not None:

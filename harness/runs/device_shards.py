@@ -103,6 +103,8 @@ def merge_stats(total: RunStats, shard: RunStats) -> None:
     total.finished += shard.finished
     total.crashed += shard.crashed
     total.retried += shard.retried
+    total.lives += shard.lives
+    total.lives_s += shard.lives_s
     total.interrupted = total.interrupted or shard.interrupted
     total.errors.extend(shard.errors)
     if shard.device is None:

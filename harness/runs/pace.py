@@ -72,3 +72,19 @@ def pace_line(arrivals: list[float], wall_s: float) -> str | None:
         f"{pace.per_hour:,.0f} episodes/h; rows by tenths of the wall: "
         + " ".join(str(count) for count in pace.tenths)
     )
+
+
+def flight_line(lives: int, lives_s: float, wall_s: float) -> str | None:
+    """``in flight: ...`` for a device pool's run: its episodes in flight on average (their
+    lives summed over the wall) and an episode's mean life (its start in a worker to its row).
+    Their ratio is the rate Little's law allows: a pool whose rows come at about that rate while
+    its lanes idle is bounded by what it holds in flight (``HARNESS_IN_FLIGHT_PER_LANE``), not by
+    the device or the planning. None below ``MIN_ROWS`` rows."""
+    if lives < MIN_ROWS or wall_s <= 0 or lives_s <= 0:
+        return None
+    held, life = lives_s / wall_s, lives_s / lives
+    return (
+        f"in flight: {held:,.0f} episode(s) on average, each {life:.1f} s from its start to its "
+        f"row: at most {held / life:,.1f} rows/s ({3600 * held / life:,.0f} episodes/h) by "
+        f"Little's law"
+    )

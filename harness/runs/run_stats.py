@@ -25,3 +25,7 @@ class RunStats:
     device: Any = None  # StreamStats of the shared devices (mjwarp on the process pool)
     # when each row of this call arrived, seconds from the executor's start (``harness.runs.pace``)
     arrivals: list[float] = field(default_factory=list)
+    # episodes of the device pool that ended with a row, and their lives summed (seconds from
+    # the episode's start in its worker to its row; ``harness.runs.pace.flight_line``)
+    lives: int = 0
+    lives_s: float = 0.0

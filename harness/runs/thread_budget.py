@@ -1,12 +1,13 @@
 """How many episode threads the device pools of one box may start: the kernel's limits, read.
 
 With ``--engine mjwarp`` every episode in flight holds a thread in its worker (planning, or
-waiting for its outcome), and the lanes need one to two jobs a lane in flight, so a box's
-threads bound the lanes it can feed. Linux counts a thread as a task: each takes a PID below
-``/proc/sys/kernel/pid_max`` and counts against ``/proc/sys/kernel/threads-max``, the cgroup's
-``pids.max`` and ``RLIMIT_NPROC`` (proc(5), setrlimit(2), the kernel's cgroup-v2 pids
-controller). On two H200s (2026-11-28) a box of ~30,000 threads failed with ``can't start new
-thread``, as it would under the default ``pid_max`` of 32,768.
+waiting for its outcome), and the lanes need several episodes a lane in flight
+(``IN_FLIGHT_PER_LANE``), so a box's threads bound the lanes it can feed. Linux counts a
+thread as a task: each takes a PID below ``/proc/sys/kernel/pid_max`` and counts against
+``/proc/sys/kernel/threads-max``, the cgroup's ``pids.max`` and ``RLIMIT_NPROC`` (proc(5),
+setrlimit(2), the kernel's cgroup-v2 pids controller). On two H200s (2026-11-28) a box of
+~30,000 threads failed with ``can't start new thread``, as it would under the default
+``pid_max`` of 32,768.
 
 The pools get ``EPISODE_SHARE`` of the least of those limits; the rest is for every other task
 on the box (each process's own threads: the interpreter's, Warp's, BLAS's, the pipes').
@@ -18,6 +19,7 @@ H200s, 2026-11-28: 15 workers x 546 groups of three, ``can't start new thread`` 
 from __future__ import annotations
 
 import math
+import os
 import resource
 from pathlib import Path
 
@@ -66,22 +68,39 @@ def box_episode_threads(files: tuple[Path, ...] = KERNEL_FILES) -> int:
 
 
 # The most share groups a device-pool worker holds at once (one planning, the others waiting
-# for the device). Chosen, no public source: the lanes need about two episodes in flight per
-# lane to stay full (``depth_for``); past this a worker's threads cost more memory than they
-# feed.
+# for the device). Chosen, no public source: past this a worker's threads cost more memory than
+# they feed.
 MAX_DEPTH = 1024
+# Episodes in flight per lane (``HARNESS_IN_FLIGHT_PER_LANE`` overrides). A pool's rate is its
+# episodes in flight over an episode's life (Little's law): the life is planning, the queue, the
+# span in a lane (~40 s for FR3 at 8,192 lanes) and the tug after it, so a lane stays busy only
+# with about life / span episodes for it. At 2 a lane (before 2026-11-28 evening) both FR3 runs
+# of 45,000 rows on two H200s were bounded so: one GPU held 16,461 episodes for 278 rows/s (a
+# life of 59 s) with its lanes 65% busy, two GPUs 2 x 16,425 for 403 rows/s (81 s) with theirs
+# 41% busy and no job queued. On this project's machine a null device that answers after 5 s
+# or 20 s gave 4.7 and 1.2 rows/s with 24 episodes in flight (24 / 5, 24 / 20) and 36.8 and
+# 34.7 rows/s with 600 (the worker's planning rate, 40.5 rows/s without a delay). Chosen 4, no
+# public source: a life of up to ~3 spans (~3 jobs a lane with the cones' shared outcomes);
+# about 150 KB of worker memory an episode in flight (90 MB for 600, the same test).
+IN_FLIGHT_PER_LANE = 4
+
+
+def in_flight_per_lane() -> int:
+    """``HARNESS_IN_FLIGHT_PER_LANE``, else ``IN_FLIGHT_PER_LANE``."""
+    chosen = os.environ.get("HARNESS_IN_FLIGHT_PER_LANE")
+    return max(1, int(chosen)) if chosen else IN_FLIGHT_PER_LANE
 
 
 def depth_for(
     lanes: int, devices: int, workers: int, threads: int | None = None, group: int = 1
 ) -> int:
     """Share groups per worker (``group`` episodes each, a thread apiece) so that the workers
-    together keep every device's lanes fed (two episodes per lane: one stepping, one planned or
-    judged), at least 2, with at most ``threads`` episode threads over all the workers
-    (default: the box's, ``box_episode_threads``)."""
+    together keep every device's lanes fed (``in_flight_per_lane`` episodes a lane), at least 2,
+    with at most ``threads`` episode threads over all the workers (default: the box's,
+    ``box_episode_threads``)."""
     workers, group = max(1, workers), max(1, group)
     threads = box_episode_threads() if threads is None else threads
-    wanted = math.ceil(2 * lanes * devices / (workers * group))
+    wanted = math.ceil(in_flight_per_lane() * lanes * devices / (workers * group))
     return max(2, min(MAX_DEPTH, threads // (workers * group), wanted))
 
 
