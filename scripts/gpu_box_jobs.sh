@@ -313,9 +313,9 @@ for job in "$@"; do
         --workers "$(( $(nproc) - 1 ))" --out "$R/demo100_gpu" --no-progress --record none ;;
     noslip_kernels)  # the noslip pass: off, MuJoCo Warp's kernel, the block kernel (5 models)
       python3 -m harness.benchmarks.noslip_kernels "$R/noslip_kernels" --worlds 1024 --steps 200 ;;
-    demo_gpu_profiled)  # demo_gpu with every thread of the parent sampled (harness.benchmarks.sampler)
+    demo_gpu_profiled)  # demo_gpu with every thread of the parent sampled (harness.runs.sampler)
       HARNESS_SAMPLE_PROFILE="$R/demo_gpu_profile.txt" python3 -c \
-        'from harness.benchmarks.sampler import start_from_env; start_from_env(); from harness.cli import main; raise SystemExit(main())' \
+        'from harness.runs.sampler import start_from_env; start_from_env(); from harness.cli import main; raise SystemExit(main())' \
         sweep tasks/sweeps/demo.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
         --out "$R/demo_gpu_profiled" --no-progress --record none ;;
     stream_overlap)  # do lane streams on one device step side by side? (graphs on K streams)

@@ -1,4 +1,4 @@
-"""The sampling profiler (harness.benchmarks.sampler): a thread busy in one function shows up
+"""The sampling profiler (harness.runs.sampler): a thread busy in one function shows up
 at the top of the table, on its own stack and at its top; the table goes to the named file."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import threading
 import time
 from pathlib import Path
 
-from harness.benchmarks.sampler import Sampler
+from harness.runs.sampler import Sampler
 
 
 def _spin_until(done: threading.Event, started: threading.Event) -> None:

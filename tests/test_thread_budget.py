@@ -60,10 +60,15 @@ def test_this_box_can_start_its_budget_share() -> None:
     assert limit is None or budget <= limit
 
 
-def test_a_starved_feed_names_the_limit_to_raise() -> None:
+def test_a_starved_feed_names_the_limit_to_raise(monkeypatch: pytest.MonkeyPatch) -> None:
     # two GPUs under pid_max 32,768: 8,192 threads a GPU hold one episode for each of 8,192
-    # lanes; 4,096 threads do not, and the line says what to raise
-    assert starved_note(8192, 8192) == ""
-    note = starved_note(8192, 4096)
-    assert "4096 episode threads for 8192 lanes" in note and "kernel.pid_max" in note
+    # lanes, not the four a lane wants, and the line says what to raise
+    monkeypatch.delenv("HARNESS_IN_FLIGHT_PER_LANE", raising=False)
+    assert starved_note(8192, 32768) == ""
+    note = starved_note(8192, 8192)
+    assert "8192 episode threads for 32768 episodes in flight (8192 lanes)" in note
+    assert "kernel.pid_max" in note
     assert starved_note(64, 16384) == ""
+    # the canonical tune's refinement on one H100: 40,000 episodes, 16,000 lanes
+    assert "16384 episode threads for 40000 episodes" in starved_note(16000, 16384, 40000)
+    assert starved_note(16000, 16384, 7200) == ""  # its screening fits

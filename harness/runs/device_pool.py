@@ -75,13 +75,24 @@ def device_worker_main(
     """Process-pool worker with the shared devices: each ``EpisodeStart`` runs in a thread
     holding the baton; ``DeviceReply`` messages go to the thread waiting for them. ``depth``:
     the share groups the worker holds at once (its candidate cache keeps every one of them)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from harness.runs.sampler import start_from_env
+
+    stop_profile = start_from_env(f".worker-{os.getpid()}")  # HARNESS_SAMPLE_PROFILE
+    try:
+        _serve_worker(conn, run_dir, record, share, depth)
+    finally:
+        stop_profile()
+
+
+def _serve_worker(conn: Connection, run_dir: str, record: str, share: bool, depth: int) -> None:
+    """``device_worker_main``'s loop: episode threads started, replies delivered."""
     from harness.engines import register_engine
     from harness.engines.mjwarp.service import Baton, DeviceReply, PooledDeviceEngine
     from harness.episode.outcome_wait import set_waiter
     from harness.runs.worker import execute, reserve_candidate_cache
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C (and SIGTERM)
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     send_lock = threading.Lock()
 
     def send(message: Any) -> None:
@@ -208,7 +219,7 @@ class DevicePool:
         lanes = service.streams.planned_lanes()
         self.depth = depth_for(lanes, 1, self.count, threads, group)
         say = f"{self.count} worker(s) x {self.depth} group(s) of up to {group} ({threads} threads)"
-        print(f"mjwarp: {say}{starved_note(lanes, threads)}", file=sys.stderr)
+        print(f"mjwarp: {say}{starved_note(lanes, threads, len(episodes))}", file=sys.stderr)
         self._lock = threading.Lock()  # holder bookkeeping touched by the device threads
 
     # ---- workers

@@ -104,14 +104,20 @@ def depth_for(
     return max(2, min(MAX_DEPTH, threads // (workers * group), wanted))
 
 
-def starved_note(lanes: int, threads: int) -> str:
-    """A hint where the pool's episode threads cannot hold one episode a lane (the lanes then
-    step empty while the planners wait for threads): the limit to raise, else ``""``."""
-    if threads >= lanes:
+def starved_note(lanes: int, threads: int, episodes: int | None = None) -> str:
+    """A hint where the pool's episode threads cannot hold what its lanes want in flight
+    (``in_flight_per_lane`` a lane, at most the run's ``episodes``): the rows then come at
+    what the threads hold over an episode's life (Little's law; the canonical tune's refinement
+    on one H100, 2026-11-28: 16,384 threads held 12,000 of its 40,000 episodes, and its lanes
+    idled). The limit to raise, else ``""``."""
+    wanted = in_flight_per_lane() * lanes
+    wanted = wanted if episodes is None else min(wanted, episodes)
+    if threads >= wanted:
         return ""
     limit = task_limit()
     return (
-        f"; {threads} episode threads for {lanes} lanes: the box's task limit "
-        f"({limit if limit is not None else 'unknown'}) bounds them; raise kernel.pid_max "
-        f"(4194304 on 64-bit Linux, what systemd sets) or use fewer lanes (HARNESS_LANES)"
+        f"; {threads} episode threads for {wanted} episodes in flight ({lanes} lanes): the "
+        f"box's task limit ({limit if limit is not None else 'unknown'}) bounds them; raise "
+        f"kernel.pid_max (4194304 on 64-bit Linux, what systemd sets) or use fewer lanes "
+        f"(HARNESS_LANES)"
     )

@@ -7,7 +7,8 @@ is on some thread's stack (inclusive) and at the top of one (self). Idle waits (
 ``wait``, ``select``, lock acquires) show up as such, so the busy share is what is left.
 
 Started by ``harness`` when ``HARNESS_SAMPLE_PROFILE`` names a file: the table is written there
-every 15 s and at exit.
+every 15 s and at exit; each device-pool worker (``--engine mjwarp``) writes its own beside it,
+``FILE.worker-PID`` (where the planning's time goes).
 """
 
 from __future__ import annotations
@@ -88,11 +89,15 @@ class Sampler:
         return "\n".join(lines) + "\n"
 
 
-def start_from_env() -> None:
-    """Start a sampler writing its table at exit to ``$HARNESS_SAMPLE_PROFILE`` (if set)."""
+def start_from_env(suffix: str = "") -> Callable[[], None]:
+    """Start a sampler writing its table at exit to ``$HARNESS_SAMPLE_PROFILE`` plus
+    ``suffix`` (if set; a device-pool worker's suffix names its process); returns what stops it
+    and writes the table (nothing to stop when unset). A ``multiprocessing`` child ends without
+    ``atexit``, so it calls that itself; the table is also written every 15 s."""
     target = os.environ.get(ENV)
     if not target:
-        return
+        return lambda: None
+    target += suffix
     clock = time.perf_counter()
 
     def dump(sampler: Sampler) -> None:
@@ -111,3 +116,4 @@ def start_from_env() -> None:
         dump(sampler)
 
     atexit.register(at_exit)
+    return at_exit
