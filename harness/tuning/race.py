@@ -31,6 +31,7 @@ from harness.episode.spec import EpisodeSpec
 from harness.errors import HarnessError
 from harness.runs.executors import executor_for
 from harness.runs.expansion import point_overrides, sweep_points
+from harness.runs.pace import flight_line
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
 from harness.tuning.decide import UnitRace, update
@@ -329,7 +330,8 @@ class RaceRunner:
             line = pace_line(log.rounds, len(todo), elapsed, episodes_left(units))
             if ahead:
                 line += f" ({len(ahead):,} of the round's episodes were later looks', run ahead)"
-            self.announce(line)
+            flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)  # mjwarp
+            self.announce(line + (f"; {flight}" if flight else ""))
         return True
 
     def _store(self, row: dict[str, Any]) -> None:

@@ -15,6 +15,7 @@ tune's page, its decisions first.
 from __future__ import annotations
 
 import json
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -31,6 +32,7 @@ from harness.report.finish import finish_run
 from harness.report.frames import column, frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
+from harness.runs.pace import flight_line
 from harness.runs.rundir import RunDir, claim_new_dir
 from harness.runs.sweep import default_workers, run_sweep
 from harness.tuning.analysis import challengers, merge_passes, ranked, settings_frame, success_map
@@ -190,6 +192,10 @@ def _screen(
         finally:
             path.unlink(missing_ok=True)
     clock.lap(name)
+    stats = outcome.stats  # with --engine mjwarp: what its episodes in flight allowed
+    flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)
+    if flight and run["progress"]:
+        print(f"tune {name}: {flight}", file=sys.stderr)
     finish_run(outcome.run_dir, objective)
     clock.lap(f"{name} report")
     return outcome
