@@ -671,6 +671,7 @@ def test_a_ray_sweep_on_loopback_streams_to_the_device_actor(
     rows: list[dict[str, Any]] = []
     stats = run_ray(episodes, tmp_path, "none", rows.append, workers=2)
     assert stats.finished == 2 and not stats.crashed
+    assert stats.lives == 2 and 0 < stats.lives_s <= 2 * stats.wall_time_s  # flight_line's
     assert stats.device is not None and stats.device.jobs == 2 and not stats.device.errors
     jobs = fr3_device_jobs(2)
     reference, _ = MjwarpEngine("cpu").execute_many(get_scene(task, {}).scene, jobs)

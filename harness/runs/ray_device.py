@@ -144,7 +144,7 @@ def run_on_ray_device(
     ]
     start = time.perf_counter()
     pending = iter(shared_order(episodes) if share else episodes)
-    in_flight: dict[Any, tuple[Any, Any]] = {}
+    in_flight: dict[Any, tuple[Any, Any, float]] = {}  # actor, episode, when submitted
     load = dict.fromkeys(range(count), 0)
 
     def submit(k: int) -> None:
@@ -152,7 +152,7 @@ def run_on_ray_device(
             episode = next(pending, None)
             if episode is None:
                 return
-            in_flight[actors[k].run.remote(episode)] = (k, episode)
+            in_flight[actors[k].run.remote(episode)] = (k, episode, time.perf_counter())
             load[k] += 1
 
     try:
@@ -160,7 +160,7 @@ def run_on_ray_device(
             submit(k)
         while in_flight:
             done, _ = ray.wait(list(in_flight), num_returns=1)
-            k, episode = in_flight.pop(done[0])
+            k, episode, submitted = in_flight.pop(done[0])
             load[k] -= 1
             try:
                 row = ray.get(done[0])
@@ -169,6 +169,8 @@ def run_on_ray_device(
                 stats.crashed += 1
             on_result(row)
             stats.finished += 1
+            stats.lives += 1  # Little's law line (harness.runs.pace.flight_line)
+            stats.lives_s += time.perf_counter() - submitted
             submit(k)
         stats.device = ray.get(devices[0].stats.remote())
     except KeyboardInterrupt:
