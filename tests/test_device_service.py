@@ -21,7 +21,7 @@ from harness.engines.mjwarp import service as service_module
 from harness.engines.mjwarp.devices import stream_key
 from harness.engines.mjwarp.service import Baton, DeviceReply, DeviceService
 from harness.episode import EpisodeSpec
-from harness.errors import EpisodeTimeoutError
+from harness.errors import EpisodeTimeoutError, HarnessError
 from harness.objects.assets import repo_root
 from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
 from harness.runs import device_pool, thread_budget
@@ -361,6 +361,9 @@ def test_depth_keeps_four_episodes_per_lane_in_flight(monkeypatch: pytest.Monkey
     assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 92  # 4 a lane
     monkeypatch.setenv("HARNESS_IN_FLIGHT_PER_LANE", "2")  # the rule before 2026-11-28 evening
     assert device_pool.depth_for(1024, 1, 15, threads=10**6, group=3) == 46
+    monkeypatch.setenv("HARNESS_IN_FLIGHT_PER_LANE", "four")  # one line naming the variable
+    with pytest.raises(HarnessError, match="HARNESS_IN_FLIGHT_PER_LANE='four': not an integer"):
+        device_pool.depth_for(1024, 1, 15, threads=10**6, group=3)
 
 
 def test_a_cuda_stream_has_lanes_for_the_runs_size(monkeypatch: pytest.MonkeyPatch) -> None:

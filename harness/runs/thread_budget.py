@@ -19,7 +19,6 @@ H200s, 2026-11-28: 15 workers x 546 groups of three, ``can't start new thread`` 
 from __future__ import annotations
 
 import math
-import os
 import resource
 from pathlib import Path
 
@@ -87,8 +86,9 @@ IN_FLIGHT_PER_LANE = 4
 
 def in_flight_per_lane() -> int:
     """``HARNESS_IN_FLIGHT_PER_LANE``, else ``IN_FLIGHT_PER_LANE``."""
-    chosen = os.environ.get("HARNESS_IN_FLIGHT_PER_LANE")
-    return max(1, int(chosen)) if chosen else IN_FLIGHT_PER_LANE
+    from harness.engines.mjwarp.lane_sizes import env_int
+
+    return env_int("HARNESS_IN_FLIGHT_PER_LANE") or IN_FLIGHT_PER_LANE
 
 
 def depth_for(

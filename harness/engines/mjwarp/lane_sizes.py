@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 import os
 
+from harness.errors import HarnessError
+
 # Lanes per stream: CUDA devices step 8,192 worlds at 2.6-3.2 M world-steps/s on an H100
 # (docs/engines.md, "Lanes"); Warp's CPU device is a test device (~60 world-steps/s on this
 # project's 2-core machine), a few lanes. ``HARNESS_LANES`` overrides both.
@@ -56,9 +58,15 @@ def is_cuda(device: str) -> bool:
 
 
 def env_int(name: str) -> int | None:
-    """The positive integer an environment variable sets, else None."""
+    """The positive integer an environment variable sets, else None; one line naming the
+    variable where it is not an integer."""
     chosen = os.environ.get(name)
-    return max(1, int(chosen)) if chosen else None
+    if not chosen:
+        return None
+    try:
+        return max(1, int(chosen))
+    except ValueError:
+        raise HarnessError(f"environment variable {name}={chosen!r}: not an integer") from None
 
 
 def streams_per_device(device: str) -> int:
