@@ -62,13 +62,13 @@ def test_this_box_can_start_its_budget_share() -> None:
 
 def test_a_starved_feed_names_the_limit_to_raise(monkeypatch: pytest.MonkeyPatch) -> None:
     # two GPUs under pid_max 32,768: 8,192 threads a GPU hold one episode for each of 8,192
-    # lanes, not the four a lane wants, and the line says what to raise
+    # lanes, not the two a lane wants, and the line says what to raise
     monkeypatch.delenv("HARNESS_IN_FLIGHT_PER_LANE", raising=False)
     assert starved_note(8192, 32768) == ""
     note = starved_note(8192, 8192)
-    assert "8192 episode threads for 32768 episodes in flight (8192 lanes)" in note
+    assert "8192 episode threads for 16384 episodes in flight (8192 lanes)" in note
     assert "kernel.pid_max" in note
     assert starved_note(64, 16384) == ""
     # the canonical tune's refinement on one H100: 40,000 episodes, 16,000 lanes
-    assert "16384 episode threads for 40000 episodes" in starved_note(16000, 16384, 40000)
+    assert "16384 episode threads for 32000 episodes" in starved_note(16000, 16384, 40000)
     assert starved_note(16000, 16384, 7200) == ""  # its screening fits

@@ -73,15 +73,20 @@ MAX_DEPTH = 1024
 # Episodes in flight per lane (``HARNESS_IN_FLIGHT_PER_LANE`` overrides). A pool's rate is its
 # episodes in flight over an episode's life (Little's law): the life is planning, the queue, the
 # span in a lane (~40 s for FR3 at 8,192 lanes) and the tug after it, so a lane stays busy only
-# with about life / span episodes for it. At 2 a lane (before 2026-11-28 evening) both FR3 runs
+# with about life / span episodes for it. At 2 a lane (2026-11-28 evening) both FR3 runs
 # of 45,000 rows on two H200s were bounded so: one GPU held 16,461 episodes for 278 rows/s (a
 # life of 59 s) with its lanes 65% busy, two GPUs 2 x 16,425 for 403 rows/s (81 s) with theirs
 # 41% busy and no job queued. On this project's machine a null device that answers after 5 s
 # or 20 s gave 4.7 and 1.2 rows/s with 24 episodes in flight (24 / 5, 24 / 20) and 36.8 and
-# 34.7 rows/s with 600 (the worker's planning rate, 40.5 rows/s without a delay). Chosen 4, no
-# public source: a life of up to ~3 spans (~3 jobs a lane with the cones' shared outcomes);
-# about 150 KB of worker memory an episode in flight (90 MB for 600, the same test).
-IN_FLIGHT_PER_LANE = 4
+# 34.7 rows/s with 600 (the worker's planning rate, 40.5 rows/s without a delay). Yet 4 a lane
+# measured slower end to end, on one two-H200 box (2026-11-28 09:48 UTC, docs/engines.md): the
+# 45,000-row FR3 sweep took 263.3 s on both GPUs against 207.3 s at 2 a lane (the evening
+# before), and 262.9 s on one GPU against 239.4 s. The steady pace rose (1.86 M against 1.45 M
+# episodes/h on two GPUs) but the lanes' host side slowed (10.2 against 8.4 ms a step, uploads
+# 26 against 11 s: every episode planned at once competes with the streams for the process and
+# the cores) and the first outcomes came after 92 s against 55 s. So 2, chosen on that
+# measurement, no public source; about 150 KB of worker memory an episode in flight.
+IN_FLIGHT_PER_LANE = 2
 
 
 def in_flight_per_lane() -> int:
