@@ -178,6 +178,14 @@ for job in "$@"; do
       HARNESS_TUG_STEPS_PER_GRAPH=8 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m \
         harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
         --out "$R/fr3_big_one_tug8" --no-progress --record none ;;
+    demo_gpu_loop)  # the demo with each visit's and tug round's steps in a device-side loop
+      HARNESS_GRAPH_LOOP=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_loop" \
+        --no-progress --record none ;;
+    fr3_gpu_loop)  # issue 34's 3,000-row FR3 sweep with the device-side loops
+      HARNESS_GRAPH_LOOP=1 python3 -m harness.cli sweep /tmp/fr3_cube_cones.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/fr3_gpu_loop" \
+        --no-progress --record none ;;
     demo_gpu_tug8)  # the demo with tug rounds of 8 physics steps a CUDA graph
       HARNESS_TUG_STEPS_PER_GRAPH=8 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_tug8" \

@@ -225,7 +225,7 @@ class WorldBatch:
         )  # fmt: skip
         physics_steps = rung_physics_steps(dm, float(start.jobs[0].task.control_dt))
         use = steps.BufferUse(nt)
-        steps.replay(
+        loop = steps.replay(
             dm.device, steps.stepper(dm.model, td, use), physics_steps, self.slot.launch,
             per_graph=steps_per_graph(),
         )  # fmt: skip
@@ -236,6 +236,7 @@ class WorldBatch:
         dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
         self.timings.tug_issue_s += time.perf_counter() - clock
         self.slot.wait()
+        del loop  # (with ``graph_loop``) its counter lives until the round has run
         rows = to_host(out)[:, 0]
         over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock

@@ -33,6 +33,7 @@ import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
 from harness.engines.mjwarp import lane_kernels as lk
+from harness.engines.mjwarp.graph_loop import LoopGraph, capture_loop, graph_loop
 from harness.engines.mjwarp.host import Downloads, to_host_all
 from harness.engines.mjwarp.model import DeviceModel
 from harness.engines.mjwarp.schedule import DeviceJob
@@ -156,6 +157,7 @@ class LaneRun:
         self._flagged = np.zeros(0, dtype=np.int64)
         self.interval = interval
         self._graph = None
+        self._loop: LoopGraph | None = None  # with ``graph_loop``: the graph and its counter
         # the pipelined visits (``queue`` / ``settle``): the visit count, the visit from whose
         # replay on each lane's job runs, the previous visit's downloads and its mark
         self._visit = 0
@@ -292,9 +294,10 @@ class LaneRun:
     def launch(
         self, timings: BatchTimings, launch_graph: Callable[[Any], None] = steps.launch_in_place
     ) -> None:
-        """Queue ``interval`` physics steps of every lane: one captured CUDA graph, captured at
-        the first call after one eager step that loads the kernels (on Warp's CPU device:
-        eagerly), replayed with ``launch_graph`` (the slot's: ``DeviceSlot.launch``)."""
+        """Queue ``interval`` physics steps of every lane: one captured CUDA graph (the steps
+        unrolled, or with ``graph_loop`` one step in a device-side loop), captured at the first
+        call after one eager step that loads the kernels (on Warp's CPU device: eagerly),
+        replayed with ``launch_graph`` (the slot's: ``DeviceSlot.launch``)."""
         self.peak_contacts.zero_()
         count = self.interval
         if not wp.get_device(self.dm.device).is_cuda:
@@ -304,10 +307,14 @@ class LaneRun:
             if self._graph is None:
                 self._physics_step()
                 count += 1
-                with wp.ScopedCapture(device=self.dm.device) as capture:
-                    for _ in range(self.interval):
-                        self._physics_step()
-                self._graph = capture.graph
+                if graph_loop():  # one step's kernels in a device-side loop
+                    self._loop = capture_loop(self.dm.device, self._physics_step, self.interval)
+                    self._graph = self._loop.graph
+                else:
+                    with wp.ScopedCapture(device=self.dm.device) as capture:
+                        for _ in range(self.interval):
+                            self._physics_step()
+                    self._graph = capture.graph
             assert self._graph is not None
             launch_graph(self._graph)
         timings.motion_steps += self.nlane * count

@@ -15,6 +15,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels
+from harness.engines.mjwarp.graph_loop import LoopGraph, capture_loop, graph_loop
 from harness.engines.mjwarp.graph_plan import graph_plan
 from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
@@ -106,19 +107,27 @@ def launch_in_place(graph: Any, times: int = 1) -> None:
         wp.capture_launch(graph)
 
 
-def replay(device: str, fn, times: int, launch=launch_in_place, per_graph: int = 1) -> None:  # type: ignore[no-untyped-def]
+def replay(  # type: ignore[no-untyped-def]
+    device: str, fn, times: int, launch=launch_in_place, per_graph: int = 1
+) -> LoopGraph | None:
     """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
     captured CUDA graphs of ``per_graph`` calls each (``graph_plan``) with
-    ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on the CPU device: eagerly)."""
+    ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on the CPU device: eagerly), or
+    with ``graph_loop`` as one launch of a graph looping over ``fn`` on the device (returned:
+    the caller keeps it, and its counter, until that work is done)."""
     if times <= 0:
-        return
+        return None
     fn()
     if times == 1:
-        return
+        return None
     if not wp.get_device(device).is_cuda:
         for _ in range(times - 1):
             fn()
-        return
+        return None
+    if graph_loop():  # the rest as one launch of a device-side loop
+        loop = capture_loop(device, fn, times - 1)
+        launch(loop.graph, 1)
+        return loop
     for calls, launches in graph_plan(times, per_graph):
         with wp.ScopedCapture(device=device) as capture:
             for _ in range(calls):
@@ -126,6 +135,7 @@ def replay(device: str, fn, times: int, launch=launch_in_place, per_graph: int =
         graph = capture.graph
         assert graph is not None
         launch(graph, launches)
+    return None
 
 
 def world_arrays(jobs: list[DeviceJob]) -> dict[str, np.ndarray]:
