@@ -52,3 +52,76 @@ def test_the_loop_is_off_unless_asked(monkeypatch: pytest.MonkeyPatch) -> None:
     assert not graph_loop()
     monkeypatch.setenv(LOOP_ENV, "1")
     assert graph_loop()
+
+
+def test_the_arena_hands_a_steps_blocks_out_again_and_names_a_changed_step() -> None:
+    from harness.engines.mjwarp.graph_loop import ArenaMismatchError, loop_steps
+
+    sizes = iter([16, 16, 16, 32])  # the recorded step, two alike, then one that asks more
+    seen: list[int] = []
+
+    def step() -> None:
+        block = wp.zeros(next(sizes) // 4, dtype=wp.int32, device="cpu")
+        seen.append(block.ptr)
+
+    with pytest.raises(ArenaMismatchError, match="asks 32 bytes"):
+        loop_steps("cpu", step, 3, capture=False)
+    assert seen[1] == seen[0] and seen[2] == seen[0]  # the recorded block, handed out again
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("steps", [1, 5])
+def test_a_lane_step_from_the_arena_keeps_the_eager_states(steps: int) -> None:
+    """FR3 cube seed 0's job in a lane: one step recording MuJoCo Warp's scratch and ``steps``
+    more taking it from the arena (as in the device loop's body) give the states of plain
+    eager steps bit for bit, with no allocation inside the loop's steps."""
+    import mujoco_warp as mjw
+    from helpers import fr3_device_jobs
+
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.graph_loop import StepArena, installed, loop_steps
+    from harness.engines.mjwarp.lanes import LaneRun
+    from harness.engines.mjwarp.steps import SMALL
+    from harness.episode.scene_cache import get_scene
+
+    (job,) = fr3_device_jobs(1)
+    dm = MjwarpEngine("cpu").batch(get_scene(job.task, _SCENES).scene, job.task).dm
+
+    def make(k: int) -> object:
+        return mjw.put_data(
+            dm.mj_model, dm.template, nworld=k, nconmax=SMALL.nconmax, njmax=SMALL.njmax
+        )
+
+    def lanes_after(looped: bool) -> list[np.ndarray]:
+        chunks = job.schedule.chunk_sizes
+        lanes = LaneRun(dm, 2, 1, 512, 3, chunks, SMALL, make, interval=sum(chunks))
+        span = np.array([len(job.schedule.ctrl) + 3])
+        lanes.load(np.array([0]), np.array([0]), [job], span)
+        lanes._physics_step()  # loads the kernels and MuJoCo Warp's per-Data caches
+        if looped:
+            loop_steps("cpu", lanes._physics_step, steps, capture=False)
+        else:
+            for _ in range(steps + 1):
+                lanes._physics_step()
+        return [a.numpy().copy() for a in (lanes.d.qpos, lanes.d.qvel, lanes.out)]
+
+    plain, looped = lanes_after(False), lanes_after(True)
+    for a, b in zip(plain, looped, strict=True):
+        assert np.array_equal(a, b)
+    assert np.abs(plain[1]).max() > 0  # the robot moved: the steps did something
+
+    # the loop's steps allocate nothing: every block they ask for is the recorded step's
+    arena = StepArena(wp.get_device("cpu").get_allocator())
+    chunks = job.schedule.chunk_sizes
+    lanes = LaneRun(dm, 2, 1, 512, 3, chunks, SMALL, make, interval=sum(chunks))
+    lanes._physics_step()
+    with installed("cpu", arena):
+        lanes._physics_step()
+    arena.recording, arena.armed = False, True
+    recorded = len(arena.blocks)
+    assert recorded > 10  # MuJoCo Warp's collision, constraint and solver scratch
+    with installed("cpu", arena):
+        arena.next = 0
+        lanes._physics_step()
+    assert arena.next == recorded and len(arena.blocks) == recorded

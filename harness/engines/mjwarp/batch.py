@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
+from harness.engines.mjwarp.graph_loop import graph_loop
 from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.judge import held_in_tcp, judge_started, needs_tug, rung_outcome
 from harness.engines.mjwarp.model import DeviceModel
@@ -227,7 +228,7 @@ class WorldBatch:
         use = steps.BufferUse(nt)
         loop = steps.replay(
             dm.device, steps.stepper(dm.model, td, use), physics_steps, self.slot.launch,
-            per_graph=steps_per_graph(),
+            per_graph=steps_per_graph(), looped=graph_loop(),
         )  # fmt: skip
         out = wp.zeros((nt, 1, SIGNALS), dtype=wp.float32)
         identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)

@@ -10,18 +10,28 @@ not the device, set the pace. Here the graph holds one step's kernels inside a W
 (CUDA 12.4+, NVIDIA's "Dynamic Control Flow in CUDA Graphs with Conditional Nodes"; MuJoCo Warp
 already nests its solver loop in one, ``wp.capture_while``): a kernel sets a device counter to
 the step count, the body steps once and counts down, and the device repeats it with no host
-work per step. The kernels and their order are the same as the unrolled graph's, so are the
-states.
+work per step. The kernels and their order are the unrolled graph's.
+
+A conditional body may hold kernels, memsets, copies and conditionals, not allocations, and
+MuJoCo Warp allocates ~47 scratch arrays a step (``wp.empty`` / ``wp.zeros`` of its collision,
+constraint and solver contexts; the first try on an H200, 2026-11-28: "Conditional body graph
+contains an unsupported operation (memory allocation)"). So one eager step runs first with a
+``StepArena`` as the device's allocator, which keeps every block that step asked for; inside
+the body the arena hands the same blocks out again in the same order (a zeroed array still
+gets its memset), so the body allocates nothing. A step's scratch lives only within the step,
+so the steps of the loop reuse it one after another on one stream.
 
 ``HARNESS_GRAPH_LOOP=1`` turns it on for the lanes' visits and the tug rounds (default off: not
-yet measured on a GPU). On Warp's CPU device nothing is captured: ``run_loop`` steps eagerly
-through ``wp.capture_while`` (the host reads the counter each turn), which is how it is tested.
+yet measured on a GPU). On Warp's CPU device nothing is captured: ``loop_steps`` runs the same
+loop eagerly (the host reads the counter every turn, the arena swapped in for the CPU
+allocator), which is how it is tested.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,14 +56,86 @@ def count_down(left: wp.array(dtype=wp.int32)):  # type: ignore[valid-type]
     left[0] = left[0] - 1
 
 
+class ArenaMismatchError(RuntimeError):
+    """A step asked for other blocks than the step the arena recorded."""
+
+
+class StepArena:
+    """A Warp allocator that records the blocks of one step (through ``base``) and then, while
+    ``armed``, hands the same blocks out again in the same order; freeing one of its blocks is
+    a no-op until ``free``. Unarmed after recording, it passes requests through to ``base``."""
+
+    def __init__(self, base: Any) -> None:
+        self.base = base
+        self.memory_kind = getattr(base, "memory_kind", None)
+        self.deallocate_requires_context_guard = getattr(
+            base, "deallocate_requires_context_guard", True
+        )
+        self.blocks: list[tuple[int, int]] = []
+        self.owned: set[int] = set()
+        self.recording = True
+        self.armed = False
+        self.next = 0
+
+    def allocate(self, size_in_bytes: int) -> int:
+        if self.recording:
+            ptr = int(self.base.allocate(size_in_bytes))
+            self.blocks.append((ptr, size_in_bytes))
+            self.owned.add(ptr)
+            return ptr
+        if not self.armed:
+            return int(self.base.allocate(size_in_bytes))
+        if self.next >= len(self.blocks) or self.blocks[self.next][1] != size_in_bytes:
+            raise ArenaMismatchError(
+                f"step allocation {self.next} asks {size_in_bytes} bytes; the recorded step "
+                f"made {len(self.blocks)} blocks"
+            )
+        ptr = self.blocks[self.next][0]
+        self.next += 1
+        return ptr
+
+    def deallocate(self, ptr: int, size_in_bytes: int) -> None:
+        if ptr not in self.owned:
+            self.base.deallocate(ptr, size_in_bytes)
+
+    def free(self) -> None:
+        """Give every recorded block back (its step's work must be done or ordered before)."""
+        for ptr, size in self.blocks:
+            self.base.deallocate(ptr, size)
+        self.blocks, self.owned = [], set()
+
+
+@contextmanager
+def installed(device: str, allocator: Any) -> Iterator[None]:
+    """``allocator`` as ``device``'s allocator meanwhile: Warp's ``ScopedAllocator`` on a CUDA
+    device; on Warp's CPU device (custom allocators are CUDA-only) its default allocator is
+    swapped, so that the arena can be tested there."""
+    dev = wp.get_device(device)
+    if dev.is_cuda:
+        with wp.ScopedAllocator(dev, allocator):
+            yield
+        return
+    saved = dev.default_allocator
+    dev.default_allocator = allocator
+    try:
+        yield
+    finally:
+        dev.default_allocator = saved
+
+
 @dataclass
 class LoopGraph:
-    """A captured graph that runs ``step`` ``times`` times on the device, and its counter (kept
-    alive with it: the graph reads and writes it)."""
+    """A captured graph that runs ``step`` ``times`` times on the device, its counter and its
+    steps' scratch (kept alive with it: the graph reads and writes them; the scratch is given
+    back when this is dropped, after its last launch has run)."""
 
     graph: Any
     left: wp.array
     times: int
+    arena: StepArena
+
+    def __del__(self) -> None:
+        self.arena.free()
 
 
 def run_loop(device: str, step: Callable[[], None], times: int, left: wp.array) -> None:
@@ -68,12 +150,32 @@ def run_loop(device: str, step: Callable[[], None], times: int, left: wp.array) 
     wp.capture_while(left, body)
 
 
-def capture_loop(device: str, step: Callable[[], None], times: int) -> LoopGraph:
-    """``run_loop`` captured on ``device`` (CUDA): one launch of the result runs ``times`` steps.
-    ``step``'s kernels must already be loaded (one eager call before), and it may not allocate
-    (a conditional body holds kernels, memsets, copies and conditionals only)."""
+def loop_steps(
+    device: str, step: Callable[[], None], times: int, capture: bool = True
+) -> LoopGraph | None:
+    """Run ``step`` once now, recording its allocations in a ``StepArena``, then ``times`` more
+    steps as a WHILE loop whose body takes its scratch from the arena: captured on a CUDA
+    ``device`` (returned: one launch runs the ``times`` steps; ``step``'s kernels must be
+    loaded, one eager call before), or with ``capture`` False run eagerly now (None)."""
+    arena = StepArena(wp.get_device(device).get_allocator())
+    with installed(device, arena):
+        step()
+    arena.recording = False
     left = wp.zeros(1, dtype=wp.int32, device=device)
-    with wp.ScopedCapture(device=device) as capture:
-        run_loop(device, step, times, left)
-    assert capture.graph is not None
-    return LoopGraph(capture.graph, left, times)
+
+    def step_from_arena() -> None:
+        arena.armed, arena.next = True, 0
+        try:
+            step()
+        finally:
+            arena.armed = False
+
+    with installed(device, arena):
+        if not capture:
+            run_loop(device, step_from_arena, times, left)
+            arena.free()
+            return None
+        with wp.ScopedCapture(device=device) as recorded:
+            run_loop(device, step_from_arena, times, left)
+    assert recorded.graph is not None
+    return LoopGraph(recorded.graph, left, times, arena)

@@ -15,7 +15,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels
-from harness.engines.mjwarp.graph_loop import LoopGraph, capture_loop, graph_loop
+from harness.engines.mjwarp.graph_loop import LoopGraph, loop_steps
 from harness.engines.mjwarp.graph_plan import graph_plan
 from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
@@ -108,13 +108,14 @@ def launch_in_place(graph: Any, times: int = 1) -> None:
 
 
 def replay(  # type: ignore[no-untyped-def]
-    device: str, fn, times: int, launch=launch_in_place, per_graph: int = 1
+    device: str, fn, times: int, launch=launch_in_place, per_graph: int = 1, looped: bool = False
 ) -> LoopGraph | None:
     """Run ``fn`` ``times`` times: the first eagerly (loads the kernels), the rest as replays of
     captured CUDA graphs of ``per_graph`` calls each (``graph_plan``) with
     ``launch(graph, times)`` (the slot's: ``DeviceSlot.launch``; on the CPU device: eagerly), or
-    with ``graph_loop`` as one launch of a graph looping over ``fn`` on the device (returned:
-    the caller keeps it, and its counter, until that work is done)."""
+    with ``looped`` (``graph_loop``) one more eager call and one launch of a graph looping over
+    ``fn`` on the device (returned: the caller keeps it, with its counter and scratch, until
+    that work is done)."""
     if times <= 0:
         return None
     fn()
@@ -124,8 +125,9 @@ def replay(  # type: ignore[no-untyped-def]
         for _ in range(times - 1):
             fn()
         return None
-    if graph_loop():  # the rest as one launch of a device-side loop
-        loop = capture_loop(device, fn, times - 1)
+    if looped and times >= 3:  # one more eager call, then the rest as one device-side loop
+        loop = loop_steps(device, fn, times - 2)
+        assert loop is not None
         launch(loop.graph, 1)
         return loop
     for calls, launches in graph_plan(times, per_graph):
