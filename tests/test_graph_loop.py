@@ -125,3 +125,24 @@ def test_a_lane_step_from_the_arena_keeps_the_eager_states(steps: int) -> None:
         arena.next = 0
         lanes._physics_step()
     assert arena.next == recorded and len(arena.blocks) == recorded
+
+
+def test_a_loop_that_cannot_be_captured_falls_back_once_with_a_warning(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from harness.engines.mjwarp import graph_loop as gl
+
+    monkeypatch.setattr(gl, "_failed", [])
+    monkeypatch.setenv(gl.LOOP_ENV, "1")
+
+    def refuse(device: str, step: object, times: int) -> None:
+        raise RuntimeError("Conditional body graph contains an unsupported operation")
+
+    monkeypatch.setattr(gl, "loop_steps", refuse)
+    assert gl.graph_loop()
+    assert gl.try_loop_steps("cpu", lambda: None, 3) is None
+    assert gl.try_loop_steps("cpu", lambda: None, 3) is None
+    err = capsys.readouterr().err
+    assert err.count("could not be captured") == 1  # said once
+    assert "unsupported operation" in err and "unrolled graphs instead" in err
+    assert not gl.graph_loop()  # unrolled graphs from then on

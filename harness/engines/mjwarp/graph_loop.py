@@ -30,6 +30,7 @@ allocator), which is how it is tested.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -40,10 +41,14 @@ import warp as wp
 LOOP_ENV = "HARNESS_GRAPH_LOOP"
 
 
+# Why this process stopped capturing loops (the first capture that failed), else None.
+_failed: list[str] = []
+
+
 def graph_loop() -> bool:
     """Whether runs of physics steps are captured as device loops (``HARNESS_GRAPH_LOOP``: 1 or
-    0; default 0)."""
-    return os.environ.get(LOOP_ENV, "0") not in ("", "0")
+    0; default 0), unless a capture failed in this process (``try_loop_steps``)."""
+    return os.environ.get(LOOP_ENV, "0") not in ("", "0") and not _failed
 
 
 @wp.kernel
@@ -179,3 +184,23 @@ def loop_steps(
             run_loop(device, step_from_arena, times, left)
     assert recorded.graph is not None
     return LoopGraph(recorded.graph, left, times, arena)
+
+
+def try_loop_steps(device: str, step: Callable[[], None], times: int) -> LoopGraph | None:
+    """``loop_steps`` captured, or None (its recording step ran) where the capture failed: the
+    process then says why once, on stderr, and captures unrolled graphs from then on
+    (``graph_loop`` is False), so a device or driver without the loop's needs costs a warning,
+    not the run's rows."""
+    try:
+        return loop_steps(device, step, times)
+    except Exception as error:  # the capture's own failure, whatever Warp or CUDA raises
+        wp.synchronize_device(device)  # the recording step's work, before its scratch goes
+        if not _failed:
+            _failed.append(f"{type(error).__name__}: {error}")
+            print(
+                f"mjwarp: {LOOP_ENV}=1 but the device loop could not be captured on {device} "
+                f"({_failed[0]}); capturing unrolled graphs instead",
+                file=sys.stderr,
+                flush=True,
+            )
+        return None

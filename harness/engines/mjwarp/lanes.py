@@ -33,7 +33,7 @@ import warp as wp
 
 from harness.engines.mjwarp import kernels, steps
 from harness.engines.mjwarp import lane_kernels as lk
-from harness.engines.mjwarp.graph_loop import LoopGraph, graph_loop, loop_steps
+from harness.engines.mjwarp.graph_loop import LoopGraph, graph_loop, try_loop_steps
 from harness.engines.mjwarp.host import Downloads, to_host_all
 from harness.engines.mjwarp.model import DeviceModel
 from harness.engines.mjwarp.schedule import DeviceJob
@@ -308,10 +308,10 @@ class LaneRun:
                 self._physics_step()
                 count += 1
                 if graph_loop():  # one step's kernels in a device-side loop
-                    self._loop = loop_steps(self.dm.device, self._physics_step, self.interval)
-                    assert self._loop is not None
-                    self._graph = self._loop.graph
+                    self._loop = try_loop_steps(self.dm.device, self._physics_step, self.interval)
                     count += 1  # its step recording the scratch
+                if self._loop is not None:
+                    self._graph = self._loop.graph
                 else:
                     with wp.ScopedCapture(device=self.dm.device) as capture:
                         for _ in range(self.interval):

@@ -15,7 +15,7 @@ import numpy as np
 import warp as wp
 
 from harness.engines.mjwarp import kernels
-from harness.engines.mjwarp.graph_loop import LoopGraph, loop_steps
+from harness.engines.mjwarp.graph_loop import LoopGraph, try_loop_steps
 from harness.engines.mjwarp.graph_plan import graph_plan
 from harness.engines.mjwarp.host import to_host
 from harness.engines.mjwarp.schedule import DeviceJob, ExecutionSchedule
@@ -126,10 +126,11 @@ def replay(  # type: ignore[no-untyped-def]
             fn()
         return None
     if looped and times >= 3:  # one more eager call, then the rest as one device-side loop
-        loop = loop_steps(device, fn, times - 2)
-        assert loop is not None
-        launch(loop.graph, 1)
-        return loop
+        loop = try_loop_steps(device, fn, times - 2)
+        if loop is not None:
+            launch(loop.graph, 1)
+            return loop
+        times -= 1  # its recording call ran; the rest unrolled
     for calls, launches in graph_plan(times, per_graph):
         with wp.ScopedCapture(device=device) as capture:
             for _ in range(calls):
