@@ -41,7 +41,7 @@ import warp as wp
 LOOP_ENV = "HARNESS_GRAPH_LOOP"
 
 
-# Why this process stopped capturing loops (the first capture that failed), else None.
+# Why this process stopped capturing loops: the first capture that failed (empty: none has).
 _failed: list[str] = []
 
 
@@ -175,13 +175,18 @@ def loop_steps(
         finally:
             arena.armed = False
 
-    with installed(device, arena):
-        if not capture:
-            run_loop(device, step_from_arena, times, left)
-            arena.free()
-            return None
-        with wp.ScopedCapture(device=device) as recorded:
-            run_loop(device, step_from_arena, times, left)
+    try:
+        with installed(device, arena):
+            if not capture:
+                run_loop(device, step_from_arena, times, left)
+                arena.free()
+                return None
+            with wp.ScopedCapture(device=device) as recorded:
+                run_loop(device, step_from_arena, times, left)
+    except BaseException:
+        wp.synchronize_device(device)  # the recording step's work, before its scratch goes
+        arena.free()
+        raise
     assert recorded.graph is not None
     return LoopGraph(recorded.graph, left, times, arena)
 
@@ -194,7 +199,6 @@ def try_loop_steps(device: str, step: Callable[[], None], times: int) -> LoopGra
     try:
         return loop_steps(device, step, times)
     except Exception as error:  # the capture's own failure, whatever Warp or CUDA raises
-        wp.synchronize_device(device)  # the recording step's work, before its scratch goes
         if not _failed:
             _failed.append(f"{type(error).__name__}: {error}")
             print(
