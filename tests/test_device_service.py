@@ -317,7 +317,7 @@ def test_each_thread_has_its_own_episode_budget() -> None:
 
 
 def test_the_baton_lets_one_thread_plan_while_another_waits_for_its_reply() -> None:
-    holders: list[int] = []
+    holders: list[int | None] = []
     baton = Baton(holders.append)
     log: list[str] = []
 

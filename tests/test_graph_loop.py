@@ -62,7 +62,8 @@ def test_the_arena_hands_a_steps_blocks_out_again_and_names_a_changed_step() -> 
 
     def step() -> None:
         block = wp.zeros(next(sizes) // 4, dtype=wp.int32, device="cpu")
-        seen.append(block.ptr)
+        assert block.ptr is not None
+        seen.append(int(block.ptr))
 
     with pytest.raises(ArenaMismatchError, match="asks 32 bytes"):
         loop_steps("cpu", step, 3, capture=False)
@@ -88,7 +89,7 @@ def test_a_lane_step_from_the_arena_keeps_the_eager_states(steps: int) -> None:
     (job,) = fr3_device_jobs(1)
     dm = MjwarpEngine("cpu").batch(get_scene(job.task, _SCENES).scene, job.task).dm
 
-    def make(k: int) -> object:
+    def make(k: int) -> mjw.Data:
         return mjw.put_data(
             dm.mj_model, dm.template, nworld=k, nconmax=SMALL.nconmax, njmax=SMALL.njmax
         )
