@@ -171,12 +171,16 @@ class Profiler:
         from harness.engines.mjwarp.steps import launch_in_place
 
         def replay(
-            device: str, fn: Callable[[], None], times: int, launch: Any = None, per_graph: int = 1
-        ) -> None:
+            device: str,
+            fn: Callable[[], None],
+            times: int,
+            launch: Any = None,
+            per_graph: int = 1,
+            looped: bool = False,
+        ) -> Any:
             launch = launch or launch_in_place
             if fn.__name__ != "control_step" or not wp.get_device(device).is_cuda or times < 2:
-                original(device, fn, times, launch, per_graph=per_graph)
-                return
+                return original(device, fn, times, launch, per_graph=per_graph, looped=looped)
             fn()
             with wp.ScopedCapture(device=device) as capture:
                 fn()
@@ -187,6 +191,7 @@ class Profiler:
                     self._timed(fn)
                 else:
                     launch(graph)
+            return None
 
         return replay
 
