@@ -147,3 +147,29 @@ def test_a_loop_that_cannot_be_captured_falls_back_once_with_a_warning(
     assert err.count("could not be captured") == 1  # said once
     assert "unsupported operation" in err and "unrolled graphs instead" in err
     assert not gl.graph_loop()  # unrolled graphs from then on
+
+
+def test_other_threads_allocate_beside_the_arena_not_from_it() -> None:
+    """The arena is the device's allocator while a stream records and captures its step, and
+    ``prewarm`` builds other task models on the device meanwhile: their blocks come from the
+    device's own allocator, so they neither enter the step's record nor take its blocks."""
+    import threading
+
+    from harness.engines.mjwarp.graph_loop import StepArena, installed
+
+    arena = StepArena(wp.get_device("cpu").get_allocator())
+    beside: list[object] = []
+    with installed("cpu", arena):
+        mine = wp.zeros(4, dtype=wp.int32, device="cpu")
+        worker = threading.Thread(
+            target=lambda: beside.append(wp.zeros(4, dtype=wp.int32, device="cpu"))
+        )
+        worker.start()
+        worker.join()
+    assert [ptr for ptr, _ in arena.blocks] == [mine.ptr]
+    (other,) = beside
+    assert getattr(other, "ptr", None) not in arena.owned
+    arena.recording, arena.armed = False, True
+    with installed("cpu", arena):
+        again = wp.zeros(4, dtype=wp.int32, device="cpu")
+    assert again.ptr == mine.ptr  # the recorded block, handed out again

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -68,10 +69,15 @@ class ArenaMismatchError(RuntimeError):
 class StepArena:
     """A Warp allocator that records the blocks of one step (through ``base``) and then, while
     ``armed``, hands the same blocks out again in the same order; freeing one of its blocks is
-    a no-op until ``free``. Unarmed after recording, it passes requests through to ``base``."""
+    a no-op until ``free``. Unarmed after recording, it passes requests through to ``base``.
+
+    A device's allocator is the device's, not a thread's, and other threads allocate on it
+    meanwhile (``prewarm`` builds the next task model's arrays beside the streams): only the
+    thread that made the arena is served from it; the others' requests go to ``base``."""
 
     def __init__(self, base: Any) -> None:
         self.base = base
+        self.owner = threading.get_ident()
         self.memory_kind = getattr(base, "memory_kind", None)
         self.deallocate_requires_context_guard = getattr(
             base, "deallocate_requires_context_guard", True
@@ -83,6 +89,8 @@ class StepArena:
         self.next = 0
 
     def allocate(self, size_in_bytes: int) -> int:
+        if threading.get_ident() != self.owner:
+            return int(self.base.allocate(size_in_bytes))
         if self.recording:
             ptr = int(self.base.allocate(size_in_bytes))
             self.blocks.append((ptr, size_in_bytes))
