@@ -237,7 +237,7 @@ class WorldBatch:
         dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
         self.timings.tug_issue_s += time.perf_counter() - clock
         self.slot.wait()
-        del loop  # (with ``graph_loop``) its counter lives until the round has run
+        del loop  # (with ``graph_loop``) its counter and scratch live until the round has run
         rows = to_host(out)[:, 0]
         over = use.overflowed(td, buffers, self.timings)
         self.timings.tug_s += time.perf_counter() - clock

@@ -157,7 +157,7 @@ class LaneRun:
         self._flagged = np.zeros(0, dtype=np.int64)
         self.interval = interval
         self._graph = None
-        self._loop: LoopGraph | None = None  # with ``graph_loop``: the graph and its counter
+        self._loop: LoopGraph | None = None  # with ``graph_loop``: its graph, counter, scratch
         # the pipelined visits (``queue`` / ``settle``): the visit count, the visit from whose
         # replay on each lane's job runs, the previous visit's downloads and its mark
         self._visit = 0
