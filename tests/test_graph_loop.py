@@ -173,3 +173,60 @@ def test_other_threads_allocate_beside_the_arena_not_from_it() -> None:
     with installed("cpu", arena):
         again = wp.zeros(4, dtype=wp.int32, device="cpu")
     assert again.ptr == mine.ptr  # the recorded block, handed out again
+
+
+@pytest.mark.slow
+def test_a_captured_lane_loop_replays_the_eager_states() -> None:
+    """The capture path itself, on Warp's CPU device (its captures record the API calls,
+    APIC, and replay them): one recording step, then a WHILE loop of 5 lane steps captured
+    with MuJoCo Warp's solver loop and collision conditionals nested in its body and the
+    step's scratch from the arena, launched once, gives the states of plain eager steps bit
+    for bit; nothing ran while it was captured. (What a CUDA body may not hold, allocations,
+    only a GPU can refuse: docs/engines.md.)"""
+    import mujoco_warp as mjw
+    from helpers import fr3_device_jobs
+
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.graph_loop import loop_steps
+    from harness.engines.mjwarp.lanes import LaneRun
+    from harness.engines.mjwarp.steps import SMALL
+    from harness.episode.scene_cache import get_scene
+
+    (job,) = fr3_device_jobs(1)
+    dm = MjwarpEngine("cpu").batch(get_scene(job.task, _SCENES).scene, job.task).dm
+
+    def make(k: int) -> mjw.Data:
+        return mjw.put_data(
+            dm.mj_model, dm.template, nworld=k, nconmax=SMALL.nconmax, njmax=SMALL.njmax
+        )
+
+    def fresh() -> LaneRun:
+        chunks = job.schedule.chunk_sizes
+        lanes = LaneRun(dm, 2, 1, 512, 3, chunks, SMALL, make, interval=sum(chunks))
+        lanes.load(np.array([0]), np.array([0]), [job], np.array([len(job.schedule.ctrl) + 3]))
+        lanes._physics_step()
+        return lanes
+
+    def state(lanes: LaneRun) -> list[np.ndarray]:
+        return [a.numpy().copy() for a in (lanes.d.qpos, lanes.d.qvel, lanes.out)]
+
+    plain = fresh()
+    plain._physics_step()
+    one_step = state(plain)
+    for _ in range(5):
+        plain._physics_step()
+    captured = fresh()
+    loop = loop_steps("cpu", captured._physics_step, 5)
+    assert loop is not None
+    after_recording = state(captured)
+    for a, b in zip(one_step, after_recording, strict=True):  # only the recording step ran
+        assert np.array_equal(a, b)
+    wp.capture_launch(loop.graph)
+    wp.synchronize_device("cpu")
+    for a, b in zip(state(plain), state(captured), strict=True):
+        assert np.array_equal(a, b)
+    assert not np.array_equal(after_recording[0], state(captured)[0])  # the launch stepped
+    # Warp's CPU capture owns the blocks handed out while it recorded and frees them with
+    # its graph; on CUDA the arena gives them back (``LoopGraph.__del__``)
+    loop.arena.blocks, loop.arena.owned = [], set()
