@@ -178,6 +178,9 @@ for job in "$@"; do
       HARNESS_TUG_STEPS_PER_GRAPH=8 HARNESS_WARP_DEVICE=cuda:0 timeout 360 python3 -m \
         harness.cli sweep /tmp/fr3_big.yaml --engine mjwarp --workers "$(( $(nproc) - 1 ))" \
         --out "$R/fr3_big_one_tug8" --no-progress --record none ;;
+    stream_overlap_loop)  # demo-sized streams, a visit's 136 steps unrolled against looped, one run
+      python3 -m harness.benchmarks.stream_overlap "$R/stream_overlap_loop" --worlds 128 \
+        --streams 1 4 10 --steps 136 --rounds 5 --graphs unrolled loop --noslip on ;;
     demo_gpu_loop)  # the demo with each visit's and tug round's steps in a device-side loop
       HARNESS_GRAPH_LOOP=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_loop" \

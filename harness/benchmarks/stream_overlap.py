@@ -12,6 +12,10 @@ of a round, world-steps/s, and the overlap ``streams x t(1 stream) / t(streams)`
 streams run one after another; ``streams``: fully side by side).
 
     python -m harness.benchmarks.stream_overlap OUT_DIR --worlds 64 512 --streams 1 2 4 8
+
+``--graphs unrolled loop`` measures both graph kinds in one run (the product's visit is ~136
+steps: ``--steps 136``), to see whether the launches of long unrolled graphs, not the device,
+hold the streams back.
 """
 
 from __future__ import annotations
@@ -19,19 +23,29 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from functools import partial
+from itertools import product
 from pathlib import Path
 from typing import Any
 
 
 def round_ms(
-    task_file: str, worlds: int, streams: int, steps: int, rounds: int, noslip: bool
+    task_file: str,
+    worlds: int,
+    streams: int,
+    steps: int,
+    rounds: int,
+    noslip: bool,
+    loop: bool = False,
 ) -> float:
-    """ms per physics step of a round of ``streams`` graphs of ``steps`` steps."""
+    """ms per physics step of a round of ``streams`` graphs of ``steps`` steps: unrolled, or
+    with ``loop`` one step in a device-side WHILE loop (``harness.engines.mjwarp.graph_loop``)."""
     import mujoco_warp as mjw
     import warp as wp
 
     from harness.benchmarks.noslip_kernels import settled_state
     from harness.engines.mjwarp import noslip as noslip_pass
+    from harness.engines.mjwarp.graph_loop import loop_steps
 
     noslip_pass.install()
     m, d = settled_state(task_file)
@@ -44,6 +58,11 @@ def round_ms(
         with wp.ScopedStream(stream):
             dw = mjw.put_data(m, d, nworld=worlds, nconmax=64, njmax=256)
             mjw.step(mw, dw)  # loads the kernels, makes the noslip buffers
+            if loop:
+                looped = loop_steps(str(stream.device), partial(mjw.step, mw, dw), steps)
+                assert looped is not None
+                kept.append((stream, (dw, looped), looped.graph))
+                continue
             with wp.ScopedCapture(stream=stream) as capture:
                 for _ in range(steps):
                     mjw.step(mw, dw)
@@ -70,23 +89,30 @@ def main() -> None:
     parser.add_argument("--streams", type=int, nargs="+", default=[1, 2, 4, 8])
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--rounds", type=int, default=10)
+    parser.add_argument(
+        "--graphs", nargs="+", choices=["unrolled", "loop"], default=["unrolled"],
+        help="a graph's steps unrolled, or one step in a device-side loop (both: one run)",
+    )  # fmt: skip
+    parser.add_argument("--noslip", choices=["both", "on", "off"], default="both")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
-    for noslip in (True, False):
-        for worlds in args.worlds:
-            alone = None
-            for streams in args.streams:
-                ms = round_ms(args.task, worlds, streams, args.steps, args.rounds, noslip)
-                alone = ms if streams == 1 else alone
-                record = {
-                    "noslip": noslip, "worlds": worlds, "streams": streams, "ms_per_step": ms,
-                    "world_steps_per_s": streams * worlds / (ms / 1000.0),
-                    "overlap": streams * alone / ms if alone else None,
-                }  # fmt: skip
-                records.append(record)
-                print(json.dumps(record), flush=True)
-                write_file(args.out / "stream_overlap.json", json.dumps(records, indent=1))
+    noslips = {"both": (True, False), "on": (True,), "off": (False,)}[args.noslip]
+    for noslip, graphs, worlds in product(noslips, args.graphs, args.worlds):
+        alone = None
+        for streams in args.streams:
+            ms = round_ms(
+                args.task, worlds, streams, args.steps, args.rounds, noslip, graphs == "loop"
+            )
+            alone = ms if streams == 1 else alone
+            record = {
+                "noslip": noslip, "graphs": graphs, "worlds": worlds, "streams": streams,
+                "ms_per_step": ms, "world_steps_per_s": streams * worlds / (ms / 1000.0),
+                "overlap": streams * alone / ms if alone else None,
+            }  # fmt: skip
+            records.append(record)
+            print(json.dumps(record), flush=True)
+            write_file(args.out / "stream_overlap.json", json.dumps(records, indent=1))
 
 
 if __name__ == "__main__":
