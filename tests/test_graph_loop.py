@@ -230,3 +230,18 @@ def test_a_captured_lane_loop_replays_the_eager_states() -> None:
     # Warp's CPU capture owns the blocks handed out while it recorded and frees them with
     # its graph; on CUDA the arena gives them back (``LoopGraph.__del__``)
     loop.arena.blocks, loop.arena.owned = [], set()
+
+
+def test_the_run_says_how_many_graphs_were_device_loops() -> None:
+    """A sweep's stream line names the graphs captured as device loops (a failed capture
+    falls back silently but for one warning, so the count shows which path ran), and says
+    nothing of them when none was."""
+    from harness.engines.mjwarp.steps import BatchTimings
+    from harness.engines.mjwarp.stream_stats import StreamStats, add_timings
+
+    total, one, other = BatchTimings(), BatchTimings(loop_graphs=1), BatchTimings(loop_graphs=3)
+    add_timings(total, one)
+    add_timings(total, other)
+    assert total.loop_graphs == 4
+    assert "; 4 graph(s) as device loops" in StreamStats(timings=total).breakdown()
+    assert "device loops" not in StreamStats(timings=BatchTimings()).breakdown()

@@ -236,6 +236,7 @@ class WorldBatch:
         start_rows = wp.full(nt, kernels.BASELINE, dtype=wp.int32)
         dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
         self.timings.tug_issue_s += time.perf_counter() - clock
+        self.timings.loop_graphs += int(loop is not None)
         self.slot.wait()
         del loop  # (with ``graph_loop``) its counter and scratch live until the round has run
         rows = to_host(out)[:, 0]

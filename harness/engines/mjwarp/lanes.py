@@ -312,6 +312,7 @@ class LaneRun:
                     count += 1  # its step recording the scratch
                 if self._loop is not None:
                     self._graph = self._loop.graph
+                    timings.loop_graphs += 1
                 else:
                     with wp.ScopedCapture(device=self.dm.device) as capture:
                         for _ in range(self.interval):

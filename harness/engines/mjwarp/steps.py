@@ -64,6 +64,7 @@ class BatchTimings:
     visits: int = 0
     launch_s: float = 0.0
     wait_s: float = 0.0
+    loop_graphs: int = 0  # graphs captured as device-side loops (``graph_loop``)
 
 
 class BufferUse:

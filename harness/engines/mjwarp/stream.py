@@ -288,6 +288,7 @@ class LaneStream:
             f"{t.wait_s:.1f} s of {t.physics_s:.1f} s), upload {t.upload_s:.1f} s, "
             f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s, "
             + self._tug_summary()
+            + (f", {t.loop_graphs} graph(s) as device loops" if t.loop_graphs else "")
             + occupancy(self.trace, self.wall_s)
         )
 

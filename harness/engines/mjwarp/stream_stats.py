@@ -51,6 +51,7 @@ class StreamStats:
             f"upload {t.upload_s:.1f} s, "
             f"download {t.download_s:.1f} s, judge {t.judge_s:.1f} s; lanes busy (a job's "
             f"span or a rung) {100 * busy:.0f}% of {t.motion_steps:,} lane-steps"
+            + (f"; {t.loop_graphs} graph(s) as device loops" if t.loop_graphs else "")
         )
 
     # the names the sweep's summary line reads (it predates lane streams)
