@@ -245,3 +245,27 @@ def test_the_run_says_how_many_graphs_were_device_loops() -> None:
     assert total.loop_graphs == 4
     assert "; 4 graph(s) as device loops" in StreamStats(timings=total).breakdown()
     assert "device loops" not in StreamStats(timings=BatchTimings()).breakdown()
+
+
+def test_an_array_that_outlives_its_arena_does_not_free_its_block_twice() -> None:
+    from harness.engines.mjwarp.graph_loop import StepArena, installed
+
+    freed: list[int] = []
+    base = wp.get_device("cpu").get_allocator()
+    assert base is not None
+
+    class Counting:
+        def allocate(self, size: int) -> int:
+            return base.allocate(size)
+
+        def deallocate(self, ptr: int, size: int) -> None:
+            freed.append(ptr)
+            base.deallocate(ptr, size)
+
+    arena = StepArena(Counting())
+    with installed("cpu", arena):
+        kept = wp.zeros(4, dtype=wp.int32, device="cpu")
+    arena.free()
+    assert freed == [kept.ptr]
+    del kept  # its deleter is the arena's: the block went back already
+    assert len(freed) == 1

@@ -84,6 +84,7 @@ class StepArena:
         )
         self.blocks: list[tuple[int, int]] = []
         self.owned: set[int] = set()
+        self.given_back: set[int] = set()
         self.recording = True
         self.armed = False
         self.next = 0
@@ -108,13 +109,16 @@ class StepArena:
         return ptr
 
     def deallocate(self, ptr: int, size_in_bytes: int) -> None:
-        if ptr not in self.owned:
+        # a block of the arena goes back with ``free`` only, once: an array of the recorded
+        # step that outlives it (none should) must not free its block a second time
+        if ptr not in self.owned and ptr not in self.given_back:
             self.base.deallocate(ptr, size_in_bytes)
 
     def free(self) -> None:
         """Give every recorded block back (its step's work must be done or ordered before)."""
         for ptr, size in self.blocks:
             self.base.deallocate(ptr, size)
+        self.given_back |= self.owned
         self.blocks, self.owned = [], set()
 
 
