@@ -29,7 +29,6 @@ allocator), which is how it is tested.
 
 from __future__ import annotations
 
-import os
 import sys
 import threading
 from collections.abc import Callable, Iterator
@@ -38,6 +37,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import warp as wp
+
+from harness.engines.mjwarp.lane_sizes import env_flag
 
 LOOP_ENV = "HARNESS_GRAPH_LOOP"
 
@@ -49,7 +50,7 @@ _failed: list[str] = []
 def graph_loop() -> bool:
     """Whether runs of physics steps are captured as device loops (``HARNESS_GRAPH_LOOP``: 1 or
     0; default 0), unless a capture failed in this process (``try_loop_steps``)."""
-    return os.environ.get(LOOP_ENV, "0") not in ("", "0") and not _failed
+    return env_flag(LOOP_ENV) and not _failed
 
 
 @wp.kernel
@@ -142,13 +143,12 @@ def installed(device: str, allocator: Any) -> Iterator[None]:
 
 @dataclass
 class LoopGraph:
-    """A captured graph that runs ``step`` ``times`` times on the device, its counter and its
+    """A captured graph that runs a step a set number of times on the device, its counter and its
     steps' scratch (kept alive with it: the graph reads and writes them; the scratch is given
     back when this is dropped, after its last launch has run)."""
 
     graph: Any
     left: wp.array
-    times: int
     arena: StepArena
 
     def __del__(self) -> None:
@@ -200,7 +200,7 @@ def loop_steps(
         arena.free()
         raise
     assert recorded.graph is not None
-    return LoopGraph(recorded.graph, left, times, arena)
+    return LoopGraph(recorded.graph, left, arena)
 
 
 def try_loop_steps(device: str, step: Callable[[], None], times: int) -> LoopGraph | None:

@@ -69,6 +69,11 @@ def env_int(name: str) -> int | None:
         raise HarnessError(f"environment variable {name}={chosen!r}: not an integer") from None
 
 
+def env_flag(name: str) -> bool:
+    """Whether an on/off environment variable is on: set to anything but empty or ``0``."""
+    return os.environ.get(name, "0") not in ("", "0")
+
+
 def streams_per_device(device: str) -> int:
     """``HARNESS_STREAMS_PER_DEVICE``, else ``CUDA_STREAMS`` on a CUDA device, else
     ``CPU_STREAMS``."""

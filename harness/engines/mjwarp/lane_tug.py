@@ -16,7 +16,6 @@ default (``tug_in_lanes``).
 
 from __future__ import annotations
 
-import os
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from harness.engines.mjwarp.judge import held_in_tcp, rung_outcome
+from harness.engines.mjwarp.lane_sizes import env_flag
 from harness.engines.mjwarp.signals import HoldWindow
 from harness.engines.mjwarp.tug import (
     DEFAULT_POLICY,
@@ -49,7 +49,7 @@ def tug_in_lanes(ahead: bool = False) -> bool:
     """Whether a stream runs its tug rungs in its lanes: as ``HARNESS_TUG_LANES`` says (1 or
     0; default 0), never when its replays are queued ahead (a lane's rung row would be read
     one visit late)."""
-    return not ahead and os.environ.get(TUG_LANES_ENV, "0") not in ("", "0")
+    return not ahead and env_flag(TUG_LANES_ENV)
 
 
 @dataclass

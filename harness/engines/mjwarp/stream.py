@@ -21,7 +21,6 @@ full), exactly as a lockstep batch would rerun them.
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections import deque
 from collections.abc import Callable, Hashable
@@ -39,7 +38,7 @@ from harness.engines.mjwarp.batch import (
     rung_physics_steps,
 )
 from harness.engines.mjwarp.judge import judge_started
-from harness.engines.mjwarp.lane_sizes import env_int
+from harness.engines.mjwarp.lane_sizes import env_flag, env_int
 from harness.engines.mjwarp.lane_tug import Ladder, LaneLadders, tug_in_lanes
 from harness.engines.mjwarp.lanes import Finished, LaneRun, RungsFinished
 from harness.engines.mjwarp.schedule import DeviceJob
@@ -124,7 +123,7 @@ class LaneStream:
         self.trace: list[tuple[float, int, int, int]] = []
         # queue each replay before collecting the last (``HARNESS_LANE_AHEAD=1``; not yet
         # measured on a GPU: off by default)
-        self.ahead = os.environ.get(AHEAD_ENV, "0") not in ("", "0")
+        self.ahead = env_flag(AHEAD_ENV)
         # the rungs in the lanes (``lane_tug``), each job's ladder at its own pace (made with
         # the lanes, ``_make``; None: the tug runs beside the lanes)
         self.ladders: LaneLadders | None = None
