@@ -181,6 +181,10 @@ for job in "$@"; do
     stream_overlap_loop)  # demo-sized streams, a visit's 136 steps unrolled against looped, one run
       python3 -m harness.benchmarks.stream_overlap "$R/stream_overlap_loop" --worlds 128 \
         --streams 1 4 10 --steps 136 --rounds 5 --graphs unrolled loop --noslip on ;;
+    demo_gpu_per_arm)  # the demo with a stream per arm (before 2026-11-28 noon: ten streams)
+      HARNESS_STREAM_PER_ARM=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
+        --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_per_arm" \
+        --no-progress --record none ;;
     demo_gpu_loop)  # the demo with each visit's and tug round's steps in a device-side loop
       HARNESS_GRAPH_LOOP=1 python3 -m harness.cli sweep tasks/sweeps/demo.yaml \
         --engine mjwarp --workers "$(( $(nproc) - 1 ))" --out "$R/demo_gpu_loop" \

@@ -266,16 +266,22 @@ def flatten(values: list) -> list[str]:
     return out
 
 
-def fr3_device_jobs(seeds: int) -> list[Any]:
-    """The ``DeviceJob`` of each of FR3 seeds 0..seeds-1 that reaches its execution (planned
-    by the engines bench's planning worker, ``harness.benchmarks.engines._plan``)."""
+def device_jobs(task_name: str, seeds: int) -> list[Any]:
+    """The ``DeviceJob`` of each of seeds 0..seeds-1 of ``tasks/pick/<task_name>.yaml`` that
+    reaches its execution (planned by the engines bench's planning worker,
+    ``harness.benchmarks.engines._plan``)."""
     from harness.benchmarks.engines import _plan
     from harness.config import load_task
     from harness.episode import EpisodeSpec
 
-    task = load_task(PROJECT_ROOT / "tasks" / "pick" / "fr3.yaml")
+    task = load_task(PROJECT_ROOT / "tasks" / "pick" / f"{task_name}.yaml")
     jobs = [_plan(EpisodeSpec(task=task, seed=seed))[1] for seed in range(seeds)]
     return [job for job in jobs if job is not None]
+
+
+def fr3_device_jobs(seeds: int) -> list[Any]:
+    """``device_jobs`` of the FR3 cube pick."""
+    return device_jobs("fr3", seeds)
 
 
 def same_fields(a: object, b: object) -> bool:

@@ -10,7 +10,7 @@ from collections.abc import Hashable
 
 import numpy as np
 import pytest
-from helpers import fr3_device_jobs, same_fields
+from helpers import device_jobs, fr3_device_jobs, same_fields
 
 HAS_WARP = importlib.util.find_spec("mujoco_warp") is not None
 needs_warp = pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
@@ -162,6 +162,44 @@ def test_a_stream_of_jobs_judges_as_the_lockstep_batch(
 
 @pytest.mark.slow
 @pytest.mark.gpu
+@needs_warp
+def test_one_stream_serves_both_arms_of_a_scene() -> None:
+    """Lift-2's left and right cube picks share a stream key, so one stream of two lanes runs
+    them mixed: each outcome equals its own arm's lockstep batch field by field, and the right
+    arm's successful grasps were held by the right gripper's fingers (a world reading another
+    arm's fingers would see no force and drop the verdict). Split ALOHA's two arms do not
+    share one: its right-arm task lets the robot touch the table (another model)."""
+    from harness.benchmarks.engines import _SCENES
+    from harness.engines.mjwarp.devices import stream_key
+    from harness.engines.mjwarp.engine import MjwarpEngine
+    from harness.engines.mjwarp.stream import LaneStream
+    from harness.episode.scene_cache import get_scene
+
+    left, right = device_jobs("lift2_left", 4)[:1], device_jobs("lift2_right", 8)[:2]
+    assert left and len(right) == 2
+    assert stream_key(left[0]) == stream_key(right[0])
+    aloha = [device_jobs(f"split_aloha_{arm}", 4)[:1] for arm in ("left", "right")]
+    assert all(aloha) and stream_key(aloha[0][0]) != stream_key(aloha[1][0])
+    engine = MjwarpEngine("cpu")
+    scene = get_scene(left[0].task, _SCENES).scene
+    assert get_scene(right[0].task, _SCENES).scene is scene
+    expected = engine.batch(scene, left[0].task).run(left)
+    expected += engine.batch(scene, right[0].task).run(right)
+    assert engine.batch(scene, left[0].task).dm is engine.batch(scene, right[0].task).dm
+    mixed: list[tuple[Hashable, object]] = [("r0", right[0]), ("l0", left[0]), ("r1", right[1])]
+    installments: list[list[tuple[Hashable, object]] | None] = [mixed, None]
+    stream = LaneStream(engine.batch(scene, right[0].task), nlane=2, group=2)
+    outcomes = stream.run(lambda block, want: installments.pop(0))  # type: ignore[arg-type,return-value]
+    for key, want in zip(("l0", "r0", "r1"), expected, strict=True):
+        assert same_fields(outcomes[key], want), key
+    held = [o for o in expected[1:] if o.success]
+    assert held, "no right-arm success to check the fingers of"
+    for outcome in held:
+        assert min(outcome.finger_force_left_n, outcome.finger_force_right_n) > 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.gpu
 @pytest.mark.skipif(not HAS_WARP, reason="needs the 'gpu' extra (pip install .[gpu])")
 def test_a_job_too_long_for_a_lane_is_answered_before_the_stream_ends(
     monkeypatch: pytest.MonkeyPatch,
@@ -251,6 +289,6 @@ def test_harness_compile_warms_a_task_models_lockstep_batch_and_lanes() -> None:
     job = fr3_device_jobs(1)[0]
     said: list[str] = []
     spent = warm([job], ["cpu"], said.append)
-    name = "fr3 left cube on cpu"
+    name = "fr3 cube on cpu"
     assert list(spent) == [name] and spent[name] > 0
     assert said[0].startswith(f"[1/1] {name}: compiling") and "ready in" in said[-1]

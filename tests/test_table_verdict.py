@@ -182,4 +182,4 @@ def test_mjwarp_episodes_replay_on_the_cpu_engine(
     for column in ("table_replay", "valid", "invalid_reason"):
         assert gpu[column] == cpu[column], column
     scene = get_scene(spec.task, cache).scene
-    assert {key[3] for key in engine._models} == {contact_key(contact_bits(scene.model))}
+    assert {key[2] for key in engine._models} == {contact_key(contact_bits(scene.model))}

@@ -67,7 +67,7 @@ def model_jobs(episodes: list[Any], seeds: int = 8) -> list[Any]:
     by_model: dict[Any, list[Any]] = {}
     for spec in episodes:
         task = spec.task
-        by_model.setdefault((scene_key(task), task.arm, task.target_object.name), []).append(spec)
+        by_model.setdefault((scene_key(task), task.target_object.name), []).append(spec)
     jobs: dict[Any, Any] = {}
     for specs in by_model.values():
         for spec in specs[:seeds]:
@@ -95,7 +95,7 @@ def warm(jobs: list[Any], devices: list[str], say: Callable[[str], None]) -> dic
             k += 1
             task = job.task
             scene = get_scene(task, scenes).scene
-            name = f"{task.robot} {task.arm} {task.target_object.name} on {device}"
+            name = f"{task.robot} {task.target_object.name} on {device}"  # both arms' model
             say(f"[{k}/{total}] {name}: compiling or loading its kernels ...")
             clock = time.perf_counter()
             engine.execute_many(scene, [job])

@@ -145,7 +145,8 @@ class WorldBatch:
             self._overflowed = set(over)  # not judged: they run again, or end unstable
             worlds = list(range(len(jobs)))
             windows, tugged = hold_windows(jobs, worlds, steps, validity, self._overflowed)
-            start = RungStart(jobs, run.saved, run.hold_ctrl, run.mocap, motion, windows)
+            arms = {w: job.task.arm for w, job in enumerate(jobs)}
+            start = RungStart(jobs, run.saved, run.hold_ctrl, run.mocap, motion, windows, arms)
             rungs = self._tug(start, steps, tugged, buffers)
         clock = time.perf_counter()
         outcomes = [
@@ -234,7 +235,8 @@ class WorldBatch:
         identity = wp.array(np.arange(nt, dtype=np.int32), dtype=wp.int32)
         # the rungs' penetration is not judged: each rung row measures its own start
         start_rows = wp.full(nt, kernels.BASELINE, dtype=wp.int32)
-        dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity)
+        arm_of = dm.arms_of([start.arms[w] for w, _ in batch])
+        dm.record(td, start_rows, out, out, dm.penetration_start(nt), identity, arm_of)
         self.timings.tug_issue_s += time.perf_counter() - clock
         self.timings.loop_graphs += int(loop is not None)
         self.slot.wait()
@@ -269,6 +271,7 @@ class RungStart:
     mocap: list[wp.array]  # (world, body): the mocap positions and orientations
     motion: np.ndarray  # per world: its motion's control steps
     windows: Mapping[int, HoldWindow | None]
+    arms: Mapping[int, str]  # per world: its job's arm (whose fingers hold the object)
 
 
 def hold_windows(

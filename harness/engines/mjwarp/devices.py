@@ -41,7 +41,13 @@ from harness.engines.mjwarp.lane_sizes import (
     is_cuda,
     streams_per_device,
 )
-from harness.engines.mjwarp.stream_keys import StreamKey, scene_for, stream_key, task_key
+from harness.engines.mjwarp.stream_keys import (
+    StreamKey,
+    scene_for,
+    stream_key,
+    stream_label,
+    task_key,
+)
 from harness.engines.mjwarp.stream_stats import StreamStats, add_timings
 from harness.pick.outcome import PickOutcome
 
@@ -387,7 +393,7 @@ class DeviceStreams:
                     self._cond.wait(0.05)
                     block = False  # once: the caller asks again
 
-        label = f"{device} {key[1]} {key[2]}{self._variant(key)}"
+        label = f"{device} {stream_label(key)}{self._variant(key)}"
 
         def on_outcome(tag: Hashable, outcome: PickOutcome) -> None:
             answer = taken.pop(tag, None)
@@ -455,7 +461,7 @@ class DeviceStreams:
     ) -> None:
         from harness.engines.mjwarp.stream import TUG_GROUP, LaneStream
 
-        # the task of the stream's first job: its device model (arm, target) and buffers
+        # the task of the stream's first job: its device model (target) and buffers
         head = source(True, lanes)
         while head == []:  # another device took what was queued: wait for more or the end
             head = source(True, lanes)

@@ -88,7 +88,7 @@ class MjwarpEngine:
         self.device = device or default_device()
         self.buffers = buffers
         self.retire = retire
-        self._models: dict[tuple[int, str, str, str], Any] = {}
+        self._models: dict[tuple[int, str, str], Any] = {}
         global _NOTED
         if self.device == "cpu" and not _NOTED:
             import sys
@@ -100,7 +100,7 @@ class MjwarpEngine:
         self, scene: Scene, task: TaskConfig, slot: Any = None, contact: np.ndarray | None = None
     ) -> Any:
         """A ``WorldBatch`` on the device model of ``scene`` with the contact bits ``contact``
-        (default: its model's now; made once per model, arm, target and bits, from a copy of
+        (default: its model's now; made once per model, target and bits, from a copy of
         the model with those bits: ``harness.engines.mjwarp.contact``), on ``slot`` (a
         ``DeviceSlot``: its stream and its device's lock) when given."""
         from harness.engines.mjwarp.batch import SMALL, Buffers, WorldBatch
@@ -124,12 +124,13 @@ class MjwarpEngine:
         return WorldBatch(dm, buffers=buffers, slot=slot, retire=self.retire)
 
     @staticmethod
-    def _key(scene: Scene, task: TaskConfig, bits: np.ndarray) -> tuple[int, str, str, str]:
-        """A device model's key: one scene serves both arms of a two-arm robot (the arm and
-        target pick the signals), and each set of contact bits is a model of its own."""
+    def _key(scene: Scene, task: TaskConfig, bits: np.ndarray) -> tuple[int, str, str]:
+        """A device model's key: one serves both arms of a two-arm robot (each world records
+        its own job's arm; the target picks the object signals), and each set of contact bits
+        is a model of its own."""
         from harness.engines.mjwarp.contact import contact_key
 
-        return (id(scene.model), task.arm, task.target_object.name, contact_key(bits))
+        return (id(scene.model), task.target_object.name, contact_key(bits))
 
     def slots(self, count: int) -> list[Any]:
         """``count`` ``DeviceSlot``s of this engine's device (one stream each, one lock)."""

@@ -159,8 +159,8 @@ def record(
     robot_dof: wp.array(dtype=wp.int32),
     obj_body: int,
     obj_dof: int,
-    ee_body: int,
-    tcp_body: int,
+    ee_body: wp.array(dtype=wp.int32),  # per arm of the scene
+    tcp_body: wp.array(dtype=wp.int32),  # per arm of the scene
     pen_geom: wp.array(dtype=wp.int32),
     pen_box: wp.array(dtype=wp.vec3),
     pen_radial: wp.array(dtype=wp.float32),
@@ -171,17 +171,19 @@ def record(
     pen_initial: wp.array2d(dtype=wp.float32),  # (batch world, geom): depth at the start
     row_of: wp.array(dtype=wp.int32),  # per stepped world: NO_ROW, BASELINE or its row
     world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
+    arm_of: wp.array(dtype=wp.int32),  # per batch world: its job's arm (index into ee_body)
     out: wp.array3d(dtype=wp.float32),  # (batch world, row, signal)
     start_out: wp.array3d(dtype=wp.float32),  # (batch world, 1, signal): the BASELINE rows
 ):
     """One signal row per world that records now: stepped world ``w`` reads its state at
     ``w`` and writes its batch world's row (a ``BASELINE`` row: into ``start_out``, the depth
-    of each geom noted in ``pen_initial``)."""
+    of each geom noted in ``pen_initial``); the end effector and TCP are its job's arm's."""
     w_state = wp.tid()
     s = row_of[w_state]
     if s == NO_ROW:
         return
     w = world_of[w_state]
+    arm = arm_of[w]
     joint = wp.float32(0.0)
     for i in range(robot_dof.shape[0]):
         joint = wp.max(joint, wp.abs(qvel[w_state, robot_dof[i]]))
@@ -211,13 +213,13 @@ def record(
             deepest = wp.max(deepest, inside - pen_initial[w, i])
     if s == BASELINE:
         _emit(
-            start_out, w, 0, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body, tcp_body,
-            joint, deepest, fastest, bad,
+            start_out, w, 0, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body[arm],
+            tcp_body[arm], joint, deepest, fastest, bad,
         )  # fmt: skip
     else:
         _emit(
-            out, w, s, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body, tcp_body, joint,
-            deepest, fastest, bad,
+            out, w, s, w_state, qvel, xpos, xmat, obj_body, obj_dof, ee_body[arm],
+            tcp_body[arm], joint, deepest, fastest, bad,
         )  # fmt: skip
 
 
@@ -228,35 +230,40 @@ def finger_forces(
     contact_world: wp.array(dtype=wp.int32),
     contact_efc: wp.array2d(dtype=wp.int32),
     efc_force: wp.array2d(dtype=wp.float32),
-    finger_side: wp.array(dtype=wp.int32),  # (ngeom,) 0 left, 1 right, -1 other
+    finger_side: wp.array2d(dtype=wp.int32),  # (arm, geom): 0 left, 1 right, -1 other
     object_geom: wp.array(dtype=wp.int32),  # (ngeom,) 1 for the target object's geoms
     row_of: wp.array(dtype=wp.int32),  # per stepped world: NO_ROW, BASELINE or its row
     world_of: wp.array(dtype=wp.int32),  # per stepped world: its world of the batch
+    arm_of: wp.array(dtype=wp.int32),  # per batch world: its job's arm (a row of finger_side)
     out: wp.array3d(dtype=wp.float32),
     start_out: wp.array3d(dtype=wp.float32),
 ):
-    """``Scene.finger_forces``: the summed normal force of each finger's contacts with the
-    object (elliptic cones: the contact's first constraint row is its normal force), into the
-    rows ``record`` wrote."""
+    """``Scene.finger_forces``: the summed normal force of each finger of the world's arm in
+    contact with the object (elliptic cones: the contact's first constraint row is its normal
+    force), into the rows ``record`` wrote."""
     c = wp.tid()
     if c >= nacon[0]:
         return
+    w = contact_world[c]
+    s = row_of[w]
+    if s == NO_ROW:
+        return
+    b = world_of[w]
+    arm = arm_of[b]
     g = contact_geom[c]
     side = wp.int32(-1)
-    if finger_side[g[0]] >= 0 and object_geom[g[1]] == 1:
-        side = finger_side[g[0]]
-    elif finger_side[g[1]] >= 0 and object_geom[g[0]] == 1:
-        side = finger_side[g[1]]
+    if finger_side[arm, g[0]] >= 0 and object_geom[g[1]] == 1:
+        side = finger_side[arm, g[0]]
+    elif finger_side[arm, g[1]] >= 0 and object_geom[g[0]] == 1:
+        side = finger_side[arm, g[1]]
     adr = contact_efc[c, 0]
     if side < 0 or adr < 0:
         return
-    w = contact_world[c]
-    s = row_of[w]
     force = wp.abs(efc_force[w, adr])
     if s == BASELINE:
-        wp.atomic_add(start_out, world_of[w], 0, SIG_FORCE + side, force)
-    elif s != NO_ROW:
-        wp.atomic_add(out, world_of[w], s, SIG_FORCE + side, force)
+        wp.atomic_add(start_out, b, 0, SIG_FORCE + side, force)
+    else:
+        wp.atomic_add(out, b, s, SIG_FORCE + side, force)
 
 
 @wp.kernel

@@ -128,6 +128,7 @@ class LaneRun:
         self.rung_out = wp.zeros((nlane, 1, SIGNALS), dtype=wp.float32)  # a rung's end row
         self.rung_pen = dm.penetration_start(nlane)  # (a rung's penetration is not judged)
         self.lane_index = wp.array(np.arange(nlane, dtype=np.int32), dtype=wp.int32)
+        self.rung_arm = wp.zeros(nlane, dtype=wp.int32)  # a rung's arm (its job's)
         self.rungs = rungs
         # per job slot
         nchunks = len(chunk_sizes)
@@ -136,6 +137,7 @@ class LaneRun:
         self.warmup = wp.zeros(capacity, dtype=wp.int32)
         self.span = wp.zeros(capacity, dtype=wp.int32)
         self.first_row = wp.zeros(capacity, dtype=wp.int32)
+        self.arm_of = wp.zeros(capacity, dtype=wp.int32)  # the job's arm (a scene's arms share)
         self.out = wp.zeros((capacity, rows, SIGNALS), dtype=wp.float32)
         self.warm = wp.zeros((capacity, 1, SIGNALS), dtype=wp.float32)
         self.saved = [wp.zeros((capacity, self.slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
@@ -153,6 +155,7 @@ class LaneRun:
         self.span_host = np.zeros(capacity, dtype=np.int64)
         self.warmup_host = np.zeros(capacity, dtype=np.int64)
         self.motion_host = np.zeros(capacity, dtype=np.int32)  # the tug's ``RungStart.motion``
+        self.arm_host = np.zeros(capacity, dtype=np.int32)
         # slots whose job was in a lane while the contact pool was full
         self._flagged = np.zeros(0, dtype=np.int64)
         self.interval = interval
@@ -206,6 +209,7 @@ class LaneRun:
             lk.lane_rung_start, dim=len(lanes),
             inputs=[lanes_w, steps_each, self.rung_left, self.peak_rows],
         )  # fmt: skip
+        self._scatter(self.arm_host[np.asarray(job_slots)], lanes_w, self.rung_arm)
         self.lane_rung[lanes] = tags
         self.loaded_at[lanes] = self._visit + 1
         self.rung_steps = steps_each
@@ -224,6 +228,7 @@ class LaneRun:
         span = np.asarray(span, dtype=np.int32)
         table, last = steps.schedule_rows(schedules, self.rows)
         state = steps.world_arrays(jobs)
+        arms = np.array([self.dm.arm_index(job.task.arm) for job in jobs], dtype=np.int32)
         d = self.d
         for name, values in state.items():
             self._scatter(values.astype(np.float32), lanes_w, getattr(d, name))
@@ -233,7 +238,7 @@ class LaneRun:
         per_slot = (
             (self.table, table), (self.last, last),
             (self.warmup, np.array([s.warmup_steps for s in schedules], np.int32)),
-            (self.span, span), (self.first_row, motion - 1),
+            (self.span, span), (self.first_row, motion - 1), (self.arm_of, arms),
             (self.hold_ctrl, table[np.arange(n), last]),
             (self.mocap[0], state["mocap_pos"].astype(np.float32)),
             (self.mocap[1], state["mocap_quat"].astype(np.float32)),
@@ -245,6 +250,7 @@ class LaneRun:
         self.span_host[slots] = span
         self.warmup_host[slots] = [s.warmup_steps for s in schedules]
         self.motion_host[slots] = motion
+        self.arm_host[slots] = arms
 
     @staticmethod
     def _scatter(values: np.ndarray, index: wp.array, target: wp.array) -> None:
@@ -274,14 +280,14 @@ class LaneRun:
                 self.row_of,
             ],
         )  # fmt: skip
-        dm.record(d, self.row_of, self.out, self.warm, self.pen_initial, self.job_of)
+        dm.record(d, self.row_of, self.out, self.warm, self.pen_initial, self.job_of, self.arm_of)
         if self.rungs:
             wp.launch(
                 lk.lane_rung_tick, dim=self.nlane,
                 inputs=[self.rung_left, dm.obj_body, d.xfrc_applied, self.rung_row],
             )  # fmt: skip
             rung_rows = self.rung_row, self.rung_out, self.rung_out, self.rung_pen
-            dm.record(d, *rung_rows, self.lane_index)
+            dm.record(d, *rung_rows, self.lane_index, self.rung_arm)
         wp.launch(
             kernels.save_state, dim=self.nlane,
             inputs=[

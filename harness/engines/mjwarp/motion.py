@@ -66,6 +66,7 @@ class MotionRun:
         self.saved = [wp.zeros((n, self.slots, k), dtype=wp.float32) for k in (nq, nv, nv)]
         self.first_row = wp.array(motion - 1, dtype=wp.int32)
         self.pen_initial = dm.penetration_start(n)
+        self.arm_of = dm.arms_of([job.task.arm for job in jobs])  # per batch world
         self.chunk_sizes = schedules[0].chunk_sizes
         self.warmup_steps = schedules[0].warmup_steps
 
@@ -104,7 +105,7 @@ class MotionRun:
                 for _ in range(size):
                     physics_step()
             wp.launch(kernels.rows_at_step, dim=d.nworld, inputs=[self.step, row_of])
-            self.dm.record(d, row_of, self.out, self.warm, self.pen_initial, world_of)
+            self.dm.record(d, row_of, self.out, self.warm, self.pen_initial, world_of, self.arm_of)
             wp.launch(
                 kernels.save_state, dim=d.nworld,
                 inputs=[
@@ -140,7 +141,9 @@ class MotionRun:
             if index == 0:
                 steps.replay(device, physics_step, self.warmup_steps)
                 start_rows = wp.full(d.nworld, kernels.BASELINE, dtype=wp.int32)
-                dm.record(d, start_rows, self.out, self.warm, self.pen_initial, world_of)
+                dm.record(
+                    d, start_rows, self.out, self.warm, self.pen_initial, world_of, self.arm_of
+                )
                 timings.motion_steps += len(segment.worlds) * self.warmup_steps
             control_step = self._control_step(d, world_of, physics_step)
             steps.replay(device, control_step, segment.end - start)

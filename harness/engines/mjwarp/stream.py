@@ -412,8 +412,9 @@ class LaneStream:
         rows = {item.slot: item.rows for item in group}
         validity = [validity_enabled(job.task.pick) for job in jobs]
         windows, tugged = hold_windows(jobs, slots, rows, validity, set())
+        arms = {item.slot: item.job.task.arm for item in group}
         start = RungStart(jobs, lanes.saved, lanes.hold_ctrl, lanes.mocap, lanes.motion_host,
-                           windows)  # fmt: skip
+                           windows, arms)  # fmt: skip
         batch = self._tug_batch
         assert batch is not None
 
