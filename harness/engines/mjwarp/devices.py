@@ -479,7 +479,7 @@ class DeviceStreams:
 
         stream.run(replay_first)
         task = head[0][1].task
-        label = f"{engine.device} {task.arm} {task.target_object.name}"
+        label = f"{engine.device} {task.robot} {task.target_object.name}"  # (both arms)
         self._log(f"{label} stream: {stream.summary()}")
         with self._cond:
             if self.stats.timings is None:
