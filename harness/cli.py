@@ -116,7 +116,6 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
     p.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default 1)")
-    _add_engine(p)
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -168,7 +167,6 @@ def _add_sweep(sub: Subparsers) -> None:
         help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
-    _add_engine(p, resumable=True)
     _add_objective(p, recorded=True)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -190,16 +188,6 @@ def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
         default=default,
         help="replay one success and one failure per robot arm and embed their MP4s in "
         "report.html (a few seconds each)",
-    )
-
-
-def _add_engine(p: argparse.ArgumentParser, resumable: bool = False) -> None:
-    p.add_argument(
-        "--engine",
-        choices=["mujoco", "mjwarp"],
-        default=None if resumable else "mujoco",
-        help="execution engine: CPU MuJoCo (default) or MuJoCo Warp (the 'gpu' extra and a CUDA "
-        f"device, or HARNESS_WARP_DEVICE=cpu){'; --resume keeps it' if resumable else ''}",
     )
 
 
@@ -270,7 +258,6 @@ def _add_tune(sub: Subparsers) -> None:
         choices=["valid", "reference"],
         help="decide by the validity verdict (default) or the reference success",
     )
-    _add_engine(p)
     p.set_defaults(func=_handler("tune", "main"))
 
 
@@ -395,17 +382,9 @@ def _add_bench(sub: Subparsers) -> None:
         "--only",
         nargs="+",
         metavar="SECTION",
-        help=f"run only these sections: {' '.join(SECTIONS)}, "
-        "engines (mjwarp vs mujoco; only when named)",
+        help=f"run only these sections: {' '.join(SECTIONS)}",
     )
     p.set_defaults(func=_handler("bench", "main"))
-
-
-def _add_compile(sub: Subparsers) -> None:
-    """``harness compile TASK_OR_SWEEP``"""
-    p = sub.add_parser("compile", help="compile a task's or sweep's mjwarp kernels (Warp cache)")
-    p.add_argument("path", help="task or sweep YAML")
-    p.set_defaults(func=_handler("compile", "main"))
 
 
 # Every command's parser builder, in the order of ``harness --help``.
@@ -422,7 +401,6 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_robots,
     _add_objects,
     _add_bench,
-    _add_compile,
 )
 
 

@@ -77,9 +77,6 @@ class EpisodeRow:
     episode_index: int = field(metadata=_doc("index of the episode within its point", -1))
     # Configuration
     semantics: str = field(metadata=_doc("reference | strict"))
-    engine: str = field(
-        default="mujoco", metadata=_doc("execution engine (harness.engines): mujoco | mjwarp")
-    )
     test_mode: str = field(metadata=_doc("feasibility test: forward | ik"))
     timing: str = field(metadata=_doc("transport timing: toppra | ruckig"))
     filter_x_dir: str = field(metadata=_doc("reference filter as JSON, '' when unset"))

@@ -6,9 +6,6 @@
   task on one (:func:`make_task`), so the pick tests do not depend on the default object set;
 - a scene with its planner, and a top-down grasp pose, for the planning tests;
 - the installed ``harness`` console script run as a user runs it;
-- :func:`fr3_device_jobs`: the execution jobs (``DeviceJob``) of planned FR3 episodes, made by
-  the engines bench's planning worker (its engine executes nothing), for the batched-engine
-  tests, and :func:`same_fields` to compare their outcomes field by field.
 """
 
 from __future__ import annotations
@@ -264,41 +261,6 @@ def flatten(values: list) -> list[str]:
     for value in values:
         out.extend(flatten(value) if isinstance(value, list) else [str(value)])
     return out
-
-
-def device_jobs(task_name: str, seeds: int) -> list[Any]:
-    """The ``DeviceJob`` of each of seeds 0..seeds-1 of ``tasks/pick/<task_name>.yaml`` that
-    reaches its execution (planned by the engines bench's planning worker,
-    ``harness.benchmarks.engines._plan``)."""
-    from harness.benchmarks.engines import _plan
-    from harness.config import load_task
-    from harness.episode import EpisodeSpec
-
-    task = load_task(PROJECT_ROOT / "tasks" / "pick" / f"{task_name}.yaml")
-    jobs = [_plan(EpisodeSpec(task=task, seed=seed))[1] for seed in range(seeds)]
-    return [job for job in jobs if job is not None]
-
-
-def fr3_device_jobs(seeds: int) -> list[Any]:
-    """``device_jobs`` of the FR3 cube pick."""
-    return device_jobs("fr3", seeds)
-
-
-def same_fields(a: object, b: object) -> bool:
-    """Dataclasses equal field by field (arrays by value, nested dataclasses recursively, NaN
-    equal to NaN)."""
-    import dataclasses
-    import math
-
-    if dataclasses.is_dataclass(a) and dataclasses.is_dataclass(b):
-        return all(
-            same_fields(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a)
-        )
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    return a == b
 
 
 # The reference's Split ALOHA handover (InternDataEngine c4fa389,

@@ -701,7 +701,6 @@ ALLOWED = {
     "harness/objects/assets.py": "reads <mesh stem>_grasps.npy beside a mesh",
     "harness/benchmarks/sharing.py": "reads tasks/pick/<robot>.yaml of a fixed robot list",
     "harness/benchmarks/episodes.py": "reads tasks/pick/<name>.yaml of a fixed list",
-    "harness/benchmarks/engines.py": "reads tasks/pick/<arm task>.yaml of a fixed list",
     "harness/writes.py": "the temp file .<target name>.<random>.tmp beside an already safe target",
 }
 
@@ -1247,8 +1246,6 @@ WRITERS_ALLOWED = {
     "harness/robots/generator/generate.py": "developer tool: regenerates robots/ in the repo",
     "harness/robots/generator/collisions.py": "developer tool: regenerates robots/ in the repo",
     "harness/benchmarks/sharing.py": "bench: its own output folder",
-    "harness/benchmarks/engines.py": "bench: its own output folder",
-    "harness/benchmarks/device_profile.py": "bench: its own output folder",
     "harness/benchmarks/graspgen.py": "bench: a mesh in its own temp folder",
     "harness/benchmarks/estimate.py": "bench: its section times in ~/.cache/pick-harness",
 }

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from harness.runs.pace import MIN_ROWS, Arrivals, flight_line, pace_line, pace_of
+from harness.runs.pace import MIN_ROWS, Arrivals, pace_line, pace_of
 
 
 def test_the_steady_rate_leaves_out_the_start_and_the_tail() -> None:
@@ -38,15 +38,3 @@ def test_arrivals_count_from_their_making() -> None:
     arrivals.mark()
     arrivals.mark()
     assert len(arrivals.times) == 2 and 0 <= arrivals.times[0] <= arrivals.times[1] < 5
-
-
-def test_the_flight_line_gives_littles_bound() -> None:
-    """The one-GPU FR3 run of 2026-11-28 evening, in round numbers: 16,461 episodes held for a
-    life of 59 s give 279 rows/s, the pace that run showed (1,003,235 episodes/h)."""
-    lives, life, wall = 45_000, 59.0, 45_000 * 59.0 / 16_461
-    line = flight_line(lives, lives * life, wall)
-    assert line is not None
-    assert line.startswith("in flight: 16,461 episode(s) on average, each 59.0 s")
-    assert "at most 279.0 rows/s (1,004,400 episodes/h)" in line
-    assert flight_line(MIN_ROWS - 1, 100.0, 10.0) is None  # too few rows
-    assert flight_line(MIN_ROWS, 0.0, 10.0) is None  # no lives counted (the CPU engine)

@@ -399,9 +399,11 @@ def test_a_rerun_may_not_change_the_race_it_continues(tuned, tmp_path: Path) -> 
 def test_a_round_runs_later_looks_ahead_and_decides_the_same(
     tuned, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """With a round fill (``HARNESS_RACE_FILL``; a GPU engine's default), the race's first
-    round also runs the second look's block: one executor call where the fixture's race made
-    two, and the same looks, rows and decisions (each look still applied on its own block)."""
+    """With a round fill (``RaceRunner``'s ``fill``; the tune itself runs without one), the
+    race's first round also runs the second look's block: one executor call where the fixture's
+    race made two, and the same looks, rows and decisions (each look still applied on its own
+    block)."""
+    import functools
     import shutil
 
     import harness.tuning.race as race_module
@@ -422,7 +424,8 @@ def test_a_round_runs_later_looks_ahead_and_decides_the_same(
         return wrapped
 
     monkeypatch.setattr(race_module, "executor_for", counting)
-    monkeypatch.setenv("HARNESS_RACE_FILL", "1000")
+    filled = functools.partialmethod(race_module.RaceRunner.__init__, fill=1000)
+    monkeypatch.setattr(race_module.RaceRunner, "__init__", filled)
     ahead = tune([FR3], step=90, bands=0, out=copy, options=OPTIONS, backend="serial")
     before, now = tuned.decisions.iloc[0], ahead.decisions.iloc[0]
     assert tuned.log.rounds == 2 and before["current_n"] == OPTIONS.max_seeds  # two looks
@@ -434,16 +437,6 @@ def test_a_round_runs_later_looks_ahead_and_decides_the_same(
     kept = load_episodes(tuned.run_dir / "confirm").sort_values("episode_id")
     assert list(ran["episode_id"]) == list(kept["episode_id"])
     assert list(ran["valid"]) == list(kept["valid"])
-
-
-def test_a_garbage_race_fill_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
-    from harness.errors import HarnessError
-    from harness.tuning.race import DEVICE_ROUND_FILL, round_fill
-
-    assert round_fill("mujoco") == 0 and round_fill("mjwarp") == DEVICE_ROUND_FILL
-    monkeypatch.setenv("HARNESS_RACE_FILL", "lots")
-    with pytest.raises(HarnessError, match="HARNESS_RACE_FILL='lots'"):
-        round_fill("mjwarp")
 
 
 def test_the_tune_says_where_its_time_went(tuned) -> None:

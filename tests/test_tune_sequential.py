@@ -35,7 +35,6 @@ from harness.tuning.sequential import (
     boundaries,
     look_times,
     nominal_levels,
-    power,
     seeds_for_power,
 )
 from harness.tuning.simulate import draw, vector_races
@@ -276,24 +275,6 @@ def test_recommendation_names_no_zero_percent_setting_best() -> None:
     assert recommendation(some).best_index == 6 and recommendation(some).verdict == "best"
     few = pd.DataFrame({"successes": [1], "n": [200]})  # upper bound 0.028 < 10%
     assert recommendation(few).best_index is None
-
-
-def test_a_device_race_looks_at_most_eight_times_with_no_more_seeds() -> None:
-    """On a GPU engine every look is a round that costs a device span of latency: the plan
-    looks at most ``DEVICE_MAX_LOOKS`` times, and, spending alpha less often, needs no more
-    seeds than the CPU plan for the same 80% power; the CPU plan keeps its 20-seed looks."""
-    from harness.tuning.options import TuneOptions
-    from harness.tuning.planning import make_plan
-    from harness.tuning.sequential import DEVICE_MAX_LOOKS
-
-    for rate in (0.5, 0.8, 0.95):
-        cpu = make_plan(rate, math.nan, TuneOptions(engine="mujoco"), 3)
-        gpu = make_plan(rate, math.nan, TuneOptions(engine="mjwarp"), 3)
-        assert cpu.block == 20 or cpu.looks <= 50
-        assert gpu.looks <= DEVICE_MAX_LOOKS < cpu.looks
-        assert gpu.seeds <= cpu.seeds
-        share = gpu.alpha / gpu.challengers
-        assert power(gpu.seeds, gpu.block, share, gpu.target_gain, gpu.discordance) >= 0.8
 
 
 def test_the_budget_line_states_the_looks_the_race_will_run() -> None:

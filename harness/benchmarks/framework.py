@@ -42,8 +42,6 @@ from harness.writes import write_file
 
 # Section name -> module under harness.benchmarks, in the order they run.
 SECTIONS: tuple[str, ...] = ("grasps", "ik", "timing", "episodes", "graspgen", "sweeps", "sharing")
-# Run only when named with --only: ``engines`` needs the 'gpu' extra and a GPU to mean much.
-OPTIONAL_SECTIONS: tuple[str, ...] = ("engines",)
 
 # What a figure's [low, high] interval is.
 PERCENTILES = "p10-p90"  # 10th and 90th percentile of the repetitions

@@ -53,9 +53,7 @@ TARGET_END_TO_END = 0.5  # end-to-end rate / bench loop rate (issue 24: within 2
 # Columns that differ between a sweep's row and the loop's by construction: the wall clock, the
 # row's identity in its run, the worker process's memory, the run's config hash.
 NOT_COMPARED = (
-    WALL_TIME_COLUMNS
-    | frozenset(IDENTITY_COLUMNS)
-    | {"worker_peak_rss_mb", "config_sha256", "engine"}
+    WALL_TIME_COLUMNS | frozenset(IDENTITY_COLUMNS) | {"worker_peak_rss_mb", "config_sha256"}
 )
 
 

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from harness.benchmarks.framework import OPTIONAL_SECTIONS, SECTIONS, main_bench
+from harness.benchmarks.framework import SECTIONS, main_bench
 from harness.errors import HarnessError
 
 
 def main(args: argparse.Namespace) -> int:
     """Exit 0 when every section ran (targets missed or not: they are findings, not errors),
     1 when a section raised."""
-    known = SECTIONS + OPTIONAL_SECTIONS
+    known = SECTIONS
     unknown = [name for name in args.only or [] if name not in known]
     if unknown:
         raise HarnessError(f"unknown bench section(s) {unknown}; available: {list(known)}")

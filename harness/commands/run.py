@@ -14,7 +14,6 @@ note of the mapping (ignored keys, approximations), in ``RUN_DIR/skipped.txt``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import re
 import sys
 import time
@@ -129,14 +128,12 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from harness.runs.engine_check import check_engine, write_engine
     from harness.runs.expansion import absolute_paths, expand
     from harness.runs.progress import ProgressLines
     from harness.runs.rundir import RunDir
 
     if args.episodes < 1:
         raise HarnessError(f"--episodes must be >= 1, got {args.episodes}")
-    check_engine(args.engine)  # one line before anything is written, not an error row each
     console = make_console()
     picks = load_interndata_picks(args) if args.interndata else []
     tasks = [absolute_paths(pick.task) for pick in picks] if picks else load_run_tasks(args)
@@ -153,7 +150,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         record=args.record,
     )
-    episodes = [dataclasses.replace(e, engine=args.engine) for e in expand(sweep, None)]
+    episodes = expand(sweep, None)
     from harness.files import recording_reads
     from harness.runs.preflight import check_tasks
 
@@ -166,7 +163,6 @@ def main(args: argparse.Namespace) -> int:
         taken="run directory already holds a run; choose another --out",
         inputs=inputs,
     )
-    write_engine(run.path, args.engine)
     if picks:
         _print_interndata(console, args.interndata, picks, run)
     rows: list[dict[str, Any]] = []

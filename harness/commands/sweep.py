@@ -11,7 +11,7 @@ from rich.console import Console
 
 from harness.commands.console import make_console, say, styled, videos_possible
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, error_rows_line, too_many_errors
-from harness.runs.pace import flight_line, pace_line
+from harness.runs.pace import pace_line
 from harness.runs.sweep import run_sweep
 
 
@@ -63,7 +63,6 @@ def main(args: argparse.Namespace) -> int:
         episodes_per_point=args.episodes_per_point,
         progress=not args.no_progress,
         share=False if getattr(args, "no_share", False) else None,
-        engine=args.engine,
     )
     stats = outcome.stats
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
@@ -78,19 +77,6 @@ def main(args: argparse.Namespace) -> int:
     pace = pace_line(stats.arrivals, stats.wall_time_s)
     if pace is not None:
         console.print(pace)
-    flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)
-    if flight is not None:
-        console.print(flight)
-    if stats.device is not None:  # mjwarp on the process pool: the shared device(s)
-        device = stats.device
-        console.print(
-            f"device: {device.jobs} job(s) in {device.streams} lane stream(s){device.spread()} of "
-            f"up to {device.lanes} lanes, {max(1, device.concurrent)} at once per "
-            f"device, {device.device_s:.1f} s"
-            + (f"; {len(device.errors)} failed stream(s)" if device.errors else "")
-        )
-        if device.breakdown():
-            console.print(device.breakdown())
     print_summary(outcome.run_dir, console)
     line = error_rows_line(outcome.errors, outcome.rows, outcome.run_dir)
     failing = too_many_errors(outcome.errors, outcome.rows)

@@ -27,7 +27,6 @@ def _options(args: argparse.Namespace) -> TuneOptions:
         "block": args.block,
         "max_seeds": args.max_seeds,
         "budget": args.budget,
-        "engine": args.engine,
         "coarse": None if args.directions is None else args.directions == "all",
     }
     base = {
@@ -39,18 +38,15 @@ def _options(args: argparse.Namespace) -> TuneOptions:
 
 def _check(args: argparse.Namespace, console: Any) -> int:
     """``harness tune --check DIR``: the tune's decisions on fresh paired seeds."""
-    from harness.runs.engine_check import check_engine
     from harness.runs.sweep import default_workers
     from harness.tuning.check import DEFAULT_EPISODES, check_lines, run_check
 
     if args.files or args.analyse:
         raise HarnessError("--check DIR takes no task files and no --analyse")
-    check_engine(args.engine)
     result = run_check(
         Path(args.check),
         seed=args.seed,
         episodes=args.episodes or DEFAULT_EPISODES,
-        engine=args.engine,
         workers=args.workers or default_workers(),
         out=Path(args.out) if args.out else None,
         progress=True,
@@ -87,10 +83,7 @@ def main(args: argparse.Namespace) -> int:
     elif not args.files:
         raise HarnessError("give task or sweep files, or --analyse DIR")
     else:
-        from harness.runs.engine_check import check_engine
-
         options = _options(args)
-        check_engine(options.engine)  # one line before the screen's run directory is made
         result = tune(
             [Path(f) for f in args.files],
             step=args.step,

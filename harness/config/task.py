@@ -118,8 +118,7 @@ class PhysicsConfig(StrictModel):
     engine_core_constraint.c, so the pads' torsion is the softest). The noslip pass re-solves
     the friction rows with R = 0 after the main solver (MuJoCo docs, Computation > Solver
     settings: "When contact slip is a problem ... enable the Noslip solver"), so an object
-    sticks inside the limit and slips beyond it. MuJoCo Warp runs the same pass
-    (``mujoco_warp`` ``solver.noslip``). 10 is chosen (5 already stops the creep of
+    sticks inside the limit and slips beyond it. 10 is chosen (5 already stops the creep of
     docs/interndata.md's example bottle); 0 restores the soft model."""
 
     timestep: FiniteFloat = Field(default=0.002, gt=0.0, le=0.05)

@@ -25,7 +25,6 @@ import numpy as np
 
 from harness.config import TaskConfig
 from harness.config.memo import per_task
-from harness.episode.outcome_wait import InFlight
 
 if TYPE_CHECKING:  # the planners and MuJoCo load only where episodes run
     from harness.episode.records import RowRecord
@@ -105,7 +104,6 @@ class SeedMemory:
     reset: ResetFacts | None = None
     verdicts: dict[int, CandidateVerdict] = field(default_factory=dict)
     outcomes: dict[int, ExecutedOutcome] = field(default_factory=dict)
-    in_flight: InFlight = field(default_factory=InFlight)  # outcomes being executed
     stats: CacheStats = field(default_factory=CacheStats)  # the owning cache's counters
 
 

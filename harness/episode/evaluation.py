@@ -98,23 +98,15 @@ class SeedEvaluation:
     def executed(
         self, pose_index: int, execute: Callable[[], ExecutedOutcome]
     ) -> tuple[ExecutedOutcome, bool]:
-        """The executed outcome of the chosen ``pose_index``, and whether it came from memory.
-        When another episode of the seed is executing it (a shared device), waits for its
-        outcome rather than executing it twice (``harness.episode.outcome_wait``)."""
+        """The executed outcome of the chosen ``pose_index``, and whether it came from memory
+        (a share group's episodes run one after another, so an outcome is there or not)."""
         memory = self.memory
-        while True:
-            outcome = memory.outcomes.get(pose_index)
-            if outcome is not None:
-                self.used_shared = True
-                memory.stats.outcome_hits += 1
-                return outcome, True
-            if memory.in_flight.claim(pose_index):
-                break
-            memory.in_flight.wait(pose_index)  # then stored, or that execution failed
-        try:
-            outcome = execute()
-            memory.outcomes[pose_index] = outcome
-            memory.stats.outcomes += 1
-        finally:
-            memory.in_flight.finish(pose_index)
+        outcome = memory.outcomes.get(pose_index)
+        if outcome is not None:
+            self.used_shared = True
+            memory.stats.outcome_hits += 1
+            return outcome, True
+        outcome = execute()
+        memory.outcomes[pose_index] = outcome
+        memory.stats.outcomes += 1
         return outcome, False

@@ -2,8 +2,8 @@
 
 4. The executed plan, planned and timed (``harness.pick.execution_plan``,
    ``harness.planning.chain_timing``).
-5. The reference's 10 warm-up steps, then the execution and its verdict, by the spec's engine
-   (``harness.engines``: ``mujoco`` runs ``harness.pick.executor``).
+5. The reference's 10 warm-up steps, then the execution and its verdict
+   (``harness.pick.execution_job``: CPU MuJoCo, ``harness.pick.executor``).
 
 Their row columns are typed records (``harness.episode.records``): the ``ExecutedOutcome`` keeps
 them (the planning wall time apart), so an episode that chooses the same candidate of the same
@@ -17,7 +17,6 @@ import time
 
 import numpy as np
 
-from harness.engines import ExecutionJob, engine_for
 from harness.episode import location, table_verdict
 from harness.episode.candidate_cache import ExecutedOutcome
 from harness.episode.planning import Choice, Planning
@@ -29,8 +28,8 @@ from harness.episode.records import (
     TableReplayColumns,
 )
 from harness.episode.setup import WARMUP_TIME_S, EpisodeStopError
-from harness.episode.table_verdict import REPLAY_ENGINE
 from harness.episode.trace import planned_tcp
+from harness.pick.execution_job import ExecutionJob, execute_job
 from harness.pick.execution_plan import PlanFailedError, plan_chosen
 from harness.pick.targets import PickTargets
 from harness.pick.validity import validity_columns
@@ -107,9 +106,8 @@ def _execute(
         record=True, log_ctrl=setup.spec.log_ctrl,
         release_arm=setup.task.handover.arm if setup.task.handover is not None else None,
     )  # fmt: skip
-    engine = engine_for(setup.spec.engine)
     state = None if setup.task.physics.table_contact else table_verdict.start_state(scene)
-    execution = engine.execute(job)
+    execution = execute_job(job)
     if execution.outcome is None:
         why = f"during the warm-up steps: {execution.warmup_unstable}"
         raise EpisodeStopError("sim_unstable", why, location.stage_failure("warmup"))
@@ -133,7 +131,7 @@ def _execute(
     replay = None
     if state is not None and table_verdict.needs_replay(setup.task, outcome):
         clock = time.perf_counter()
-        replay = table_verdict.replay_on_physical_table(engine_for(REPLAY_ENGINE), job, state)
+        replay = table_verdict.replay_on_physical_table(job, state)
         result.timings["table_replay_s"] = time.perf_counter() - clock
     judged, replayed = table_verdict.physical_verdict(setup.task, outcome.validity, replay)
     validity = validity_columns(execution.validity, outcome.table_penetration_m, judged)

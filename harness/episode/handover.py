@@ -131,11 +131,6 @@ def run_handover(
     task = spec.task
     prelude = task.handover
     assert prelude is not None
-    if spec.engine != "mujoco":
-        raise HarnessError(
-            f"a handover's second pick runs on the mujoco engine only (engine {spec.engine!r}): "
-            "its phases run one after another in one CPU scene"
-        )
     if prelude.arm == task.arm:
         raise HarnessError(f"handover.arm {prelude.arm!r} is the arm of the second pick")
     # 1. The first pick, on the normal path.

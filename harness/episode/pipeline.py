@@ -83,7 +83,6 @@ def base_row(spec: EpisodeSpec) -> dict[str, Any]:
     row = EpisodeRow(
         **{name: identity[name] for name in IDENTITY_COLUMNS},
         semantics=pick.semantics,
-        engine=spec.engine,
         test_mode=pick.test_mode,
         timing=pick.timing,
         filter_x_dir=filt(pick.filter_x_dir),
@@ -122,8 +121,6 @@ def run_episode(
         evaluation = SeedEvaluation()
     else:
         key = evaluation_key(spec.task, spec.seed)
-        if spec.engine != "mujoco":  # executed outcomes are the engine's own
-            key = (f"{key[0]} engine={spec.engine}", key[1])
         evaluation = SeedEvaluation(candidate_cache.memory(key), key)
     records: list[RowRecord] = []
     try:

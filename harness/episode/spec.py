@@ -28,10 +28,9 @@ class EpisodeSpec:
     episode_id: str | None = None
     log_ctrl: bool = False  # keep the physics control log (benchmarks replay it)
     task_name: str | None = None  # the sweep's name of the task (the task's own when None)
-    engine: str = "mujoco"  # the execution engine (harness.engines): mujoco | mjwarp
-    # Make the viewers' trace (``EpisodeResult.trace``). Off where nothing reads it (the
-    # engines benchmark's planning workers; a sweep worker's episode that no recording policy
-    # can want): the row is the same, the episode cheaper.
+    # Make the viewers' trace (``EpisodeResult.trace``). Off where nothing reads it (a sweep
+    # worker's episode that no recording policy can want): the row is the same, the episode
+    # cheaper.
     trace: bool = True
 
     @property

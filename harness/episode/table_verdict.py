@@ -7,19 +7,18 @@ MuJoCo's contact softness, so a verdict that flips on it is not physical. Instea
   the reference's ``neglect_collision_names: [table]``) and a robot geom went below the table
   top (``table_penetration_m > 0``) in a reference success, the same plan (the same control
   schedule, from the same start state) is executed again on a table-physical variant of the
-  scene (``table_physical``: the robot geoms get the table's contact bit) through the engine
-  protocol; the pick is valid when that execution still grasps, lifts and holds (its reference
-  verdict and its validity terms, the table term left out since the table now stops the
-  fingers). Otherwise it is invalid with ``invalid_reason`` ``table_penetration``;
+  scene (``table_physical``: the robot geoms get the table's contact bit); the pick is valid
+  when that execution still grasps, lifts and holds (its reference verdict and its validity
+  terms, the table term left out since the table now stops the fingers). Otherwise it is
+  invalid with ``invalid_reason`` ``table_penetration``;
 - where robot-table contact is **physical**, the contact model already stops the fingers: the
   depth is reported, the table term does not judge.
 
 Either way ``table_penetration_m`` keeps the depth measured in the episode's own execution, and
 ``table_replay`` says what the replay found ('' when none ran, ``held``, or the cause it
-failed with). One definition for every engine: the replay is a second execution of the same
-``ExecutionJob`` on the same ``Scene`` with the table bits set, always on the CPU engine
-(``REPLAY_ENGINE``), whichever engine ran the episode itself (docs/engines.md). Under
-``semantics: strict`` the validity verdict is the success and stays the engine's own.
+failed with). The replay is a second execution of the same ``ExecutionJob`` on the same
+``Scene`` with the table bits set. Under ``semantics: strict`` the validity verdict is the
+success and stays the execution's own.
 """
 
 from __future__ import annotations
@@ -32,20 +31,13 @@ import mujoco
 import numpy as np
 
 from harness.config import TaskConfig
-from harness.engines.base import Execution, ExecutionEngine, ExecutionJob
+from harness.pick.execution_job import Execution, ExecutionJob, execute_job
 from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
 from harness.pick.verdict import first_failure, validity_terms
 from harness.sim import Scene
 from harness.sim.masks import TABLE_BIT, refresh_body_masks
 
 TABLE_TERM = "table_penetration"
-# The engine every replay runs on, whatever engine executed the episode: CPU MuJoCo with the
-# reference's command list. The replay's outcome hinges on the motion's timing (the CPU engine
-# pops commands on the measured pose, the ``mjwarp`` engine's precomputed schedule on the
-# commanded one): replayed on MuJoCo Warp, FR3 cube at `downward 160` was valid in 98.8% of
-# 1,000 episodes against 90.2% on the CPU, valid agreement 91.2% (docs/engines.md, "The sitting
-# of 2026-11-27 evening"). One engine for the replay makes the table term one definition.
-REPLAY_ENGINE = "mujoco"
 HELD = "held"
 # What a replay restores: physics, time, controls, applied forces, equality state, warm start.
 START_STATE = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_WARMSTART
@@ -77,7 +69,7 @@ def start_state(scene: Scene) -> np.ndarray:
 
 def may_replay(task: TaskConfig) -> bool:
     """Whether ``task``'s picks can be replayed on a physical table: reference semantics with
-    robot-table contact non-physical (``harness compile`` also compiles that variant)."""
+    robot-table contact non-physical."""
     return task.pick.semantics == "reference" and not task.physics.table_contact
 
 
@@ -89,15 +81,13 @@ def needs_replay(task: TaskConfig, outcome: PickOutcome | None) -> bool:
     return may_replay(task) and outcome.table_penetration_m > 0.0
 
 
-def replay_on_physical_table(
-    engine: ExecutionEngine, job: ExecutionJob, state: np.ndarray
-) -> Execution:
+def replay_on_physical_table(job: ExecutionJob, state: np.ndarray) -> Execution:
     """Execute ``job`` again from ``state`` with the table physical (no recording)."""
     scene = job.scene
     mujoco.mj_setState(scene.model, scene.data, state, START_STATE)
     mujoco.mj_forward(scene.model, scene.data)
     with table_physical(scene):
-        return engine.execute(dataclasses.replace(job, record=False, log_ctrl=False))
+        return execute_job(dataclasses.replace(job, record=False, log_ctrl=False))
 
 
 def judged_without_table(task: TaskConfig, measure: ValidityMeasure) -> ValidityResult:

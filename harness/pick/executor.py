@@ -8,9 +8,8 @@ through the list.
 
 Execution: the control loop runs in Python once per control step; the servo setpoints and
 chunking are ``harness.pick.servo``. The validity phase that follows the verdict, and its
-verdict, are ``harness.pick.executor_validity``. This is the CPU engine's executor
-(``harness.engines.mujoco_engine``); the batched GPU engine replays the control schedule it
-produces (``harness.engines.mjwarp.schedule``).
+verdict, are ``harness.pick.executor_validity``. ``harness.pick.execution_job`` runs it after
+the warm-up steps.
 """
 
 from __future__ import annotations

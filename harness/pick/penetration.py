@@ -32,37 +32,6 @@ from harness.sim import TABLE_NAME, Scene
 DISTANCE_MAX = 0.01
 
 
-def slab_overlap(
-    pos: np.ndarray,
-    xmat: np.ndarray,
-    box_half: np.ndarray,
-    radial: np.ndarray,
-    rounding: np.ndarray,
-    offset: np.ndarray,
-    table: np.ndarray,
-    table_half: np.ndarray,
-) -> np.ndarray:
-    """Per geom, how deep it is inside the table slab by the slab's face normals (m, >= 0):
-    the smallest overlap of the geom's extent with the slab along world x, y and z. The
-    definition the ``mjwarp`` engine computes on the device (``kernels.slab_depth``: the same
-    formula per axis), here on the CPU from the geoms' world poses (``pos`` (n, 3), ``xmat``
-    (n, 9)) and the extents of ``TablePenetration``. It bounds ``mj_geomDistance``'s depth from
-    above and equals it for a geom pressed through the top face inside the footprint."""
-    rotation = xmat.reshape(-1, 3, 3)
-    depth = np.full(len(pos), np.inf)
-    for axis in range(3):
-        row = rotation[:, axis, :]
-        centre = pos[:, axis] + np.einsum("ij,ij->i", row, offset)
-        cos_axis = np.minimum(np.abs(row[:, 2]), 1.0)
-        extent = (
-            np.einsum("ij,ij->i", np.abs(row), box_half)
-            + radial * np.sqrt(1.0 - cos_axis * cos_axis)
-            + rounding
-        )
-        depth = np.minimum(depth, extent + table_half[axis] - np.abs(centre - table[axis]))
-    return np.maximum(depth, 0.0)
-
-
 class TablePenetration:
     """How deep any moving robot collision geom is inside the table slab (m, >= 0)."""
 
@@ -119,14 +88,6 @@ class TablePenetration:
         fromto = np.zeros(6)
         mujoco.mj_geomDistance(self.model, data, geom, self.table, DISTANCE_MAX, fromto)
         return depth, geom, (fromto[:3] + fromto[3:]) / 2.0
-
-    def slab_inside(self, data: mujoco.MjData) -> np.ndarray:
-        """Per moving robot geom: ``slab_overlap`` now (the device's definition)."""
-        m, table = self.model, self.table
-        return slab_overlap(
-            data.geom_xpos[self.geoms], data.geom_xmat[self.geoms], self.box_half, self.radial,
-            self.round, self.offset, m.geom_pos[table], m.geom_size[table],
-        )  # fmt: skip
 
     def _inside(self, data: mujoco.MjData) -> np.ndarray:
         """Per moving robot geom: how deep it is inside the table slab now (m, >= 0)."""

@@ -3,8 +3,7 @@
 The control loop runs once per control step (``control_dt``, the reference's 1/30 s); inside it
 the position servos get new setpoints every few physics steps (a chunk of ~10 ms, stepped inside
 MuJoCo with ``mj_step(m, d, n)``), sampled in advance from the timed trajectory with velocity
-feed-forward ``ctrl = q + (kv / kp) * qd``. Every engine (``harness.engines``) applies the same
-setpoints, so this module is where they are computed, once.
+feed-forward ``ctrl = q + (kv / kp) * qd``.
 """
 
 from __future__ import annotations

@@ -233,20 +233,7 @@ def run_process_pool(
     workers: int,
     share: bool = True,
 ) -> RunStats:
-    """One process per worker, one episode in flight per worker; dead workers are replaced.
-    With the ``mjwarp`` engine the workers plan on while the devices execute
-    (``harness.runs.device_pool``), with several devices in a process per device
-    (``harness.runs.device_shards``)."""
-    if any(e.engine == "mjwarp" for e in episodes):
-        from harness.runs.device_pool import DevicePool, run_device_pool
-        from harness.runs.device_shards import process_per_device, run_device_shards, warp_devices
-
-        devices = warp_devices()
-        if process_per_device(devices, len(episodes)):
-            return run_device_shards(episodes, run_dir, record, on_result, workers, devices, share)
-        stats = RunStats()
-        run_device_pool(DevicePool(episodes, run_dir, record, on_result, stats, workers, share))
-        return stats
+    """One process per worker, one episode in flight per worker; dead workers are replaced."""
     pool = _ProcessPool(episodes, run_dir, record, on_result, share)
     stats = pool.stats
     start = time.perf_counter()
@@ -319,16 +306,7 @@ def _run_on_ray(
     workers: int,
     share: bool,
 ) -> RunStats:
-    """The episodes on actors of an initialised Ray (see ``run_ray``); with the ``mjwarp``
-    engine, planning actors feed one device actor per node (``harness.runs.ray_device``)."""
-    if any(e.engine == "mjwarp" for e in episodes):
-        from harness.runs.ray_device import run_on_ray_device
-
-        stats = RunStats()
-        run_on_ray_device(
-            ray, episodes, str(run_dir), record, on_result, workers, share, stats, error_row
-        )
-        return stats
+    """The episodes on actors of an initialised Ray (see ``run_ray``)."""
 
     @ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=CRASH_RETRIES)
     class EpisodeActor:

@@ -1,11 +1,9 @@
 """A run's pace from the times its rows arrived: its steady rate, start-up and tail aside.
 
-A run's wall time mixes a fixed start (workers, device models, the first episode span on a GPU)
-with its streaming rate, so two runs of different sizes or device counts compare badly on wall
-time alone: on two H200s (2026-11-28) 45,000 rows took 173.5 s on two GPUs, and a first GPU
-alone streamed at 636,000 episodes/h, figures from different spans of the runs. The steady rate
-here is the rows between the ``STEADY_FROM`` and ``STEADY_TO`` quantiles of arrival over the
-time between them, the same definition for every engine and device count.
+A run's wall time mixes a fixed start (workers importing, scenes compiling, the first episodes)
+with its streaming rate, so two runs of different sizes compare badly on wall time alone. The
+steady rate here is the rows between the ``STEADY_FROM`` and ``STEADY_TO`` quantiles of arrival
+over the time between them.
 """
 
 from __future__ import annotations
@@ -15,7 +13,7 @@ import time
 from dataclasses import dataclass
 
 # The arrivals that bound the steady part of a run (quantiles of its rows). Chosen, no public
-# source: the first tenth holds the start-up (a GPU's first span), the last the tail.
+# source: the first tenth holds the start-up, the last the tail.
 STEADY_FROM = 0.1
 STEADY_TO = 0.9
 # The fewest rows whose pace is worth a line.
@@ -71,20 +69,4 @@ def pace_line(arrivals: list[float], wall_s: float) -> str | None:
         f"pace: {pace.rows} rows ({low}%-{high}% arrivals) in {pace.seconds:.1f} s = "
         f"{pace.per_hour:,.0f} episodes/h; rows by tenths of the wall: "
         + " ".join(str(count) for count in pace.tenths)
-    )
-
-
-def flight_line(lives: int, lives_s: float, wall_s: float) -> str | None:
-    """``in flight: ...`` for a device pool's run: its episodes in flight on average (their
-    lives summed over the wall) and an episode's mean life (its start in a worker to its row).
-    Their ratio is the rate Little's law allows: a pool whose rows come at about that rate while
-    its lanes idle is bounded by what it holds in flight (``HARNESS_IN_FLIGHT_PER_LANE``), not by
-    the device or the planning. None below ``MIN_ROWS`` rows."""
-    if lives < MIN_ROWS or wall_s <= 0 or lives_s <= 0:
-        return None
-    held, life = lives_s / wall_s, lives_s / lives
-    return (
-        f"in flight: {held:,.0f} episode(s) on average, each {life:.1f} s from its start to its "
-        f"row: at most {held / life:,.1f} rows/s ({3600 * held / life:,.0f} episodes/h) by "
-        f"Little's law"
     )

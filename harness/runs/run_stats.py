@@ -1,6 +1,4 @@
-"""What an executor reports when its run ends (``RunStats``) and the row callback's type; in a
-module of their own so that the executors and the pools they start (``device_pool``,
-``device_shards``) share them without importing each other."""
+"""What an executor reports when its run ends (``RunStats``) and the row callback's type."""
 
 from __future__ import annotations
 
@@ -14,7 +12,7 @@ OnResult = Callable[[dict[str, Any]], None]
 @dataclass
 class RunStats:
     """Episodes finished, worker crashes and retries, whether Ctrl-C stopped the run, its wall
-    time, error lines, and the devices' ``StreamStats`` (mjwarp on the process pool)."""
+    time, error lines, and when each row arrived."""
 
     finished: int = 0
     crashed: int = 0  # episodes whose worker died on every attempt (stored as ``error`` rows)
@@ -22,10 +20,5 @@ class RunStats:
     interrupted: bool = False
     wall_time_s: float = 0.0
     errors: list[str] = field(default_factory=list)
-    device: Any = None  # StreamStats of the shared devices (mjwarp on the process pool)
     # when each row of this call arrived, seconds from the executor's start (``harness.runs.pace``)
     arrivals: list[float] = field(default_factory=list)
-    # episodes of the device pool that ended with a row, and their lives summed (seconds from
-    # the episode's start in its worker to its row; ``harness.runs.pace.flight_line``)
-    lives: int = 0
-    lives_s: float = 0.0

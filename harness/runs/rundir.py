@@ -21,7 +21,6 @@ from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep
 from harness.errors import DiskFullError
 from harness.files import is_disk_full
 from harness.interndata import NOTES_FILE, write_notes
-from harness.runs.engine_check import ENGINE_FILE
 from harness.runs.inputs import INPUTS_NAME, check_inputs, record_inputs
 from harness.runs.safety import (
     LOCK_NAME,
@@ -44,7 +43,6 @@ LOG_NAME = "MUJOCO_LOG.TXT"  # harness.sim.mujoco_log.LOG_NAME (not imported: lo
 RUN_OUTPUTS = (
     SWEEP_YAML,
     NOTES_FILE,
-    ENGINE_FILE,
     JSONL_NAME,
     *(name for base in (CSV_NAME, PARQUET_NAME) for name in (base, f".{base}.tmp")),
     INPUTS_NAME,

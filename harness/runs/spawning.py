@@ -1,5 +1,5 @@
-"""What both process pools (``harness.runs.executors``, ``harness.runs.device_pool``) share:
-how a worker process starts, how long a busy worker may overrun, how often a crash is retried."""
+"""How a process pool's worker (``harness.runs.executors``) starts, how long a busy worker may
+overrun, how often a crash is retried."""
 
 from __future__ import annotations
 

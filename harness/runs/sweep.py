@@ -10,7 +10,6 @@ by a segfault) turns its episode into an ``error`` row and is replaced; Ctrl-C k
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,13 +17,6 @@ from typing import Any
 
 from harness.config import ConfigError, SweepConfig, load_sweep
 from harness.files import recording_reads
-from harness.runs.engine_check import (
-    DEFAULT_ENGINE,
-    check_engine,
-    recorded_engine,
-    resume_engine,
-    write_engine,
-)
 from harness.runs.executors import RunStats, executor_for
 from harness.runs.expansion import expand, load_sweep_tasks
 from harness.runs.limits import MAX_EPISODES, MAX_POINTS, check_sweep_size
@@ -59,18 +51,6 @@ def prepare_run(
         raise ConfigError("give a sweep YAML or --resume RUN_DIR")
     sweep = load_sweep(sweep_path)
     return sweep, sweep_path, RunDir(out) if out else RunDir.default(sweep.name)
-
-
-def run_engine(run: RunDir, resumed: bool, engine: str | None) -> str:
-    """The engine of this run: ``engine`` (default ``mujoco``); on resume the run's own, another
-    refused (``harness.runs.engine_check``). One that cannot run here (the ``gpu`` extra or a
-    device missing) is refused before the run directory is written."""
-    if resumed:
-        rows = (row.get("engine") for row in run.store.rows())
-        engine = resume_engine(run.path, recorded_engine(run.path, rows), engine)
-    engine = engine or DEFAULT_ENGINE
-    check_engine(engine)
-    return engine
 
 
 def check_resume_size(run: RunDir, sweep: SweepConfig, episodes_per_point: int | None) -> None:
@@ -124,7 +104,6 @@ def run_sweep(
     max_episodes: int = MAX_EPISODES,
     retry_errors: bool = False,
     share: bool | None = None,
-    engine: str | None = None,
     max_points: int | None = MAX_POINTS,
 ) -> SweepOutcome:
     """Expand, run what is missing, store every row, then export, report and record.
@@ -136,12 +115,10 @@ def run_sweep(
     points: no limit, for the generated grids of ``harness tune``); ``retry_errors`` runs the
     episodes of a resumed run whose row is an ``error`` again (their new row replaces it);
     ``share`` overrides the sweep's ``share`` (candidate evaluations shared between points that
-    differ only in selection keys; the rows are the same either way); ``engine`` executes the
-    chosen plans (the row's ``engine`` column; ``run_engine``).
+    differ only in selection keys; the rows are the same either way).
     """
     sweep, source, run = prepare_run(sweep_path, resume_dir, out, force)
     try:
-        engine = run_engine(run, resume_dir is not None, engine)
         sweep = with_overrides(sweep, record, episodes_per_point, run if resume_dir else None)
         notes: list[str] = []
         tasks = load_sweep_tasks(sweep, source, notes)
@@ -154,11 +131,8 @@ def run_sweep(
             run.create(sweep, tasks, taken=taken, inputs=inputs)
             if notes:
                 run.write_notes(notes)
-        write_engine(run.path, engine)
         done_ids = run.completed_ids(retry_errors=retry_errors)
-        todo = [
-            dataclasses.replace(e, engine=engine) for e in episodes if e.resolved_id not in done_ids
-        ]
+        todo = [e for e in episodes if e.resolved_id not in done_ids]
         if limit is not None:
             todo = todo[:limit]
         workers = workers or sweep.workers or default_workers()

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from harness.episode.candidate_cache import DEFAULT_CAPACITY, CandidateCache
+from harness.episode.candidate_cache import CandidateCache
 from harness.errors import EpisodeTimeoutError
 from harness.files import is_disk_full
 from harness.row import identity_columns
@@ -31,14 +31,6 @@ def _candidate_cache() -> CandidateCache:
     if _CANDIDATE_CACHE is None:
         _CANDIDATE_CACHE = CandidateCache()
     return _CANDIDATE_CACHE
-
-
-def reserve_candidate_cache(groups: int) -> None:
-    """Keep room for ``groups`` share groups in flight at once besides the default: a device
-    worker interleaves that many, and an entry evicted while its group still runs would make
-    the group's later episodes plan (and execute) again what it already knew."""
-    cache = _candidate_cache()
-    cache.capacity = max(cache.capacity, DEFAULT_CAPACITY + groups)
 
 
 def execute(

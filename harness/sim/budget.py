@@ -30,8 +30,8 @@ class _Budget:
 
 
 class _Stacks(threading.local):
-    """Each thread's own stack of budgets: a worker that runs several episodes in threads
-    (``harness.runs.device_pool``) limits each by its own."""
+    """Each thread's own stack of budgets: episodes run in threads are each limited by their
+    own."""
 
     def __init__(self) -> None:
         self.stack: list[_Budget] = []
@@ -70,30 +70,6 @@ def check_deadline() -> None:
             f"wall-clock limit of {budget.wall_time_s:g} s reached after {used:,} physics "
             f"steps; raise limits.wall_time_s if the episode is expected to be this slow"
         )
-
-
-@contextlib.contextmanager
-def budget_paused() -> Iterator[None]:
-    """Stop the active budget's clock while the episode waits for work that is not its own
-    (a shared device executing a batch of many workers' jobs, which may first compile its
-    kernels): the deadline moves by the time spent inside, and the alarm is off meanwhile."""
-    active = _active()
-    if not active:
-        yield
-        return
-    budget = active[-1]
-    alarm = threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGALRM")
-    armed = alarm and signal.getitimer(signal.ITIMER_REAL)[0] > 0.0
-    if armed:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-    start = time.perf_counter()
-    try:
-        yield
-    finally:
-        budget.deadline += time.perf_counter() - start
-        if armed:
-            left = max(0.0, budget.deadline - time.perf_counter())
-            signal.setitimer(signal.ITIMER_REAL, left + 0.05, 0.5)
 
 
 @contextlib.contextmanager

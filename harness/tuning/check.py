@@ -28,7 +28,7 @@ Seeds: an episode's seed is ``SeedSequence([sweep seed, index])`` (``harness.epi
 two sweep seeds share no episode seed and a check's seeds overlap the tune's exactly when its
 sweep seed is the screening's or the race's: that seed is refused with one line. The check's
 episodes run through the race's runner (``harness.tuning.race.RaceRunner``: the sweep executor,
-so ``--engine mjwarp`` and the device pool work as for sweeps) in their own run directory
+as for sweeps) in their own run directory
 (default ``<tune>/check``); a rerun with the same options reuses every stored episode, and an
 interrupted check decides nothing (its rows are kept; the same command continues it).
 """
@@ -363,7 +363,6 @@ def run_check(
     *,
     seed: int | None = None,
     episodes: int = DEFAULT_EPISODES,
-    engine: str = "mujoco",
     workers: int = 1,
     out: Path | None = None,
     backend: str = "process",
@@ -401,7 +400,6 @@ def run_check(
         tasks=tasks,
         max_seeds=episodes,
         objective=options.objective,
-        engine=engine,
         backend=backend,
         workers=workers,
         may_run=True,
@@ -423,7 +421,7 @@ def run_check(
         (r.racers[0].outcomes, r.racers[1].outcomes if len(r.racers) > 1 else []) for r in races
     ]
     table = check_table(units, outcomes)
-    header = _header(tune_dir, seed, episodes, engine, options.objective)
+    header = _header(tune_dir, seed, episodes, options.objective)
     if only:
         header.append(f"Only the units {', '.join(only)} (`--unit`): Holm over these alone.")
     csv = write_file(out / "check.csv", table.to_csv(index=False), root=out)
@@ -442,10 +440,10 @@ def _race(unit: CheckUnit, episodes: int) -> UnitRace:
     return UnitRace(racers, Plan(seeds=episodes, block=episodes))
 
 
-def _header(tune_dir: Path, seed: int, episodes: int, engine: str, objective: str) -> list[str]:
+def _header(tune_dir: Path, seed: int, episodes: int, objective: str) -> list[str]:
     return [
         f"harness tune --check {tune_dir}: {episodes} fresh paired seeds per setting (sweep seed "
-        f"{seed}, engine {engine}, objective {objective}); per unit the current setting against "
+        f"{seed}, objective {objective}); per unit the current setting against "
         "the tuned one (switch) or the race's best challenger (otherwise); two-sided exact "
         f"McNemar on the discordant seeds, Holm over the units at {ALPHA}; rates with exact 95% "
         "intervals, the gain with Newcombe's paired interval.",

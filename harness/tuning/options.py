@@ -32,7 +32,6 @@ class TuneOptions:
     max_seeds: int | None = None  # fresh seeds per unit at most; None: sized by power
     budget: str | None = None  # "N" race episodes or "Ns" CPU seconds
     alpha: float = 0.05
-    engine: str = "mujoco"  # the execution engine of every screening and race episode
     sources: dict[str, str] = field(default_factory=dict)  # task name -> its file
     target_gain: float = TARGET_GAIN  # the gain the power-sized race is planned to see
     seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
@@ -49,6 +48,7 @@ class TuneOptions:
         if not isinstance(data, dict):
             raise HarnessError(f"{path}: expected a JSON object of tune options")
         known = {f.name: f for f in fields(TuneOptions)}
+        data.pop("engine", None)  # written by tunes made while a second (GPU) engine existed
         for key, value in data.items():
             if key not in known:
                 raise HarnessError(f"{path}: key {key!r}: not a tune option")
@@ -66,7 +66,6 @@ _TYPES: dict[str, tuple[type, ...]] = {
     "max_seeds": (int, type(None)),
     "budget": (str, type(None)),
     "alpha": (float, int),
-    "engine": (str,),
     "sources": (dict,),
     "target_gain": (float, int),
     "seconds_each": (float, int),

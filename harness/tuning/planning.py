@@ -13,7 +13,6 @@ from harness.report.frames import frame_of
 from harness.tuning.options import TuneOptions
 from harness.tuning.race import Budget, Unit
 from harness.tuning.sequential import (
-    DEVICE_MAX_LOOKS,
     MAX_LOOKS,
     Plan,
     correlated_discordance,
@@ -64,16 +63,9 @@ def make_plan(rate: float, discordance: float, options: TuneOptions, challengers
         psi = max(psi, discordance)
     psi = round(psi, 2)
     share = options.alpha / max(1, challengers)
-    looks = max_looks(options.engine)
-    seeds = options.max_seeds or seeds_for_power(gain, psi, options.block, share, max_looks=looks)
-    block = plan_block(seeds, options.block, looks)
+    seeds = options.max_seeds or seeds_for_power(gain, psi, options.block, share)
+    block = plan_block(seeds, options.block, MAX_LOOKS)
     return Plan(seeds, block, options.alpha, max(1, challengers), gain, psi)
-
-
-def max_looks(engine: str) -> int:
-    """A plan's looks at most: every look is a round of the tune, and on a GPU engine a round
-    costs at least one episode span of device latency, so a device race looks fewer times."""
-    return MAX_LOOKS if engine == "mujoco" else DEVICE_MAX_LOOKS
 
 
 def plan_of(stored: dict[str, Any], options: TuneOptions, challengers: int) -> Plan:

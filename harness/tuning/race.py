@@ -7,18 +7,17 @@ the confirmation seeds are fresh (no screening seed among them), the racers of a
 seed (common random numbers; points that differ only in filters share the seed's candidate
 evaluations) and a rerun of the tune skips what the directory already holds.
 
-On a GPU engine a small round is latency-bound: its episodes take one episode span however few
-they are. Such a round also runs the blocks of the looks after it (``round_fill``), as long as
-the round stays within the fill, and stores them; the looks are still applied one at a time,
-each on its own block only, so the test and its decisions are those of one look per round (a
-race that stops early leaves its later blocks stored and unused).
+With a ``fill`` a round also runs the blocks of the looks after it, as long as the round stays
+within the fill, and stores them; the looks are still applied one at a time, each on its own
+block only, so the test and its decisions are those of one look per round (a race that stops
+early leaves its later blocks stored and unused). The tune runs without a fill (0): on CPU
+cores every episode costs a core's time, so running looks ahead saves nothing.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -31,29 +30,12 @@ from harness.episode.spec import EpisodeSpec
 from harness.errors import HarnessError
 from harness.runs.executors import executor_for
 from harness.runs.expansion import point_overrides, sweep_points
-from harness.runs.pace import flight_line
 from harness.runs.progress import SweepProgress
 from harness.runs.rundir import RunDir
 from harness.tuning.decide import UnitRace, update
 from harness.tuning.grid import APPROACH_KEY, FACING_KEY
 
 CONFIRM_SEED_OFFSET = 100_000
-# Episodes a round on a GPU engine may grow to by running later looks' blocks early
-# (``HARNESS_RACE_FILL`` overrides; 0 turns it off). Chosen, no public source: on one H200 a
-# round of 112 episodes took 21-23 s, 2 episode spans of a 64-lane stream (docs/tune.md), and up
-# to ~1,000 episodes fill a stream of at most 512 lanes whose step is latency-bound
-# (docs/engines.md, "Lanes"). On the CPU engine every episode costs a core's time: no fill.
-DEVICE_ROUND_FILL = 1024
-
-
-def round_fill(engine: str) -> int:
-    """The episodes a race round may grow to by running later looks ahead (see the module)."""
-    chosen = os.environ.get("HARNESS_RACE_FILL", "").strip()
-    if chosen:
-        if not chosen.isdigit():
-            raise HarnessError(f"HARNESS_RACE_FILL={chosen!r}: expected a count of episodes")
-        return int(chosen)
-    return 0 if engine == "mujoco" else DEVICE_ROUND_FILL
 
 
 @dataclass(frozen=True)
@@ -115,7 +97,7 @@ class RaceLog:
     episodes: int = 0
     seconds: float = 0.0
     rounds: int = 0
-    ran_ahead: int = 0  # episodes run for later looks than their round's (``round_fill``)
+    ran_ahead: int = 0  # episodes run for later looks than their round's (``fill``)
     budget_spent: bool = False
     interrupted: bool = False
     missing: bool = False  # --analyse: a block the race needs is not stored
@@ -173,7 +155,6 @@ class RaceRunner:
         max_seeds: int,
         *,
         objective: str,
-        engine: str = "mujoco",
         backend: str,
         workers: int,
         may_run: bool,
@@ -184,7 +165,7 @@ class RaceRunner:
     ) -> None:
         """``progress``: each round's episodes as the sweep shows them (``SweepProgress``);
         ``announce``: a line per round with its pace and what the rest costs at it; ``fill``:
-        the episodes a round may grow to with later looks' blocks (``round_fill``)."""
+        the episodes a round may grow to with later looks' blocks (see the module)."""
         self.sweep = confirm_sweep(screen, max_seeds)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
@@ -197,7 +178,6 @@ class RaceRunner:
             workers,
             may_run,
         )
-        self.engine = engine
         self.progress = progress
         self.seconds_each = seconds_each
         self.announce = announce
@@ -236,7 +216,6 @@ class RaceRunner:
             episode_index=index,
             seed=episode_seed(self.sweep.seed, index),
             run=self.sweep.name,
-            engine=self.engine,
         )
 
     def _look(self, unit: Unit, look: int) -> list[tuple[Any, list[EpisodeSpec]]]:
@@ -330,8 +309,7 @@ class RaceRunner:
             line = pace_line(log.rounds, len(todo), elapsed, episodes_left(units))
             if ahead:
                 line += f" ({len(ahead):,} of the round's episodes were later looks', run ahead)"
-            flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)  # mjwarp
-            self.announce(line + (f"; {flight}" if flight else ""))
+            self.announce(line)
         return True
 
     def _store(self, row: dict[str, Any]) -> None:

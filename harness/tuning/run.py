@@ -15,7 +15,6 @@ tune's page, its decisions first.
 from __future__ import annotations
 
 import json
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -32,7 +31,6 @@ from harness.report.finish import finish_run
 from harness.report.frames import column, frame_of
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
-from harness.runs.pace import flight_line
 from harness.runs.rundir import RunDir, claim_new_dir
 from harness.runs.sweep import default_workers, run_sweep
 from harness.tuning.analysis import challengers, merge_passes, ranked, settings_frame, success_map
@@ -60,7 +58,7 @@ from harness.tuning.options import (
 )
 from harness.tuning.phase_clock import PhaseClock
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
-from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, round_fill, run_race
+from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
 from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
@@ -122,7 +120,7 @@ def tune(
     if stored is not None and stored.plans:
         check_continuation(out, stored, options)
         options = TuneOptions(**{**asdict(options), "plans": stored.plans})
-    run = {"workers": workers, "backend": backend, "progress": progress, "engine": options.engine}
+    run = {"workers": workers, "backend": backend, "progress": progress}
     started, clock = time.perf_counter(), PhaseClock()
     outcome = _screen(first, out, SCREEN_DIR, run, options.objective, clock)
     ran, interrupted = outcome.stats.finished, outcome.stats.interrupted
@@ -192,10 +190,6 @@ def _screen(
         finally:
             path.unlink(missing_ok=True)
     clock.lap(name)
-    stats = outcome.stats  # with --engine mjwarp: what its episodes in flight allowed
-    flight = flight_line(stats.lives, stats.lives_s, stats.wall_time_s)
-    if flight and run["progress"]:
-        print(f"tune {name}: {flight}", file=sys.stderr)
     finish_run(outcome.run_dir, objective)
     clock.lap(f"{name} report")
     return outcome
@@ -329,14 +323,12 @@ def decide(
         list(tasks.values()),
         max(u.race.plan.seeds for u in units),
         objective=options.objective,
-        engine=options.engine,
         backend=backend,
         workers=workers or default_workers(),
         may_run=may_run,
         progress=progress,
         seconds_each=options.seconds_each,
         announce=announce,
-        fill=round_fill(options.engine),
     )
     log = run_race(units, runner, Budget.parse(options.budget))
     if may_run and log.episodes and not log.interrupted:

@@ -39,10 +39,6 @@ POWER = 0.8
 MAX_SEEDS = 20_000  # the largest race a plan proposes (chosen: ~1 GPU hour per contender)
 MAX_LOOKS = 50  # a plan's looks at most; a longer plan looks every seeds / 50 (chosen: the levels
 # of 50 looks are within a few percent of continuous monitoring's; more looks only cost alpha)
-DEVICE_MAX_LOOKS = 8  # looks at most on a GPU engine (chosen: every look is a round of the tune,
-# and a round costs at least one episode span of device latency, ~10-15 s, however few seeds it
-# holds; 50 looks of a 1,000-seed race would spend ~10 minutes waiting on latency alone. Fewer
-# looks spend alpha less often, so the same power needs no more seeds)
 SQRT_2PI = math.sqrt(2.0 * math.pi)
 
 
