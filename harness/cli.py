@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import math
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -46,6 +47,49 @@ def _bounded_int(low: int, high: int) -> Callable[[str], int]:
         return value
 
     return parse
+
+
+def _seconds_at_least(low: float) -> Callable[[str], float]:
+    """An argparse type: a finite number of seconds >= low, else one clear usage error."""
+
+    def parse(text: str) -> float:
+        value = _finite(text)
+        if value < low:
+            raise argparse.ArgumentTypeError(f"{value:g} s is below the shortest, {low:g} s")
+        return value
+
+    return parse
+
+
+def _finite(text: str) -> float:
+    """An argparse type: a finite number, else one clear usage error."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def _positive(text: str) -> float:
+    """An argparse type: a finite number > 0, else one clear usage error."""
+    value = _finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{value:g} is not positive")
+    return value
+
+
+def _add_progress_every(p: argparse.ArgumentParser) -> None:
+    from harness.runs.progress import EVERY_S, MIN_EVERY_S
+
+    p.add_argument(
+        "--progress-every",
+        type=_seconds_at_least(MIN_EVERY_S),
+        metavar="SECONDS",
+        help=f"seconds between progress lines without a terminal (default {EVERY_S:g}, "
+        f"at least {MIN_EVERY_S:g})",
+    )
 
 
 def _record_policy(text: str) -> str:
@@ -116,6 +160,7 @@ def _add_run(sub: Subparsers) -> None:
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
     p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
     p.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default 1)")
+    _add_progress_every(p)
     p.set_defaults(func=_handler("run", "main"))
 
 
@@ -167,6 +212,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
+    _add_progress_every(p)
     _add_objective(p, recorded=True)
     _add_videos(p, default=False)
     p.set_defaults(func=_handler("sweep", "main"))
@@ -178,6 +224,7 @@ def _add_report(sub: Subparsers) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (harness sweep or run)")
     _add_objective(p, recorded=True)
     _add_videos(p, default=True)
+    _add_progress_every(p)
     p.set_defaults(func=_handler("report", "main"))
 
 
@@ -258,6 +305,7 @@ def _add_tune(sub: Subparsers) -> None:
         choices=["valid", "reference"],
         help="decide by the validity verdict (default) or the reference success",
     )
+    _add_progress_every(p)
     p.set_defaults(func=_handler("tune", "main"))
 
 
@@ -352,6 +400,19 @@ def _add_robots(sub: Subparsers) -> None:
     p = rsub.add_parser("show", help="describe a robot; optionally render it at home")
     p.add_argument("name", metavar="NAME", help="a robot under robots/ (harness robots list)")
     p.add_argument("--render", metavar="FILE.png", help="render the robot at home to a PNG")
+    p.add_argument(
+        "--distance", type=_positive, metavar="M",
+        help="with --render: camera distance from the look-at point (default 1.9, 2.1 for a "
+        "robot standing on the floor)",
+    )  # fmt: skip
+    p.add_argument(
+        "--azimuth", type=_finite, default=-150.0, metavar="DEG",
+        help="with --render: camera azimuth (default -150: front right of the robot)",
+    )  # fmt: skip
+    p.add_argument(
+        "--elevation", type=_finite, default=-20.0, metavar="DEG",
+        help="with --render: camera elevation (default -20)",
+    )  # fmt: skip
     p.set_defaults(func=_handler("robots", "show"))
 
 
@@ -411,6 +472,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     _terminate_like_ctrl_c()
+    if getattr(args, "progress_every", None) is not None:
+        from harness.runs.progress import set_progress_interval
+
+        set_progress_interval(args.progress_every)
     try:
         code = args.func(args)
         sys.stdout.flush()  # a full disk under stdout fails here, not at interpreter exit

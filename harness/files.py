@@ -22,11 +22,11 @@ from pathlib import Path
 from typing import TypeVar
 
 from harness.errors import HarnessError
-from harness.writes import DISK_FULL_ENV, FILE_MODE, OutputFileError, kind_of, write_file
+from harness.writes import FILE_MODE, OutputFileError, kind_of, write_file
 
 T = TypeVar("T")
 
-__all__ = ["DISK_FULL_ENV", "FILE_MODE", "OutputFileError", "write_atomic"]
+__all__ = ["FILE_MODE", "OutputFileError", "write_atomic"]
 
 # A generous bound for one file write (a recording is a few MB): a healthy disk takes well under
 # a second, so only a hung file system reaches it.

@@ -25,7 +25,7 @@ import secrets
 import stat
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 from harness.errors import HarnessError
 
@@ -41,10 +41,6 @@ def _process_umask() -> int:
 
 # Written files get the usual permissions (a plain open() would give them).
 FILE_MODE = 0o666 & ~_process_umask()
-
-# Fault injection for tests where no small file system can be mounted: a write to a file whose
-# name contains this variable's value fails half-way with ENOSPC, as on a full disk.
-DISK_FULL_ENV = "PICK_HARNESS_INJECT_ENOSPC"
 
 
 class OutputFileError(HarnessError):
@@ -139,16 +135,16 @@ def write_file(path: str | Path, data: bytes | str, root: Path | None = None) ->
 
     def write() -> None:
         with os.fdopen(fd, "wb") as handle:
-            injected = os.environ.get(DISK_FULL_ENV)
-            if injected and injected in path.name:
-                handle.write(payload[: len(payload) // 2])
-                handle.flush()
-                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
+            write_whole(handle, payload, path)
 
     return _commit(tmp, path, write)
+
+
+def write_whole(handle: BinaryIO, payload: bytes, path: Path) -> None:
+    """``payload`` into the open temp file of ``path``, flushed and synced to the disk."""
+    handle.write(payload)
+    handle.flush()
+    os.fsync(handle.fileno())
 
 
 def write_through(

@@ -15,8 +15,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import pytest
 from helpers import INTERNDATA_EXAMPLES as EXAMPLES_DIR
 from helpers import NO_INTERNDATA_EXAMPLES as NO_EXAMPLES
+from hypothesis import settings
 
 EXAMPLE_OBJECTS_DIR = EXAMPLES_DIR / "objects"
+
+# A longer bug hunt for the fuzz tests: ``pytest --hypothesis-profile=bughunt`` (each fuzz test
+# runs at least its own example count, more under this profile).
+settings.register_profile("bughunt", max_examples=5000)
 
 
 def example_object_dirs() -> list[Path]:

@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+import faults
 import pytest
 import yaml
 
@@ -749,7 +750,6 @@ def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
     from harness.runs import executors
     from harness.runs.expansion import expand
     from harness.runs.sweep import run_sweep
-    from harness.runs.worker import HANG_ENV
 
     monkeypatch.setattr(executors, "KILL_GRACE_S", 2.0)
     sweep = write_yaml(
@@ -759,7 +759,7 @@ def test_the_pool_kills_a_worker_past_its_limit_and_loses_nothing_else(
     episodes = expand(load_sweep(sweep), sweep)
     victims = [e.resolved_id for e in episodes if e.task.limits.wall_time_s == 1.0]
     assert len(victims) == 2 and episodes[0].resolved_id in victims
-    monkeypatch.setenv(HANG_ENV, ",".join(victims))
+    faults.install(monkeypatch, hang=tuple(victims))
     start = time.monotonic()
     outcome = run_sweep(sweep, out=tmp_path / "run", backend="process", workers=1, progress=False)
     assert time.monotonic() - start < 400  # the victims are killed at 3 s each, not never

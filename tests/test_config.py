@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import atexit
 import math
-import os
 import re
 import shutil
 import tempfile
@@ -967,9 +966,10 @@ PLAUSIBLE = st.one_of(
 )
 ANY_VALUE = st.one_of(VALUES, PLAUSIBLE)
 
-# HARNESS_FUZZ_EXAMPLES=5000 runs a longer bug hunt; the default keeps the suite fast.
+# ``pytest --hypothesis-profile=bughunt`` (tests/conftest.py) runs a longer bug hunt; 150 keeps
+# the suite fast.
 FUZZ = settings(
-    max_examples=int(os.environ.get("HARNESS_FUZZ_EXAMPLES", "150")),
+    max_examples=max(150, settings.default.max_examples),
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],
     database=None,

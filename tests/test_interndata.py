@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -711,7 +710,7 @@ def _paths(node: Any, prefix: tuple = ()) -> list[tuple]:
 
 
 @settings(
-    max_examples=int(os.environ.get("HARNESS_FUZZ_EXAMPLES", "60")),
+    max_examples=max(60, settings.default.max_examples),  # more with --hypothesis-profile=bughunt
     deadline=None,
     suppress_health_check=list(HealthCheck),
     database=None,

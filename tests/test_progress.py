@@ -1,6 +1,6 @@
 """Progress without a terminal (CI, nohup, a pipe): a plain ``done/total, rate, ETA`` line at
-least every ``HARNESS_PROGRESS_EVERY_S`` seconds (30 by default), for ``run``, ``sweep``, the
-tune's screen and race rounds and the report's videos (issue 36)."""
+least every ``--progress-every`` seconds (30 by default, 1 at least), for ``run``, ``sweep``,
+the tune's screen and race rounds and the report's videos (issue 36)."""
 
 from __future__ import annotations
 
@@ -15,13 +15,14 @@ from pathlib import Path
 import pytest
 import yaml
 
+from harness.runs import progress as progress_module
 from harness.runs.progress import (
-    EVERY_ENV,
     EVERY_S,
     ProgressLines,
     SweepProgress,
     duration,
     progress_interval,
+    set_progress_interval,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,19 +59,48 @@ def test_a_job_done_before_the_first_line_prints_nothing() -> None:
     assert stream.getvalue() == ""
 
 
-def test_interval_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(EVERY_ENV, "0.5")
+def _every(monkeypatch: pytest.MonkeyPatch, seconds: float) -> None:
+    """This process's progress interval for one test (below the flag's 1 s floor, to be quick)."""
+    monkeypatch.setattr(progress_module, "_EVERY_S", [seconds])
+
+
+def test_the_interval_is_the_flags(monkeypatch: pytest.MonkeyPatch) -> None:
+    from harness.cli import build_parser
+
+    _every(monkeypatch, EVERY_S)
+    assert progress_interval() == EVERY_S == 30.0
+    set_progress_interval(0.5)
     assert progress_interval() == 0.5
-    for bad in ("", "-1", "soon"):
-        monkeypatch.setenv(EVERY_ENV, bad)
-        assert progress_interval() == EVERY_S == 30.0
+    with pytest.raises(ValueError, match="positive number of seconds"):
+        set_progress_interval(0.0)
+    args = build_parser().parse_args(["sweep", "x.yaml", "--progress-every", "5"])
+    assert args.progress_every == 5.0
     assert [duration(s) for s in (47, 185, 3720)] == ["47s", "3m05s", "1h02m"]
+
+
+@pytest.mark.parametrize(
+    ("value", "says"),
+    [
+        ("0.5", "0.5 s is below the shortest, 1 s"),
+        ("nan", "'nan' is not a finite number"),
+        ("soon", "'soon' is not a number"),
+    ],
+)
+def test_a_bad_progress_interval_is_one_usage_line(
+    value: str, says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from harness.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "task.yaml", "--progress-every", value])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(f"--progress-every: {says}")
 
 
 def test_sweep_progress_without_a_terminal_prints_lines(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setenv(EVERY_ENV, "0.05")  # capsys' stdout is no terminal
+    _every(monkeypatch, 0.05)  # capsys' stdout is no terminal
     progress = SweepProgress(4, 1, enabled=True, workers=2, label="race round 2")
     on_row = progress.__enter__()
     assert progress.lines is not None
@@ -91,7 +121,7 @@ def test_a_sweep_names_its_progress_lines(
     """``run_sweep(progress="tune screen")``: the tune's screening sweep says what it is."""
     from harness.runs.sweep import run_sweep
 
-    monkeypatch.setenv(EVERY_ENV, "0.05")
+    _every(monkeypatch, 0.05)
     sweep = tmp_path / "one.yaml"
     task = str(ROOT / "tasks" / "pick" / "fr3.yaml")
     sweep.write_text(yaml.safe_dump({"name": "one", "tasks": [task], "episodes_per_point": 1}))
@@ -103,15 +133,15 @@ def test_a_sweep_names_its_progress_lines(
 
 
 def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    """The command with stdout on a pipe, as under CI or ``| tee``, and a short interval."""
+    """The command with stdout on a pipe, as under CI or ``| tee``, and the shortest interval."""
     return subprocess.run(
-        [sys.executable, "-m", "harness.cli", *args],
+        [sys.executable, "-m", "harness.cli", *args, "--progress-every", "1"],
         cwd=cwd,
         capture_output=True,  # stdout and stderr on pipes
         text=True,
         check=False,
         timeout=600,
-        env={**os.environ, "PYTHONPATH": str(ROOT), EVERY_ENV: "0.3"},
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
     )
 
 

@@ -402,6 +402,40 @@ def test_robots_show_renders_a_png(tmp_path: Path) -> None:
     image = np.asarray(Image.open(out))
     assert image.shape == (720, 960, 3)
     assert image.std() > 20  # not a blank frame
+    turned = tmp_path / "fr3-turned.png"
+    view = ["--distance", "2.6", "--azimuth", "30", "--elevation", "-45"]
+    result = subprocess.run(
+        [sys.executable, "-c", code, "robots", "show", "fr3", "--render", str(turned), *view],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    other = np.asarray(Image.open(turned))
+    assert other.shape == image.shape and other.std() > 20
+    assert np.mean(np.abs(other.astype(float) - image)) > 10  # another viewpoint
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "says"),
+    [
+        ("--azimuth", "nan", "'nan' is not a finite number"),
+        ("--elevation", "inf", "'inf' is not a finite number"),
+        ("--distance", "0", "0 is not positive"),
+        ("--distance", "far", "'far' is not a number"),
+    ],
+)
+def test_robots_show_refuses_a_camera_that_is_no_finite_number(
+    flag: str, value: str, says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from harness.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["robots", "show", "fr3", "--render", "x.png", flag, value])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {flag}: {says}" in err.splitlines()[-1]
 
 
 # --------------------------------------------------------------------------------------------

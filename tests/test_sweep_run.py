@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import faults
 import pandas as pd
 import pytest
 import yaml
@@ -14,7 +15,6 @@ from harness.config import load_sweep
 from harness.report.finish import finish_run
 from harness.runs.expansion import expand
 from harness.runs.sweep import SweepOutcome, run_sweep
-from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,7 +86,7 @@ def crashed_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[SweepOutcome,
     victim = expand(load_sweep(sweep_path), sweep_path)[1].episode_id
     assert victim is not None
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv(FAULT_ENV, victim)
+        faults.install(patch, segfault=(victim,))
         outcome = run_sweep(sweep_path, out=tmp / "run", workers=2, progress=False)
     return outcome, victim
 
@@ -168,8 +168,7 @@ def test_a_one_off_worker_crash_is_retried_not_an_error(
     assert victim is not None
     markers = tmp_path / "markers"
     markers.mkdir()
-    monkeypatch.setenv(FAULT_ENV, victim)
-    monkeypatch.setenv(FAULT_ONCE_ENV, str(markers))
+    faults.install(monkeypatch, segfault=(victim,), once_dir=markers)
     outcome = run_sweep(sweep_path, out=tmp_path / "run", workers=2, progress=False)
     assert (markers / victim).exists()  # it did crash once
     assert outcome.stats.retried == 1 and outcome.stats.crashed == 0

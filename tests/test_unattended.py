@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+import faults
 import mujoco
 import numpy as np
 import pandas as pd
@@ -24,7 +25,7 @@ from harness import cli
 from harness.config import load_task
 from harness.episode import EpisodeSpec
 from harness.errors import EpisodeTimeoutError, InputFileError
-from harness.files import DISK_FULL_ENV, bounded, is_disk_full, write_atomic
+from harness.files import bounded, is_disk_full, write_atomic
 from harness.runs.preflight import check_task
 from harness.runs.worker import execute
 from harness.sim.budget import episode_budget
@@ -67,13 +68,13 @@ def task_file(tmp_path: Path, **changes: object) -> Path:
 def test_atomic_write_on_a_full_disk_leaves_the_old_file_and_no_temp(tmp_path, monkeypatch):
     target = tmp_path / "report.html"
     target.write_text("old report", encoding="utf-8")
-    monkeypatch.setenv(DISK_FULL_ENV, "report.html")
-    with pytest.raises(OSError) as caught:
-        write_atomic(target, "<html>" + "x" * 10_000)
+    with pytest.MonkeyPatch.context() as patch:
+        faults.disk_full(patch, "report.html")
+        with pytest.raises(OSError) as caught:
+            write_atomic(target, "<html>" + "x" * 10_000)
     assert is_disk_full(caught.value)
     assert target.read_text(encoding="utf-8") == "old report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"]
-    monkeypatch.delenv(DISK_FULL_ENV)
     write_atomic(target, "new report")
     assert target.read_text(encoding="utf-8") == "new report"
 
@@ -91,7 +92,7 @@ def test_recording_on_a_full_disk_stops_the_run_with_one_line(
     """Finding 2 (simulated ENOSPC): no hang, the row is kept with ``recording_error``, no
     partial ``.rrd`` or temp file is left, one line and a non-zero exit."""
     run_dir = tmp_path / "run"
-    monkeypatch.setenv(DISK_FULL_ENV, ".rrd")
+    faults.disk_full(monkeypatch, ".rrd")
     args = ["run", str(FR3), "--episodes", "3", "--record", "all", "--out", str(run_dir)]
     assert cli.main(args) == 2
     stderr = capsys.readouterr().err
@@ -219,13 +220,13 @@ def test_a_huge_mesh_file_is_refused_before_reading(tmp_path, monkeypatch) -> No
 
 
 def test_coacd_past_its_time_limit_is_a_clear_error(tmp_path, monkeypatch) -> None:
-    from harness.objects import shapes
+    from harness.objects import coacd_process, shapes
     from harness.objects.assets import ObjectAsset
 
     mesh = tmp_path / "mug.obj"
     mesh.write_text(shapes.obj_text(shapes.mug()), encoding="utf-8")
     monkeypatch.setenv("PICK_HARNESS_CACHE", str(tmp_path / "cache"))  # nothing cached
-    monkeypatch.setenv("PICK_HARNESS_COACD_TIMEOUT_S", "0.01")
+    monkeypatch.setattr(coacd_process, "COACD_TIMEOUT_S", 0.01)
     with pytest.raises(InputFileError, match=r"CoACD did not finish within 0\.01 s") as caught:
         ObjectAsset.load(mesh)
     assert caught.value.file == str(mesh) and caught.value.key == "mesh"
@@ -393,7 +394,6 @@ def test_a_killed_ray_actor_gives_one_retried_episode_not_error_rows(tmp_path, m
     from harness.config import load_sweep
     from harness.runs.expansion import expand
     from harness.runs.sweep import run_sweep
-    from harness.runs.worker import FAULT_ENV, FAULT_ONCE_ENV
 
     sweep = {"name": "ray-kill", "tasks": [str(FR3)], "episodes_per_point": 3, "record": "none"}
     sweep_path = tmp_path / "sweep.yaml"
@@ -401,9 +401,16 @@ def test_a_killed_ray_actor_gives_one_retried_episode_not_error_rows(tmp_path, m
     victim = expand(load_sweep(sweep_path), sweep_path)[1].resolved_id
     markers = tmp_path / "markers"
     markers.mkdir()
-    monkeypatch.setenv(FAULT_ENV, victim)
-    monkeypatch.setenv(FAULT_ONCE_ENV, str(markers))
-    outcome = run_sweep(sweep_path, out=tmp_path / "run", backend="ray", workers=2, progress=False)
+    import ray.cloudpickle
+
+    ray.cloudpickle.register_pickle_by_value(faults)  # Ray's workers import nothing from tests/
+    try:
+        faults.install(monkeypatch, segfault=(victim,), once_dir=markers)
+        outcome = run_sweep(
+            sweep_path, out=tmp_path / "run", backend="ray", workers=2, progress=False
+        )
+    finally:
+        ray.cloudpickle.unregister_pickle_by_value(faults)
     assert (markers / victim).exists()  # the actor did die once
     rows = jsonl_rows(outcome.run_dir)
     assert sorted(row["episode_id"] for row in rows) == sorted(

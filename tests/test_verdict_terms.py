@@ -15,7 +15,7 @@ from harness.pick.outcome import PickOutcome, ValidityMeasure, ValidityResult
 from harness.pick.terms import NOT_RUN, TERMS, VALIDITY_REASONS, phase_checks, term_columns
 from harness.pick.verdict import closing_terms, reference_terms, strict_terms, validity_terms
 from harness.row import SCHEMA
-from harness.tuning.blocks import HARNESS_PICK_KEYS
+from harness.tuning.blocks import OWN_PICK_KEYS
 from harness.viz.episode_layers import ROW_KEYS
 
 # Which semantics check a phase.
@@ -73,10 +73,10 @@ def test_the_recording_shows_every_column_a_term_reads() -> None:
 
 
 def test_harness_only_pick_keys_come_from_the_model() -> None:
-    assert harness_only_keys() == HARNESS_PICK_KEYS
+    assert harness_only_keys() == OWN_PICK_KEYS
     assert {"semantics", "approach_filter", "validity", "min_finger_force", "max_slip"} <= (
-        HARNESS_PICK_KEYS
+        OWN_PICK_KEYS
     )
     # the reference's own keys are not marked
-    assert not {"lift_th", "filter_x_dir", "pre_grasp_offset", "process_valid"} & HARNESS_PICK_KEYS
-    assert set(PickConfig.model_fields) >= HARNESS_PICK_KEYS
+    assert not {"lift_th", "filter_x_dir", "pre_grasp_offset", "process_valid"} & OWN_PICK_KEYS
+    assert set(PickConfig.model_fields) >= OWN_PICK_KEYS

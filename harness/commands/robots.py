@@ -19,7 +19,7 @@ import numpy as np
 from harness.commands.console import say
 from harness.robots import RobotModel, available_robots
 from harness.viz.formats import IMAGE_SUFFIXES, check_suffix
-from harness.viz.robot_render import placed_model, render_robot
+from harness.viz.robot_render import RobotView, placed_model, render_robot
 
 
 def list_robots(args: argparse.Namespace) -> int:
@@ -146,6 +146,7 @@ def show(args: argparse.Namespace) -> int:
     for line in describe(robot):
         say(line)
     if getattr(args, "render", None):
-        path = render_robot(robot, args.render)
+        view = RobotView(args.distance, args.azimuth, args.elevation)
+        path = render_robot(robot, args.render, view=view)
         say(f"rendered {path}")
     return 0

@@ -27,7 +27,7 @@ REFERENCE_SPEED_SCALE = 0.3
 
 # The marker of a pick key that only the harness reads (InternDataEngine's Pick skill does not):
 # ``harness_only_keys`` lists them; ``harness tune`` leaves them out of its paste-ready block.
-HARNESS_ONLY: JsonDict = {"harness_only": True}
+NOT_IN_REFERENCE: JsonDict = {"harness_only": True}
 
 
 class PickConfig(StrictModel):
@@ -61,7 +61,7 @@ class PickConfig(StrictModel):
     ignore_substring: list[str] = Field(default_factory=list)
     robot_ignore_substring: list[str] | None = Field(
         default=None,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="The robot's planning-world ignore list (an InternData robot's "
         "ignore_substring): under reference it REPLACES the controllers' default list "
         "(template_controller.py __init__); None keeps the default.",
@@ -77,30 +77,32 @@ class PickConfig(StrictModel):
     update_pose_cost_metric_none: bool | None = None
     constrain_grasp_approach: bool | None = None
 
-    # Harness keys (not InternDataEngine's), each marked ``HARNESS_ONLY`` (``harness_only_keys``).
+    # Harness keys, not InternDataEngine's: each marked ``NOT_IN_REFERENCE`` (harness_only_keys).
     semantics: Literal["reference", "strict"] = Field(
-        default="reference", json_schema_extra=HARNESS_ONLY
+        default="reference", json_schema_extra=NOT_IN_REFERENCE
     )
     approach_filter: FilterSpec = Field(
         default=None,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="Robot-neutral filter on the approach axis (robot.yaml approach_axis).",
     )
     facing_filter: FilterSpec = Field(
         default=None,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="Robot-neutral filter on the facing axis (robot.yaml facing_axis).",
     )
     strict_sampling: bool = Field(
         default=False,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="strict: order candidates by weighted sampling without replacement "
         "(weights 1/score) instead of plain score order.",
     )
-    timing: Literal["toppra", "ruckig"] = Field(default="toppra", json_schema_extra=HARNESS_ONLY)
+    timing: Literal["toppra", "ruckig"] = Field(
+        default="toppra", json_schema_extra=NOT_IN_REFERENCE
+    )
     lift_path: Literal["joint", "cartesian"] | None = Field(
         default=None,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="How the lift is planned: joint (a joint-space plan to the lift pose, as "
         "the reference's cuRobo plan_single; 10 IK seeds per plan, 6 plans, 5 mm / 0.05 rad) "
         "or cartesian (the straight line up). Default: joint under reference, cartesian under "
@@ -110,40 +112,40 @@ class PickConfig(StrictModel):
         default=REFERENCE_SPEED_SCALE,
         gt=0.0,
         le=1.0,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="Fraction of the joint limits the plans are timed at. Default: the "
         "reference's pace, one 0.01 s planner waypoint per 1/30 s physics step.",
     )
     validity: bool = Field(
         default=True,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="on: after the reference verdict, the validity phase (penetration, two "
         "fingers, hold, tug) fills the row's validity columns; off skips it (strict always "
         "runs it: it is strict's verdict).",
     )
     min_finger_force: FiniteFloat = Field(
         default=0.5,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         ge=0.0,
         description="validity and strict: normal force each finger must carry (N).",
     )
     hold_time: FiniteFloat = Field(
         default=1.0,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         ge=0.0,
         le=60.0,
         description="validity and strict: hold at the lifted pose (s).",
     )
     max_slip: FiniteFloat = Field(
         default=0.005,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         gt=0.0,
         description="validity and strict: object drift relative to the TCP allowed from the "
         "closing to the end of the hold (m).",
     )
     max_slip_rotation: FiniteFloat = Field(
         default=0.1,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         gt=0.0,
         description="validity and strict: object rotation relative to the TCP allowed from "
         "the closing to the end of the hold (rad; chosen, no public source).",
@@ -204,7 +206,7 @@ class PickConfig(StrictModel):
 
 
 def harness_only_keys() -> frozenset[str]:
-    """The ``PickConfig`` keys marked ``HARNESS_ONLY`` (not the reference's)."""
+    """The ``PickConfig`` keys marked ``NOT_IN_REFERENCE`` (not the reference's)."""
     return frozenset(
         name
         for name, info in PickConfig.model_fields.items()

@@ -10,7 +10,6 @@ back as ``.npz`` files in a temporary folder.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -21,20 +20,10 @@ import numpy as np
 
 # Chosen, no public source: the slowest bundled or InternData mesh takes ~35 s on first load.
 COACD_TIMEOUT_S = 300.0
-COACD_TIMEOUT_ENV = "PICK_HARNESS_COACD_TIMEOUT_S"
 
 
 class CoacdTimeoutError(TimeoutError):
     """CoACD did not finish within the limit."""
-
-
-def coacd_timeout_s() -> float:
-    """The limit per mesh: ``$PICK_HARNESS_COACD_TIMEOUT_S`` or ``COACD_TIMEOUT_S``."""
-    text = os.environ.get(COACD_TIMEOUT_ENV)
-    try:
-        return float(text) if text else COACD_TIMEOUT_S
-    except ValueError:
-        return COACD_TIMEOUT_S
 
 
 def run_coacd_bounded(
@@ -51,8 +40,8 @@ def run_coacd_bounded(
             )
         except subprocess.TimeoutExpired:
             raise CoacdTimeoutError(
-                f"CoACD did not finish within {timeout_s:g} s (limit per mesh; simplify the mesh "
-                f"or raise {COACD_TIMEOUT_ENV})"
+                f"CoACD did not finish within {timeout_s:g} s (the limit per mesh): simplify "
+                "the mesh (fewer faces)"
             ) from None
         if done.returncode != 0 or not pieces_file.is_file():
             tail = done.stderr.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]

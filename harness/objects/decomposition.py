@@ -22,7 +22,8 @@ import trimesh
 
 from harness.errors import InputFileError
 from harness.files import safe_file_name
-from harness.objects.coacd_process import CoacdTimeoutError, coacd_timeout_s, run_coacd_bounded
+from harness.objects import coacd_process
+from harness.objects.coacd_process import CoacdTimeoutError, run_coacd_bounded
 
 LOG = logging.getLogger(__name__)
 
@@ -138,7 +139,7 @@ def is_convex_solid(mesh: trimesh.Trimesh) -> bool:
 
 def run_coacd(mesh: trimesh.Trimesh, params: CoacdParams) -> list[Piece]:
     """Run CoACD (counted in ``DECOMPOSITION_RUNS``) and return its convex pieces; in a child
-    process stopped after ``coacd_timeout_s()`` (``CoacdTimeoutError``)."""
+    process stopped after ``COACD_TIMEOUT_S`` (``CoacdTimeoutError``)."""
     global DECOMPOSITION_RUNS
     kwargs = asdict(params)
     if params.preprocess_mode == "auto":
@@ -146,7 +147,7 @@ def run_coacd(mesh: trimesh.Trimesh, params: CoacdParams) -> list[Piece]:
     DECOMPOSITION_RUNS += 1
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
-    return run_coacd_bounded(vertices, faces, kwargs, coacd_timeout_s())
+    return run_coacd_bounded(vertices, faces, kwargs, coacd_process.COACD_TIMEOUT_S)
 
 
 def collision_pieces(

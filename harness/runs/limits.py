@@ -14,7 +14,6 @@ from pathlib import Path
 from harness.config import ConfigError, SweepConfig
 
 MAX_EPISODES = 200_000  # ~1 day of episodes on 2 cores; raise with --max-episodes
-MAX_EPISODES_ENV = "PICK_HARNESS_MAX_EPISODES"
 # Expansion checks every (task, point) pair (~15 ms each: overrides, filters): a 100 x 100 grid
 # took 97 s before its first episode and `validate` over 120 s, whatever its episode count. Above
 # this many pairs a sweep is refused at once (raise with --max-points). Chosen, no public source:

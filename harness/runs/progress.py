@@ -3,31 +3,36 @@
 On a terminal the sweep shows a rich bar (episodes per second, time left, the running success
 rate). Without one (CI, ``nohup``, a pipe) a bar prints nothing until it ends, so
 ``ProgressLines`` prints ``LABEL: done/total UNIT (p%), r/s, ETA ...`` every
-``HARNESS_PROGRESS_EVERY_S`` seconds (default 30), whether or not anything finished since the
-last line, and a last line when it ends; a job done before the first line prints nothing.
+``progress_interval()`` seconds (``EVERY_S`` unless the command's ``--progress-every`` set it),
+whether or not anything finished since the last line, and a last line when it ends; a job done
+before the first line prints nothing.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 import threading
 import time
 from collections.abc import Callable
 from typing import Any, TextIO
 
-EVERY_ENV = "HARNESS_PROGRESS_EVERY_S"
 EVERY_S = 30.0  # the issue's bound: a silent log longer than this looks hung
+# The shortest interval ``--progress-every`` takes (chosen: a line a second is already a log of
+# its own; shorter ones would drown the run's other lines).
+MIN_EVERY_S = 1.0
+_EVERY_S = [EVERY_S]  # this process's interval (``set_progress_interval``)
 
 
 def progress_interval() -> float:
-    """Seconds between plain progress lines: ``HARNESS_PROGRESS_EVERY_S``, else ``EVERY_S``."""
-    text = os.environ.get(EVERY_ENV, "")
-    try:
-        value = float(text)
-    except ValueError:
-        return EVERY_S
-    return value if value > 0 else EVERY_S
+    """Seconds between plain progress lines in this process (``EVERY_S`` unless set)."""
+    return _EVERY_S[0]
+
+
+def set_progress_interval(seconds: float) -> None:
+    """The interval of this process's plain progress lines (``--progress-every``; > 0)."""
+    if not seconds > 0:
+        raise ValueError(f"a progress interval is a positive number of seconds, not {seconds}")
+    _EVERY_S[0] = float(seconds)
 
 
 def stdout_is_terminal() -> bool:

@@ -8,7 +8,6 @@ a lost worker) gets an ``error_row`` from the executor instead.
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -54,7 +53,6 @@ def execute(
 
     start = time.perf_counter()
     log_mujoco_to(Path(run_dir))
-    _inject_fault(episode.resolved_id)
     if not _may_record(episode, record_policy):  # nothing will read the viewers' trace
         episode = dataclasses.replace(episode, trace=False)
     limits = episode.task.limits
@@ -124,44 +122,6 @@ DISK_FULL_PREFIX = "disk full: "
 def recording_disk_full(row: dict[str, Any]) -> bool:
     """True when the row's recording failed because the disk is full (the run must stop)."""
     return str(row.get("recording_error") or "").startswith(DISK_FULL_PREFIX)
-
-
-FAULT_ENV = "PICK_HARNESS_INJECT_SEGFAULT"
-FAULT_ONCE_ENV = "PICK_HARNESS_INJECT_SEGFAULT_ONCE"
-HANG_ENV = "PICK_HARNESS_INJECT_HANG"
-
-
-def _inject_hang(episode_id_: str) -> None:
-    """Fault injection for the pool's per-episode kill: when ``PICK_HARNESS_INJECT_HANG`` names
-    this episode id, hang with SIGALRM blocked, as a long C call that never returns would."""
-    if episode_id_ not in os.environ.get(HANG_ENV, "").split(","):
-        return
-    import signal
-
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})
-    while True:
-        time.sleep(3600)
-
-
-def _inject_fault(episode_id_: str) -> None:
-    """Fault injection for tests of crash recovery: a real segfault in the worker process.
-
-    Only when ``PICK_HARNESS_INJECT_SEGFAULT`` names this episode id (comma-separated list);
-    with ``PICK_HARNESS_INJECT_SEGFAULT_ONCE=DIR`` only on its first attempt (a marker in DIR).
-    """
-    _inject_hang(episode_id_)
-    targets = os.environ.get(FAULT_ENV, "")
-    if not targets or episode_id_ not in targets.split(","):
-        return
-    once_dir = os.environ.get(FAULT_ONCE_ENV)
-    if once_dir:  # crash only on the first attempt of each named episode
-        marker = Path(once_dir) / episode_id_
-        if marker.exists():
-            return
-        marker.touch()
-    import ctypes
-
-    ctypes.string_at(0)  # dereference NULL: SIGSEGV, as a crashing C extension would
 
 
 def _peak_rss_mb() -> float:

@@ -30,7 +30,7 @@ from harness.tuning.decisions import file_decision, lines, setting_label
 
 # PickConfig keys that only the harness reads (not InternDataEngine's Pick skill), marked on the
 # model: the keys to merge never include them, so they merge into an InternDataEngine file too.
-HARNESS_PICK_KEYS = harness_only_keys()
+OWN_PICK_KEYS = harness_only_keys()
 MERGE_NOTE = (
     "Merge these keys into each task file's pick block (only the filter keys change; keep "
     "every other key): harness tune ... --write DIR writes the merged copies and their diffs."

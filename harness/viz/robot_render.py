@@ -9,7 +9,7 @@ imports mujoco) are imported inside the functions: MuJoCo picks its GL backend w
 
 from __future__ import annotations
 
-import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,17 @@ TABLE_HEIGHT = 0.75  # m, for the render context of robots that stand on the tab
 
 
 REGION_COLOURS = {"left": (0.15, 0.55, 0.95, 0.35), "right": (0.95, 0.45, 0.1, 0.35)}
+
+
+@dataclass(frozen=True)
+class RobotView:
+    """The camera of a robot picture (``harness robots show --distance/--azimuth/--elevation``):
+    distance from the look-at point in m (None: 1.9, or 2.1 for a robot standing on the floor,
+    which is taller in the frame), azimuth and elevation in degrees (MuJoCo's ``mjvCamera``)."""
+
+    distance: float | None = None
+    azimuth: float = -150.0  # from the front right of the robot
+    elevation: float = -20.0
 
 
 def placed_model(
@@ -114,8 +125,15 @@ def _add_context(scene: Any, robot: RobotModel, floor_z: float, size: tuple[int,
         )
 
 
-def render_robot(robot: RobotModel, path: str | Path, size: tuple[int, int] = (960, 720)) -> Path:
-    """Render the robot at home at its nominal placement to a PNG (offscreen)."""
+def render_robot(
+    robot: RobotModel,
+    path: str | Path,
+    size: tuple[int, int] = (960, 720),
+    view: RobotView | None = None,
+) -> Path:
+    """Render the robot at home at its nominal placement to a PNG (offscreen), seen by
+    ``view`` (default ``RobotView()``)."""
+    view = view or RobotView()
     use_offscreen_gl()
     import mujoco
     from PIL import Image
@@ -132,9 +150,10 @@ def render_robot(robot: RobotModel, path: str | Path, size: tuple[int, int] = (9
     floor_robot = root[2] < -0.1
     # Look between the robot and the table centre, from the front-right of the robot.
     camera.lookat[:] = [0.0, root[1] * 0.6, 0.0 if floor_robot else 0.25]
-    camera.distance = float(os.environ.get("HARNESS_RENDER_DISTANCE", 2.1 if floor_robot else 1.9))
-    camera.azimuth = float(os.environ.get("HARNESS_RENDER_AZIMUTH", -150.0))
-    camera.elevation = float(os.environ.get("HARNESS_RENDER_ELEVATION", -20.0))
+    default_distance = 2.1 if floor_robot else 1.9
+    camera.distance = view.distance if view.distance is not None else default_distance
+    camera.azimuth = view.azimuth
+    camera.elevation = view.elevation
     width, height = size
     path = Path(path)
     check_target(path)
