@@ -8,16 +8,16 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from helpers import ROBOTS
-
-from harness.config import PhysicsConfig
-from harness.robots import RobotModel
-from harness.robots.contact_patch import (
+from contact_patch import (
     HERTZ_TORSION_FACTOR,
     UNIFORM_TORSION_FACTOR,
     face_patch_radius,
     patch_torsion,
 )
+from helpers import ROBOTS
+
+from harness.config import PhysicsConfig
+from harness.robots import RobotModel
 from harness.robots.mujoco_spec import build_robot_spec, finger_pad_geoms
 from harness.sim.composition import _set_options
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from race_simulation import draw, vector_races
 
 from harness.errors import HarnessError
 from harness.tuning.causes import cause_sentence
@@ -37,7 +38,6 @@ from harness.tuning.sequential import (
     nominal_levels,
     seeds_for_power,
 )
-from harness.tuning.simulate import draw, vector_races
 
 RUNS = 3000
 
@@ -261,20 +261,6 @@ def test_analyse_refuses_a_garbage_tune_json(tmp_path: Path, text: str, key: str
     assert str(tmp_path / OPTIONS_FILE) in message and "\n" not in message
     if key:
         assert repr(key) in message
-
-
-def test_recommendation_names_no_zero_percent_setting_best() -> None:
-    import pandas as pd
-
-    from harness.tuning.recommend import recommendation
-
-    zero = pd.DataFrame({"successes": [0, 0, 0], "n": [20, 20, 20]})
-    assert recommendation(zero, cause="plan_failed in 60/60").best_index is None
-    assert "plan_failed" in recommendation(zero, cause="plan_failed in 60/60").reason
-    some = pd.DataFrame({"successes": [1, 9, 3], "n": [20, 20, 20]}, index=[5, 6, 7])
-    assert recommendation(some).best_index == 6 and recommendation(some).verdict == "best"
-    few = pd.DataFrame({"successes": [1], "n": [200]})  # upper bound 0.028 < 10%
-    assert recommendation(few).best_index is None
 
 
 def test_the_budget_line_states_the_looks_the_race_will_run() -> None:

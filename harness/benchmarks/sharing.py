@@ -41,7 +41,7 @@ from harness.episode.ids import episode_seed
 from harness.objects.assets import repo_root
 from harness.row import IDENTITY_COLUMNS
 from harness.runs.expansion import point_overrides
-from harness.runs.store import ResultStore, _json_default
+from harness.runs.store import ResultStore, json_default
 
 SECTION = "sharing"
 ROBOTS = ("fr3", "split_aloha_left")
@@ -168,7 +168,7 @@ def sweep_document(robot: str, seeds: int, sweep_seed: int) -> dict[str, Any]:
 
 def _comparable(row: dict[str, Any]) -> dict[str, Any]:
     """A row as the store writes and reads it (JSON), without the columns not compared."""
-    data = json.loads(json.dumps(row, default=_json_default, allow_nan=True))
+    data = json.loads(json.dumps(row, default=json_default, allow_nan=True))
     return {k: v for k, v in data.items() if k not in NOT_COMPARED and not k.startswith("param.")}
 
 

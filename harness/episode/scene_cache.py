@@ -15,6 +15,7 @@ from harness.config import TaskConfig
 from harness.errors import HarnessError
 from harness.grasps import EEPoses, GraspSet, load_grasp_file, post_process
 from harness.objects.assets import find_grasp_file
+from harness.planning.arm_ik import arm_ik
 from harness.planning.ik import WholeBodyIK
 from harness.planning.planner import PickPlanner
 from harness.sim import Scene, scene_key
@@ -35,16 +36,8 @@ class SceneBundle:
 
     def planner(self, arm: str) -> PickPlanner:
         if arm not in self.planners:
-            robot = self.scene.robot
-            handles = self.scene.arms[arm]
-            limits = {j: robot.joint_limits(j) for j in handles.active_names}
-            ik = WholeBodyIK(
-                robot.urdf_path,
-                handles.active_names,
-                robot.arm(arm).ee_frame,
-                robot.lift_joint,
-                limits,
-            )
+            ik, _ = arm_ik(self.scene.robot, arm)
+            assert ik.joint_names == self.scene.arms[arm].active_names, "one active-joint order"
             self.iks[arm] = ik
             self.planners[arm] = PickPlanner(self.scene, arm, ik)
         return self.planners[arm]

@@ -1,8 +1,8 @@
-"""A stand-alone whole-body IK of one arm, posed at the robot's home (benchmarks, tests).
+"""The whole-body IK of one arm of a robot, posed at the robot's home: the IK the episode's
+planner solves with (``harness.episode.scene_cache``), and so what the IK benchmark measures.
 
-The arm's joints (the lift first, when the robot has one) are the active ones; the posture task
-holds the robot.yaml home. The episode's planner builds its own IK with the scene's joint limits
-(``PickPlanner``); this one uses the URDF's, which is what the IK benchmark and tests measure.
+The arm's joints (the lift first, when the robot has one) are the active ones, with the URDF's
+joint limits; the posture task holds the robot.yaml home until the planner sets its own.
 """
 
 from __future__ import annotations

@@ -68,7 +68,7 @@ class GripperActuator(_Strict):
         description="Torsional friction of the pads (m; MuJoCo condim 4): the torque a pad "
         "resists about its contact normal per newton of normal force. The bundled robots derive "
         "it from the pad face: (3 pi / 16) x pad_friction x half the face's narrower side "
-        "(harness.robots.contact_patch); 0.01 when a robot.yaml gives none.",
+        "(tests/contact_patch.py); 0.01 when a robot.yaml gives none.",
     )
     grasp: Literal["force", "position"] = Field(
         default="force",

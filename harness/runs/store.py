@@ -148,7 +148,9 @@ def _param_series(values: pd.Series) -> pd.Series:
 # The store
 
 
-def _json_default(value: Any) -> Any:
+def json_default(value: Any) -> Any:
+    """A row value JSON cannot take as it is (numpy scalars and arrays, paths), as JSON takes it:
+    how the store writes ``episodes.jsonl``."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
@@ -184,7 +186,7 @@ class ResultStore:
         force the file to disk when the last fsync is ``SYNC_EVERY_S`` old."""
         if not row.get("episode_id"):
             raise ValueError("an episode row needs a non-empty episode_id")
-        line = json.dumps(row, default=_json_default, allow_nan=True)
+        line = json.dumps(row, default=json_default, allow_nan=True)
         self.run_dir.mkdir(parents=True, exist_ok=True)
         prefix = "" if self._checked_tail else self._separator()
         self._checked_tail = True

@@ -9,7 +9,7 @@ average (sliding, torsional and rolling each), with the pad's contact stiffness 
 contacts. The torsional coefficient of an object-pad pair is the pad's contact patch instead
 (``pad_pair_friction``): PhysX has no torsional material coefficient (a patch resists a twist
 through its area), and a patch's torsional limit is (3 pi / 16) mu a N
-(``harness.robots.contact_patch``), so the pad's ``pad_torsion`` (derived at its own sliding
+(``tests/contact_patch.py``), so the pad's ``pad_torsion`` (derived at its own sliding
 friction) is scaled to the pair's averaged sliding friction. An explicit pair replaces the
 dynamic contact of the same two geoms, so nothing is counted twice. Object-object contacts keep
 MuJoCo's rule (the larger coefficient).

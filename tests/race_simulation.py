@@ -1,4 +1,4 @@
-"""The race's error and power on simulated settings: ``python -m harness.tuning.simulate``.
+"""The race's error and power on simulated settings: ``python tests/race_simulation.py``.
 
 Each seed draws every setting's outcome from one Gaussian copula: setting k succeeds when
 ``sqrt(r) Z + sqrt(1 - r) E_k < Phi^-1(p_k)`` (Z shared by the seed, E_k its own), so settings

@@ -1,4 +1,6 @@
-"""The torsional friction of a finger pad, from the size of its contact patch.
+"""The torsional friction of a finger pad, from the size of its contact patch: the derivation
+of each robot.yaml's ``pad_torsion`` (its source cites this file), which
+``tests/test_grip_friction.py`` recomputes from the compiled pads.
 
 A point contact resists no torque about its normal; a real pad touches over a patch, and
 friction over the patch resists a twist up to a limit proportional to the normal force N
