@@ -11,12 +11,22 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
-import math
-import re
 import sys
 from collections.abc import Callable, Sequence
 from typing import TypeAlias
 
+from harness.commands.flags import (
+    EPISODES,
+    GRASP_COUNT,
+    RECORD_HELP,
+    SEED,
+    WORKERS,
+    bounded_int,
+    finite,
+    positive,
+    record_policy,
+    seconds_at_least,
+)
 from harness.errors import HarnessError
 from harness.version import __version__
 
@@ -34,80 +44,16 @@ def _handler(module: str, function: str):
     return call
 
 
-def _bounded_int(low: int, high: int) -> Callable[[str], int]:
-    """An argparse type: an integer in [low, high], else one clear usage error."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"{value} is outside [{low:,}, {high:,}]")
-        return value
-
-    return parse
-
-
-def _seconds_at_least(low: float) -> Callable[[str], float]:
-    """An argparse type: a finite number of seconds >= low, else one clear usage error."""
-
-    def parse(text: str) -> float:
-        value = _finite(text)
-        if value < low:
-            raise argparse.ArgumentTypeError(f"{value:g} s is below the shortest, {low:g} s")
-        return value
-
-    return parse
-
-
-def _finite(text: str) -> float:
-    """An argparse type: a finite number, else one clear usage error."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-    return value
-
-
-def _positive(text: str) -> float:
-    """An argparse type: a finite number > 0, else one clear usage error."""
-    value = _finite(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"{value:g} is not positive")
-    return value
-
-
 def _add_progress_every(p: argparse.ArgumentParser) -> None:
     from harness.runs.progress import EVERY_S, MIN_EVERY_S
 
     p.add_argument(
         "--progress-every",
-        type=_seconds_at_least(MIN_EVERY_S),
+        type=seconds_at_least(MIN_EVERY_S),
         metavar="SECONDS",
         help=f"seconds between progress lines without a terminal (default {EVERY_S:g}, "
         f"at least {MIN_EVERY_S:g})",
     )
-
-
-def _record_policy(text: str) -> str:
-    """An argparse type: none | failures | invalid | all | sample:N (``RECORD_HELP``)."""
-    if text in ("none", "failures", "invalid", "all") or re.fullmatch(r"sample:[1-9]\d*", text):
-        return text
-    raise argparse.ArgumentTypeError(
-        f"{text!r}: expected none, failures, invalid, all or sample:N with N >= 1"
-    )
-
-
-RECORD_HELP = "none|failures|invalid|all|sample:N"
-SEED = _bounded_int(0, 2**63 - 1)
-# The config's own cap (SweepConfig.episodes_per_point <= 100,000): a larger flag would pass
-# argparse and fail later in pydantic with a traceback.
-EPISODES = _bounded_int(1, 100_000)
-GRASP_COUNT = _bounded_int(1, 1_000_000)
-WORKERS = _bounded_int(1, 1024)
 
 
 def _add_filter_args(parser: argparse.ArgumentParser) -> None:
@@ -158,7 +104,7 @@ def _add_run(sub: Subparsers) -> None:
         help="override a task key, e.g. pick.filter_z_dir='[downward,150]' (repeatable)",
     )
     p.add_argument("--out", metavar="DIR", help="run directory (default reports/<name>-<time>)")
-    p.add_argument("--record", type=_record_policy, default="failures", help=RECORD_HELP)
+    p.add_argument("--record", type=record_policy, default="failures", help=RECORD_HELP)
     p.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default 1)")
     _add_progress_every(p)
     p.set_defaults(func=_handler("run", "main"))
@@ -192,7 +138,7 @@ def _add_sweep(sub: Subparsers) -> None:
         help="where episodes run: this process, a process pool (default) or Ray",
     )
     p.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    p.add_argument("--record", type=_record_policy, help=f"{RECORD_HELP} (overrides the sweep)")
+    p.add_argument("--record", type=record_policy, help=f"{RECORD_HELP} (overrides the sweep)")
     p.add_argument("--episodes-per-point", type=EPISODES, help="override episodes_per_point")
     p.add_argument(
         "--no-share",
@@ -202,13 +148,13 @@ def _add_sweep(sub: Subparsers) -> None:
     )
     p.add_argument(
         "--max-episodes",
-        type=_bounded_int(1, 10**9),
+        type=bounded_int(1, 10**9),
         metavar="N",
         help=f"refuse sweeps larger than this many episodes (default: {MAX_EPISODES:,})",
     )
     p.add_argument(
         "--max-points",
-        type=_bounded_int(1, 10**7),
+        type=bounded_int(1, 10**7),
         help=f"refuse sweeps with more (task, point) pairs (default: {MAX_POINTS:,})",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar (logs, CI)")
@@ -275,19 +221,19 @@ def _add_tune(sub: Subparsers) -> None:
     p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
     p.add_argument("--unit", action="append", help="--check: only this unit ('fr3 left cube')")
     p.add_argument("--episodes", type=EPISODES, help="seeds per setting (10; --check: 100)")
-    p.add_argument("--step", type=_bounded_int(1, 90), default=5, help="approach step (deg)")
-    p.add_argument("--bands", type=_bounded_int(0, 18), default=3, help="bands per cone")
+    p.add_argument("--step", type=bounded_int(1, 90), default=5, help="approach step (deg)")
+    p.add_argument("--bands", type=bounded_int(0, 18), default=3, help="bands per cone")
     p.add_argument(
         "--directions",
         choices=["all", "canonical"],
         help="all (default): a coarse pass over every Pick direction on both axes, then the "
         "fine grid about the best; canonical: only the fine grid about downward / forward",
     )
-    p.add_argument("--top", type=_bounded_int(1, 20), help="settings raced against the current (3)")
-    p.add_argument("--block", type=_bounded_int(1, 1000), help="fresh seeds per race look (20)")
+    p.add_argument("--top", type=bounded_int(1, 20), help="settings raced against the current (3)")
+    p.add_argument("--block", type=bounded_int(1, 1000), help="fresh seeds per race look (20)")
     p.add_argument(
         "--max-seeds",
-        type=_bounded_int(1, 100_000),
+        type=bounded_int(1, 100_000),
         help="fresh seeds per robot, arm and object at most (default: sized for 80%% power "
         "at a 5-point gain)",
     )
@@ -384,7 +330,7 @@ def _add_grasps(sub: Subparsers) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run directory (sweep, run or tune)")
     p.add_argument(
         "--min-trials",
-        type=_bounded_int(1, 1_000_000),
+        type=bounded_int(1, 1_000_000),
         default=3,
         help="trials a grasp needs before it can be flagged as never succeeding (default 3)",
     )
@@ -401,16 +347,16 @@ def _add_robots(sub: Subparsers) -> None:
     p.add_argument("name", metavar="NAME", help="a robot under robots/ (harness robots list)")
     p.add_argument("--render", metavar="FILE.png", help="render the robot at home to a PNG")
     p.add_argument(
-        "--distance", type=_positive, metavar="M",
+        "--distance", type=positive, metavar="M",
         help="with --render: camera distance from the look-at point (default 1.9, 2.1 for a "
         "robot standing on the floor)",
     )  # fmt: skip
     p.add_argument(
-        "--azimuth", type=_finite, default=-150.0, metavar="DEG",
+        "--azimuth", type=finite, default=-150.0, metavar="DEG",
         help="with --render: camera azimuth (default -150: front right of the robot)",
     )  # fmt: skip
     p.add_argument(
-        "--elevation", type=_finite, default=-20.0, metavar="DEG",
+        "--elevation", type=finite, default=-20.0, metavar="DEG",
         help="with --render: camera elevation (default -20)",
     )  # fmt: skip
     p.set_defaults(func=_handler("robots", "show"))
