@@ -335,7 +335,7 @@ def write_handover_file(examples: Path, folder: Path) -> Path:
 
 
 # A tug rung's outcome as the judge makes it (survived, slip in m, between the fingers):
-# survived only when still between the fingers (tests/test_tug_rounds.py, test_lane_tug.py).
+# survived only when still between the fingers (tests/test_validity.py).
 rung_outcomes = st.builds(
     lambda survived, slip, between: (survived and between, slip, between or survived),
     st.booleans(),

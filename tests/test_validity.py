@@ -9,12 +9,16 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from helpers import rung_outcomes
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from harness.config import TaskConfig, apply_overrides, load_task
 from harness.episode import EpisodeSpec, run_episode
 from harness.episode.scene_cache import get_scene
 from harness.pick.outcome import ValidityMeasure
 from harness.pick.penetration import TablePenetration
+from harness.pick.validity import TUG_DIRECTIONS, TUG_LEVELS_G, RungOutcome, tug_ladder
 from harness.pick.verdict import first_failure, validity_terms
 from harness.row import VALIDITY_REASONS, EpisodeRow
 
@@ -202,3 +206,48 @@ def test_row_schema_has_the_validity_columns() -> None:
         "valid", "invalid_reason", "robustness_g", "hold_slip_m", "hold_rotation_rad",
         "min_finger_force_n", "table_penetration_m",
     ]  # fmt: skip
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.fixed_dictionaries({(n, k): rung_outcomes for n, _ in TUG_DIRECTIONS for k in TUG_LEVELS_G})
+)
+def test_the_tug_ladder_walks_down_from_the_best_level_so_far(
+    pattern: dict[tuple[str, float], RungOutcome],
+) -> None:
+    """On any pattern of rung outcomes: each direction tries the levels from the best one the
+    earlier directions survived downwards and stops at the first it survives; the robustness is
+    the last direction's level, 0 once a direction survives none (and then no later direction
+    is asked); no rung is asked twice."""
+    asked: list[tuple[str, float]] = []
+
+    def rung(name: str, direction: tuple[float, float, float], k: float) -> RungOutcome:
+        asked.append((name, k))
+        return pattern[(name, k)]
+
+    robustness, _message = tug_ladder(rung)
+    assert len(asked) == len(set(asked))
+    best = TUG_LEVELS_G[-1]
+    expected: list[tuple[str, float]] = []
+    for name, _ in TUG_DIRECTIONS:
+        survived = 0.0
+        for k in sorted((level for level in TUG_LEVELS_G if level <= best), reverse=True):
+            expected.append((name, k))
+            if pattern[(name, k)][0]:
+                survived = k
+                break
+        best = survived
+        if best == 0.0:
+            break
+    assert asked == expected and robustness == best
+
+
+def test_a_grasp_that_holds_the_top_level_is_asked_six_rungs() -> None:
+    asked: list[str] = []
+
+    def holds(name: str, direction: tuple[float, float, float], k: float) -> RungOutcome:
+        asked.append(name)
+        return (True, 0.0, True)
+
+    assert tug_ladder(holds) == (TUG_LEVELS_G[-1], "")
+    assert asked == [name for name, _ in TUG_DIRECTIONS]

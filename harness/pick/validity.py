@@ -73,11 +73,10 @@ def tug_rung_steps(control_dt: float) -> int:
 def tug_ladder(
     rung: Callable[[str, tuple[float, float, float], float], RungOutcome],
 ) -> tuple[float, str]:
-    """The ladder's order and result, for any engine: each direction tries the levels from the
-    best one every earlier direction survived downwards, stops at the first it survives;
-    ``robustness_g`` is the last direction's level (0 once one direction survives none). A rung
-    starts from the held state, so its result does not depend on the order it is run in (the
-    batched engine runs all 24 at once and answers ``rung`` from them)."""
+    """The ladder's order and result: each direction tries the levels from the best one every
+    earlier direction survived downwards, stops at the first it survives; ``robustness_g`` is
+    the last direction's level (0 once one direction survives none). A rung starts from the
+    held state, so its result does not depend on the order it is run in."""
     best = TUG_LEVELS_G[-1]
     message = ""
     for name, direction in TUG_DIRECTIONS:

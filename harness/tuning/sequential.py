@@ -36,7 +36,7 @@ from scipy.special import ndtr
 GRID = 241  # points of the integration grid per look (odd: Simpson's rule)
 SPAN = 8.0  # the grid reaches SPAN standard deviations below the mean
 POWER = 0.8
-MAX_SEEDS = 20_000  # the largest race a plan proposes (chosen: ~1 GPU hour per contender)
+MAX_SEEDS = 20_000  # the largest race a plan proposes (chosen, no public source)
 MAX_LOOKS = 50  # a plan's looks at most; a longer plan looks every seeds / 50 (chosen: the levels
 # of 50 looks are within a few percent of continuous monitoring's; more looks only cost alpha)
 SQRT_2PI = math.sqrt(2.0 * math.pi)
