@@ -240,6 +240,15 @@ class TaskMapper(TaskResolver):
         origin: dict[KeyPath, KeyPath],
         done: list[dict[str, Any]],
     ) -> dict[str, Any] | None:
+        if not required and self.unfilled_articulation(obj):
+            self.note(
+                f"skipped object {obj.name!r}: an ArticulatedObject with path '' (the reference "
+                f"fills it at reset from a random asset of its art_cat folder "
+                f"{obj.config.get('art_cat')!r}, simbox_dual_workflow.py 88-101); it is not "
+                f"picked, so the scene goes without it (give --object {obj.name}=PATH to "
+                "include it)"
+            )
+            return None
         mesh, substitute_scale, exists = self.object_mesh(obj)
         path_key = (*obj.path, "path")
         if self.check_assets and not exists:
@@ -312,6 +321,17 @@ class TaskMapper(TaskResolver):
         else:
             self.note(f"{obj.name!r}: no table region; the arm's object region from robot.yaml")
         return config
+
+    def unfilled_articulation(self, obj: ObjectEntry) -> bool:
+        """An ``ArticulatedObject`` whose ``path`` the reference fills at reset (empty in the
+        file, no substitute): its workflow draws one of ``<asset_root>/<art_cat>/*`` each
+        episode (simbox_dual_workflow.py 88-101)."""
+        raw = obj.config.get("path")
+        return (
+            obj.config.get("target_class") == "ArticulatedObject"
+            and obj.name not in self.substitutes
+            and (raw is None or raw == "")
+        )
 
     def check_grasp_file(
         self, obj: ObjectEntry, mesh: Path, block: dict[str, Any], pick_path: KeyPath
