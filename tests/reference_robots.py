@@ -19,8 +19,9 @@ from harness.grasps import GripperConvention
 
 T = TypeVar("T")
 
-REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha")
-"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml) this harness reproduces."""
+REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha", "genie1")
+"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml, genie1.yaml) this harness
+reproduces."""
 
 
 def pinned(table: dict[str, T], robot: str) -> T:
@@ -58,6 +59,14 @@ REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
         gripper_min_width=0.0,
         gripper_max_width=0.10,
     ),
+    "genie1": GripperConvention(
+        R_ee_graspnet=np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),
+        ee_axis="z",
+        facing_axis="y",  # +g_z: no EE axis is -g_z in this convention
+        tcp_offset=0.217,
+        gripper_min_width=0.0,
+        gripper_max_width=0.1,
+    ),
 }
 
 # The reference's robot config file per robot (the ``robot_config_file`` basename).
@@ -65,10 +74,16 @@ INTERNDATA_CONFIG_FILES = {
     "fr3": "fr3.yaml",
     "lift2": "lift2.yaml",
     "split_aloha": "split_aloha.yaml",
+    "genie1": "genie1.yaml",
 }
 
 # Arms, and the reference EE link each arm's EE frame is named after (``<arm>_<link>``).
-ARM_NAMES = {"fr3": ["left"], "lift2": ["left", "right"], "split_aloha": ["left", "right"]}
+ARM_NAMES = {
+    "fr3": ["left"],
+    "lift2": ["left", "right"],
+    "split_aloha": ["left", "right"],
+    "genie1": ["left", "right"],
+}
 EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6"}
 
 # Arm bases in the robot's root frame as the reference has them (issue 22): x, y from its
@@ -85,18 +100,30 @@ REFERENCE_ARM_BASES = {
         "left": (0.163030156, 0.248420062, 0.7545),
         "right": (0.163030139, -0.248420087, 0.7545),
     },
+    # Genie1: both arms' base is arm_base_link; lmdb2lerobot_genie1_a1.py 389-393 (the
+    # "dataengine" pose at body_home 0.63): (0.310688674, -8.5e-08, 1.21495271).
+    "genie1": {
+        "left": (0.310688674, 0.0, 1.21495271),
+        "right": (0.310688674, 0.0, 1.21495271),
+    },
 }
 
 # Left minus right arm base y (m) of the two-armed robots: the converters' (above), as built.
-ARM_SPACING = {"lift2": 2 * 0.24842, "split_aloha": 2 * 0.306}
+ARM_SPACING = {"lift2": 2 * 0.24842, "split_aloha": 2 * 0.306, "genie1": 0.0}
+
+# The arm base frame's pitch about its y axis (rad) where the reference's is not level: Genie1's
+# arm_base_link (both arms' base), tilted by the waist's idx02_body_joint2 held at body_home 0.63
+# (robots_genie1.yaml; the reference's LeRobot converter lmdb2lerobot_genie1_a1.py 389-393 has
+# its rotation cos 0.808 = cos 0.63).
+ARM_BASE_PITCH = {"genie1": 0.63}
 
 # Jaw opening (m): the reference's gripper_max_width (Split ALOHA: its piper100; the SDK's
 # 0.07 is the sdk070 variant).
-OPEN_WIDTHS = {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10}
+OPEN_WIDTHS = {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10, "genie1": 0.1}
 
 # TCP frame past the EE frame (m): Franka's 0.1034 (the reference's tcp_offset 0.1043 is a digit
 # swap, kept in the convention), the Piper's 0.12, the R5a's 0.125.
-TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125}
+TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125, "genie1": 0.217}
 
 # Where the approach axis points at home, in the arm base frame: fr3 down, split_aloha forward
 # and 15 deg down, lift2 straight forward.
@@ -111,6 +138,7 @@ PLACEMENTS = {
     "fr3": ((-0.495, -0.445), (0.0, 0.05)),
     "lift2": ((-0.80, -0.80), (-0.775, -0.67)),
     "split_aloha": ((-0.86, -0.86), (-0.765, -0.715)),
+    "genie1": ((-0.85, -0.80), (-0.85, -0.73)),
 }
 
 # Link masses (kg) of the URDFs: FR3 inertials.yaml (+ Panda hand and fingers), Piper and R5a
@@ -152,6 +180,8 @@ FINGERTIP_M = {
     # split_aloha.yaml: link6 z 0.12). Menagerie's pads would reach 0.15657 and 0.13503.
     "lift2": 0.135,
     "split_aloha": 0.12,
+    # genie1.yaml tool_head: arm_<l|r>_end_link z 0.217.
+    "genie1": 0.217,
 }
 
 # The reference's cuRobo planner files per robot: the pre-grasp backs off along EE column 0
