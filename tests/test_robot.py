@@ -20,8 +20,8 @@ import yaml
 from helpers import AVAILABLE_ROBOTS_TEXT, ROBOTS, canonical_filters
 from reference_robots import (
     APPROACH_AT_HOME,
-    ARM_NAMES,
     ARM_BASE_PITCH,
+    ARM_NAMES,
     ARM_SPACING,
     EE_LINKS,
     INTERNDATA_CONFIG_FILES,
