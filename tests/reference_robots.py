@@ -31,6 +31,10 @@ def pinned(table: dict[str, T], robot: str) -> T:
     return table[robot]
 
 
+CANONICAL_EQUIVALENT_ROBOTS = ("fr3", "lift2", "split_aloha")
+"""The robots whose canonical single-pick filters keep the same grasps (docs/reference-pick-skill.md
+section 11); Genie1's three-axis filters in its pitched arm_base_link are another choice."""
+
 # The reference robot configs' grasp conventions (InternDataEngine fr3.yaml, lift2.yaml,
 # split_aloha.yaml; docs/reference-pick-skill.md section 3), written out here as the expected
 # values that robots/<name>/robot.yaml must reproduce.
@@ -199,6 +203,7 @@ EE_AXES_IN_GRASPNET = {
     "fr3": (("-z", "y", "x"), ("z", "-y", "x")),  # flip about z
     "lift2": (("x", "-y", "-z"), ("x", "y", "z")),  # flip about x
     "split_aloha": (("-y", "-z", "x"), ("y", "z", "x")),  # flip about z
+    "genie1": (("y", "z", "x"), ("-y", "-z", "x")),  # flip about z
 }
 
 # The fuzz test's arms whose canonical direction filter is downward 140 on EE z or that accept

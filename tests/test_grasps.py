@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from helpers import canonical_filters
 from pydantic import ValidationError
-from reference_robots import EE_AXES_IN_GRASPNET, REFERENCE_ROBOTS
+from reference_robots import CANONICAL_EQUIVALENT_ROBOTS, EE_AXES_IN_GRASPNET, REFERENCE_ROBOTS
 from scipy.spatial.transform import Rotation
 from scipy.stats import chisquare
 
@@ -290,7 +290,7 @@ def test_masks_are_anded_and_reported_individually() -> None:
 # Neutral filters
 
 
-@pytest.mark.parametrize("robot", ROBOTS)
+@pytest.mark.parametrize("robot", CANONICAL_EQUIVALENT_ROBOTS)
 def test_canonical_filters_translate_to_one_neutral_pair(robot: str) -> None:
     convention = REFERENCE_CONVENTIONS[robot]
     pick = PickConfig(**canonical_filters(robot))
@@ -596,7 +596,9 @@ def test_canonical_filters_select_identical_grasps_across_robots(
     rng = np.random.default_rng(2026)
     for folder in example_objects:
         grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
-        poses = {r: post_process(grasps, REFERENCE_CONVENTIONS[r]) for r in ROBOTS}
+        poses = {
+            r: post_process(grasps, REFERENCE_CONVENTIONS[r]) for r in CANONICAL_EQUIVALENT_ROBOTS
+        }
         for _ in range(25):
             T_base_obj = _random_base_object_pose(rng)
             seed = int(rng.integers(1 << 30))
@@ -609,11 +611,11 @@ def test_canonical_filters_select_identical_grasps_across_robots(
                     np.random.default_rng(seed),
                     rule_of(PickConfig(**canonical_filters(r))),
                 )
-                for r in ROBOTS
+                for r in CANONICAL_EQUIVALENT_ROBOTS
             }
             fr3 = selections["fr3"]
             assert fr3.filter_result.passed > 0, folder
-            for robot in ROBOTS[1:]:
+            for robot in CANONICAL_EQUIVALENT_ROBOTS[1:]:
                 other = selections[robot]
                 np.testing.assert_array_equal(
                     other.filter_result.combined, fr3.filter_result.combined, err_msg=robot
@@ -634,7 +636,7 @@ def test_neutral_filters_match_canonical_masks(example_objects: list[Path]) -> N
     grasps = load_grasp_file(example_objects[0] / "Aligned_grasp_sparse.npy")
     neutral = PickConfig(approach_filter=["downward", 140], facing_filter=["forward", 90])
     T_base_obj = make_T(yaw_matrix(1.1), [0.5, 0.1, 0.0])
-    for robot in ROBOTS:
+    for robot in CANONICAL_EQUIVALENT_ROBOTS:
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
         rng = np.random.default_rng(0)
@@ -656,7 +658,7 @@ def test_bottle_0_passes_430_of_6000_at_any_yaw(examples_dir: Path) -> None:
     assert len(grasps) == 3000
     rng = np.random.default_rng(0)
     yaws = np.concatenate([np.linspace(-np.pi, np.pi, 73), rng.uniform(-np.pi, np.pi, 50)])
-    for robot in ROBOTS:
+    for robot in CANONICAL_EQUIVALENT_ROBOTS:
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
         filters = PickConfig(**canonical_filters(robot)).axis_filters()

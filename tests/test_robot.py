@@ -23,6 +23,7 @@ from reference_robots import (
     ARM_BASE_PITCH,
     ARM_NAMES,
     ARM_SPACING,
+    CANONICAL_EQUIVALENT_ROBOTS,
     EE_LINKS,
     INTERNDATA_CONFIG_FILES,
     LINK_MASSES,
@@ -264,7 +265,7 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
     """Reference section 11: with robot.yaml's conventions, FR3 x-forward-90 + z-downward-140,
     Lift-2 x-downward-140 + z-forward-90 and Split ALOHA y-forward-90 + z-downward-140 keep
     the same poses for the same object pose in each arm's base frame."""
-    canonical = {name: canonical_filters(name) for name in REFERENCE_ROBOTS}
+    canonical = {name: canonical_filters(name) for name in CANONICAL_EQUIVALENT_ROBOTS}
     rng = np.random.default_rng(11)
     for folder in example_objects[:4]:
         grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
@@ -279,7 +280,7 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
                 specs = {k: AxisFilter(direction=d, angles=(a,)) for k, (d, a) in filters.items()}
                 masks[name] = filter_ee_poses(poses, T_base_obj, specs).combined
             assert masks["fr3"].any()
-            for name in REFERENCE_ROBOTS:
+            for name in CANONICAL_EQUIVALENT_ROBOTS:
                 np.testing.assert_array_equal(masks["fr3"], masks[name], err_msg=name)
 
 

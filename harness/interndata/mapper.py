@@ -97,6 +97,8 @@ class TaskMapper(TaskResolver):
         target = str(wanted[0]) if isinstance(wanted, list) and wanted else None
         object_configs: list[dict[str, Any]] = []
         for obj in objects.values():
+            if obj.name not in required and self.unfilled_articulation(obj):
+                continue
             config = self.object_config(obj, obj.name in required, regions, origin, object_configs)
             if config is not None and obj.name == target and self.check_grasps:
                 self.check_grasp_file(obj, Path(config["mesh"]), block, pick.path)
@@ -240,15 +242,6 @@ class TaskMapper(TaskResolver):
         origin: dict[KeyPath, KeyPath],
         done: list[dict[str, Any]],
     ) -> dict[str, Any] | None:
-        if not required and self.unfilled_articulation(obj):
-            self.note(
-                f"skipped object {obj.name!r}: an ArticulatedObject with path '' (the reference "
-                f"fills it at reset from a random asset of its art_cat folder "
-                f"{obj.config.get('art_cat')!r}, simbox_dual_workflow.py 88-101); it is not "
-                f"picked, so the scene goes without it (give --object {obj.name}=PATH to "
-                "include it)"
-            )
-            return None
         mesh, substitute_scale, exists = self.object_mesh(obj)
         path_key = (*obj.path, "path")
         if self.check_assets and not exists:
@@ -324,14 +317,23 @@ class TaskMapper(TaskResolver):
 
     def unfilled_articulation(self, obj: ObjectEntry) -> bool:
         """An ``ArticulatedObject`` whose ``path`` the reference fills at reset (empty in the
-        file, no substitute): its workflow draws one of ``<asset_root>/<art_cat>/*`` each
-        episode (simbox_dual_workflow.py 88-101)."""
+        file, no substitute; noted): its workflow draws one of ``<asset_root>/<art_cat>/*``
+        each episode (simbox_dual_workflow.py 88-101)."""
         raw = obj.config.get("path")
-        return (
+        unfilled = (
             obj.config.get("target_class") == "ArticulatedObject"
             and obj.name not in self.substitutes
             and (raw is None or raw == "")
         )
+        if unfilled:
+            self.note(
+                f"skipped object {obj.name!r}: an ArticulatedObject with path '' (the reference "
+                f"fills it at reset from a random asset of its art_cat folder "
+                f"{obj.config.get('art_cat')!r}, simbox_dual_workflow.py 88-101); it is not "
+                f"picked, so the scene goes without it (give --object {obj.name}=PATH to "
+                "include it)"
+            )
+        return unfilled
 
     def check_grasp_file(
         self, obj: ObjectEntry, mesh: Path, block: dict[str, Any], pick_path: KeyPath
