@@ -207,11 +207,16 @@ class TaskMapper(TaskResolver):
     def pick_block(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
         """The pick's block, with the robot's ``ignore_substring`` as
         ``robot_ignore_substring``: it replaces the controllers' default planning-world ignore
-        list (template_controller.py __init__), the pick's own list adds to it."""
+        list (template_controller.py __init__), the pick's own list adds to it; and the robot's
+        ``use_batch`` (template_controller.py, pick.py 101-113: batch feasibility)."""
         robot = pick.robot
         block = dict(pick.block)
         if "objects" not in block:
             raise self.error((*pick.path, "objects"), "a pick needs objects (the first is picked)")
+        use_batch = robot.config.get("use_batch")
+        if use_batch is not None:
+            block["use_batch"] = use_batch
+            origin[("pick", "use_batch")] = (*robot.path, "use_batch")
         robot_ignore = robot.config.get("ignore_substring")
         if robot_ignore is not None:
             block["robot_ignore_substring"] = robot_ignore
