@@ -19,9 +19,9 @@ from harness.grasps import GripperConvention
 
 T = TypeVar("T")
 
-REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha", "genie1")
-"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml, genie1.yaml) this harness
-reproduces."""
+REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha", "genie1", "franka_robotiq85")
+"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml, genie1.yaml,
+franka_robotiq85.yaml) this harness reproduces."""
 
 
 def pinned(table: dict[str, T], robot: str) -> T:
@@ -71,6 +71,14 @@ REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
         gripper_min_width=0.0,
         gripper_max_width=0.1,
     ),
+    "franka_robotiq85": GripperConvention(
+        R_ee_graspnet=np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+        ee_axis="z",
+        facing_axis="x",
+        tcp_offset=0.165,
+        gripper_min_width=0.0,
+        gripper_max_width=0.085,
+    ),
 }
 
 # The reference's robot config file per robot (the ``robot_config_file`` basename).
@@ -79,6 +87,7 @@ INTERNDATA_CONFIG_FILES = {
     "lift2": "lift2.yaml",
     "split_aloha": "split_aloha.yaml",
     "genie1": "genie1.yaml",
+    "franka_robotiq85": "franka_robotiq85.yaml",
 }
 
 # Arms, and the reference EE link each arm's EE frame is named after (``<arm>_<link>``).
@@ -87,8 +96,9 @@ ARM_NAMES = {
     "lift2": ["left", "right"],
     "split_aloha": ["left", "right"],
     "genie1": ["left", "right"],
+    "franka_robotiq85": ["left"],
 }
-EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6"}
+EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6", "franka_robotiq85": "link8"}
 
 # Arm bases in the robot's root frame as the reference has them (issue 22): x, y from its
 # LeRobot converters (policy/lmdb2lerobotv21/lmdb2lerobot_{split_aloha,lift2}_a1.py lines
@@ -123,11 +133,23 @@ ARM_BASE_PITCH = {"genie1": 0.63}
 
 # Jaw opening (m): the reference's gripper_max_width (Split ALOHA: its piper100; the SDK's
 # 0.07 is the sdk070 variant).
-OPEN_WIDTHS = {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10, "genie1": 0.1}
+OPEN_WIDTHS = {
+    "fr3": 0.08,
+    "lift2": 0.088,
+    "split_aloha": 0.10,
+    "genie1": 0.1,
+    "franka_robotiq85": 0.085,
+}
 
 # TCP frame past the EE frame (m): Franka's 0.1034 (the reference's tcp_offset 0.1043 is a digit
 # swap, kept in the convention), the Piper's 0.12, the R5a's 0.125.
-TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125, "genie1": 0.217}
+TCP_FRAME_OFFSET = {
+    "fr3": 0.1034,
+    "split_aloha": 0.12,
+    "lift2": 0.125,
+    "genie1": 0.217,
+    "franka_robotiq85": 0.165,
+}
 
 # Where the approach axis points at home, in the arm base frame: fr3 down, split_aloha forward
 # and 15 deg down, lift2 straight forward.
@@ -143,6 +165,7 @@ PLACEMENTS = {
     "lift2": ((-0.80, -0.80), (-0.775, -0.67)),
     "split_aloha": ((-0.86, -0.86), (-0.765, -0.715)),
     "genie1": ((-0.85, -0.80), (-0.85, -0.73)),
+    "franka_robotiq85": ((-0.50, -0.50), (-0.1, 0.1)),
 }
 
 # Link masses (kg) of the URDFs: FR3 inertials.yaml (+ Panda hand and fingers), Piper and R5a
@@ -204,6 +227,7 @@ EE_AXES_IN_GRASPNET = {
     "lift2": (("x", "-y", "-z"), ("x", "y", "z")),  # flip about x
     "split_aloha": (("-y", "-z", "x"), ("y", "z", "x")),  # flip about z
     "genie1": (("y", "z", "x"), ("-y", "-z", "x")),  # flip about z
+    "franka_robotiq85": (("-z", "y", "x"), ("z", "-y", "x")),  # flip about z
 }
 
 # The fuzz test's arms whose canonical direction filter is downward 140 on EE z or that accept

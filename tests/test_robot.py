@@ -50,7 +50,7 @@ from harness.robots.facts import (
     robot_arms,
 )
 from harness.robots.generator.collisions import candidate_pairs
-from harness.robots.generator.generate import build_robot, generated_robots
+from harness.robots.generator.generate import build_module, build_robot, generated_robots
 from harness.robots.generator.urdf_text import urdf_text
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses, set_configuration
 from harness.robots.spec import (
@@ -528,3 +528,22 @@ def test_grip_forces_are_the_derived_ones() -> None:
     r5a = RobotModel.load("lift2").arms["left"].gripper
     assert r5a.force_limit == pytest.approx(ideal_r5a, abs=0.05)
     assert RobotModel.load("fr3").arms["left"].gripper.force_limit == 70.0  # Franka Hand datasheet
+
+
+def test_robotiq_extra_depth_is_derived_from_the_menagerie_linkage() -> None:
+    """franka_robotiq85's extra-depth table (the reference's tcp2base_offset.json, not public)
+    is tcp_offset minus the pad centre of Menagerie's 2F-85 four-bar linkage at each jaw, and
+    the linkage spans the datasheet's 85 mm stroke with the pads rising 28 mm as it closes."""
+    build = build_module("franka_robotiq85")
+    convention = RobotModel.load("franka_robotiq85").convention
+    table = build.extra_depth_table(convention.extra_depth_widths)
+    np.testing.assert_allclose(table, convention.extra_depth_offsets, atol=1e-5)
+    open_centre, open_width = build.pad_centre_and_width(0.0)
+    closed_centre, closed_width = build.pad_centre_and_width(0.8)
+    assert open_width == pytest.approx(0.0854, abs=2e-4) and abs(closed_width) < 0.002
+    assert closed_centre - open_centre == pytest.approx(0.028, abs=5e-4)
+    # The prismatic pads sit at the linkage's depth at a 40 mm jaw.
+    wrapper = _placo(RobotModel.load("franka_robotiq85"))
+    pad = wrapper.get_T_a_b("left_link8", "left_right_inner_finger_pad")
+    assert build.pad_centre_at(0.04) == pytest.approx(0.1622, abs=1e-4)
+    assert pad[2, 3] < build.pad_centre_at(0.04)  # the finger root is below the pad centre
