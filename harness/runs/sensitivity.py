@@ -50,9 +50,6 @@ TASK_DEFAULTS: tuple[TaskDefault, ...] = (
     TaskDefault(
         "pick.max_slip_rotation", "harness/config/pick.py max_slip_rotation", 0.1, (0.05, 0.2)
     ),
-    TaskDefault("physics.noslip_iterations", "harness/config/task.py PhysicsConfig", 10, (5, 20)),
-    TaskDefault("object.mass", "tasks/objects/cube (0.05 kg)", 0.05, (0.025, 0.1)),
-    TaskDefault("object.friction", "harness/config/task.py ObjectConfig", 1.0, (0.5, 2.0)),
     # 0 N: any force of the opened first gripper is a support; 0.5x / 2x of 0 are 0, so the
     # plausible range is a residual touch of 0.5 N and 2 N.
     TaskDefault(
@@ -62,6 +59,9 @@ TASK_DEFAULTS: tuple[TaskDefault, ...] = (
         (0.5, 2.0),
         handover=True,
     ),
+    TaskDefault("physics.noslip_iterations", "harness/config/task.py PhysicsConfig", 10, (5, 20)),
+    TaskDefault("object.mass", "tasks/objects/cube (0.05 kg)", 0.05, (0.025, 0.1)),
+    TaskDefault("object.friction", "harness/config/task.py ObjectConfig", 1.0, (0.5, 2.0)),
 )
 
 
@@ -204,8 +204,15 @@ def plan(
                         "-bottle",
                     )
                 )
-    # The bottle first (issue 55's slip), then the robots' values, then the task defaults.
-    values.sort(key=lambda v: (v.suffix != "-bottle", v.robot == ""))
+    # The bottle first (issue 55's slip), then the robots' values, then the task defaults
+    # (the validity's bounds before the physics defaults), so a plan cut short by its budget
+    # has measured the values the results lean on most.
+    order = [d.key for d in TASK_DEFAULTS]
+
+    def rank(v: ChosenValue) -> tuple[bool, bool, int]:
+        return v.suffix != "-bottle", v.robot == "", order.index(v.key) if not v.robot else 0
+
+    values.sort(key=rank)
     return values, uncovered
 
 
