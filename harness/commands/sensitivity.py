@@ -53,8 +53,9 @@ def main(args: argparse.Namespace) -> int:
     for sweep in sweeps:
         path = out / f"{sweep['name']}.yaml"
         run_dir = out / sweep["name"]
-        write_file(path, yaml.safe_dump(sweep, sort_keys=False))
         resume = run_dir if (run_dir / "sweep.yaml").is_file() else None
+        if resume is None:  # a resumed run keeps its own sweep (its size too)
+            write_file(path, yaml.safe_dump(sweep, sort_keys=False))
         console.print(f"sweep {sweep['name']} ({'resuming' if resume else 'new'})")
         outcome = run_sweep(
             None if resume else path,

@@ -9,7 +9,8 @@ Answers (on the valid verdict, 95% Wilson intervals):
   its interval at the default: the rate reported at the default is a statement about it;
 - ``stable`` otherwise.
 
-Pure pandas over the runs' rows (``episodes.csv`` of each value's sweep and of its baseline).
+Pure pandas over the runs' rows (``episodes.csv`` of each value's sweep and of its baseline,
+the baseline on the value's seeds: the three columns are paired, same seeds).
 """
 
 from __future__ import annotations
@@ -71,6 +72,9 @@ def value_rows(
     """The table rows of one chosen value: one per (robot, arm, object)."""
     column = f"param.{key}"
     levels = [values[0], default, values[1]]
+    # Paired: the baseline on the seeds the value ran (a baseline may have run more of them).
+    if "seed" in baseline and "seed" in swept:
+        baseline = baseline[baseline["seed"].isin(set(swept["seed"]))]
     frames = []
     for index, level in enumerate(levels):
         if index == 1:
