@@ -174,6 +174,39 @@ def _add_report(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("report", "main"))
 
 
+def _add_sensitivity(sub: Subparsers) -> None:
+    """``harness sensitivity [--out DIR] [--episodes N] ...``"""
+    p = sub.add_parser(
+        "sensitivity",
+        help="move every chosen value to 0.5x and 2x on its robot's canonical tasks",
+        description="One sweep per value robot.yaml or a task default marks chosen (no public "
+        "source): the value at 0.5x and 2x (or its plausible range) x two approach cones on its "
+        "robot's canonical tasks, plus a baseline at every default; then one table of how each "
+        "arm's valid rate and best setting move (docs/results.md). Rerunning resumes.",
+    )
+    p.add_argument("--out", metavar="DIR", default="reports/sensitivity", help="run folder")
+    p.add_argument("--episodes", type=WORKERS, default=20, help="seeds per point (default 20)")
+    p.add_argument("--seed", type=SEED, default=5500, help="sweep seed of every sweep")
+    p.add_argument("--workers", type=WORKERS, default=2, help="worker processes (default 2)")
+    p.add_argument("--robots", nargs="+", metavar="ROBOT", help="only these robots")
+    p.add_argument("--only", nargs="+", metavar="KEY", help="only values swept by these keys")
+    p.add_argument(
+        "--examples", metavar="DIR",
+        help="InternData example folder (default ../shared/datasets/interndata-examples): the "
+        "Split ALOHA grip values also run on its bottle_1",
+    )  # fmt: skip
+    p.add_argument(
+        "--handover", metavar="FILE",
+        help="a handover InternData file: runs the release rule pick.max_first_gripper_force",
+    )  # fmt: skip
+    p.add_argument(
+        "--handover-object", action="append", metavar="NAME=PATH",
+        help="substitute an object of the handover file (as harness run --object)",
+    )  # fmt: skip
+    p.add_argument("--plan", action="store_true", help="list the sweeps and sizes; run nothing")
+    p.set_defaults(func=_handler("sensitivity", "main"))
+
+
 def _add_videos(p: argparse.ArgumentParser, default: bool) -> None:
     p.add_argument(
         "--videos",
@@ -402,6 +435,7 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_report,
     _add_compare,
     _add_tune,
+    _add_sensitivity,
     _add_view,
     _add_replay,
     _add_grasps,

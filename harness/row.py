@@ -284,6 +284,15 @@ class EpisodeRow:
         default=math.nan,
         metadata=_doc("an unreachable target's best IK position residual (mm); NaN otherwise"),
     )
+    reach_limit: str = field(
+        default="",
+        metadata=_doc(
+            "what limits a plan failure's reach, from the best IK attempt's final state: "
+            "joint_limit, lift_height (reached with the held lift free), collision, "
+            "beyond_reach (the arm stretched towards a target farther than it got), "
+            "unconverged; '' if not a reach or collision failure (harness.planning.reach)"
+        ),
+    )
     # A handover's second pick (harness.episode.handover); NaN for every other pick
     goto_error_mm: float = field(
         default=math.nan,

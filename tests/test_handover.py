@@ -108,6 +108,8 @@ def test_a_valid_grasp_the_open_first_gripper_still_touches_is_no_handover() -> 
     touched = judged_validity(pick, held)
     assert not touched.valid and touched.invalid_reason == "first_gripper_contact"
     assert "1.50 N" in touched.message
+    # The rule's bound is the sweepable pick.max_first_gripper_force (chosen, 0 N).
+    assert judged_validity(PickConfig(lift_th=0.02, max_first_gripper_force=2.0), held).valid
     held.hold_slip_m = 0.05  # an earlier cause wins
     assert judged_validity(pick, held).invalid_reason == "slipped_in_hold"
 

@@ -63,6 +63,7 @@ def test_an_unreachable_lift_names_its_limiting_joint_and_residual() -> None:
     assert row["failure_reason"] == "plan_failed"
     assert row["failure_stage"] == "plan:lift"
     assert row["limit_joint"] == "left_joint5:upper"  # the Piper's J5 at +70 deg
+    assert row["reach_limit"] == "joint_limit"
     assert 5.0 < row["ik_residual_mm"] < 50.0
     assert "6 plans x 10 IK seeds" in row["error_message"]
     assert np.isfinite(row["ik_residual_mm"])

@@ -131,6 +131,6 @@ def apply_overrides(task: TaskConfig, overrides: dict[str, Any]) -> TaskConfig:
         return TaskConfig.model_validate(data)
     except ValidationError as exc:
         error = error_from_validation(exc, TaskConfig, None).with_file(task.source)
-        if error.key and error.key.startswith("gripper"):  # the file and axis spelling
+        if error.key and error.key.startswith(("gripper", "timing")):  # file and axis spelling
             error = ConfigError(error.message, file=error.file, key=f"robot.{error.key}")
         raise error from None

@@ -151,6 +151,14 @@ class PickConfig(StrictModel):
         description="validity and strict: object drift relative to the TCP allowed from the "
         "closing to the end of the hold (m).",
     )
+    max_first_gripper_force: FiniteFloat = Field(
+        default=0.0,
+        json_schema_extra=HARNESS_ONLY,
+        ge=0.0,
+        description="validity, a handover's second pick: the force the opened first gripper "
+        "may still exert on the object after the release (N; chosen, no public source: any "
+        "force is a support, not a handover).",
+    )
     max_slip_rotation: FiniteFloat = Field(
         default=0.1,
         json_schema_extra=NOT_IN_REFERENCE,

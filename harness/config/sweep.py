@@ -9,7 +9,7 @@ from pydantic import Field, field_validator, model_validator
 from harness.config.errors import KeyedValueError
 from harness.config.messages import suggest
 from harness.config.pick import PickConfig
-from harness.config.task import GripperChoice, ObjectConfig, TaskConfig
+from harness.config.task import GripperChoice, ObjectConfig, TaskConfig, TimingChoice
 from harness.config.values import FiniteFloat, StrictModel
 
 
@@ -34,7 +34,7 @@ class RandomAxis(StrictModel):
 
 
 TASK_KEYS = frozenset(TaskConfig.model_fields)
-ROBOT_KEYS = ("name", "gripper")
+ROBOT_KEYS = ("name", "gripper", "timing")
 
 
 def canonical_key(key: str, target_index: int = 0) -> str:
@@ -100,13 +100,15 @@ def check_dotted_key(key: str) -> str:
             (key,),
             f"axis key {key!r}: unknown robot key {parts[1]!r}{suggest(parts[1], ROBOT_KEYS)}",
         )
-    if (head == "robot" and len(parts) > 2) or (head == "gripper" and len(parts) > 1):
+    if (head == "robot" and len(parts) > 2) or (head in ("gripper", "timing") and len(parts) > 1):
+        section = parts[1] if head == "robot" else head
         field = parts[2] if head == "robot" else parts[1]
-        if field not in GripperChoice.model_fields:
+        model = TimingChoice if section == "timing" else GripperChoice
+        if field not in model.model_fields:
             raise KeyedValueError(
                 (key,),
-                f"axis key {key!r}: unknown gripper key {field!r}"
-                f"{suggest(field, GripperChoice.model_fields)}",
+                f"axis key {key!r}: unknown {section} key {field!r}"
+                f"{suggest(field, model.model_fields)}",
             )
     if head == "pick" and len(parts) > 1 and parts[1] not in PickConfig.model_fields:
         raise KeyedValueError(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -151,6 +152,9 @@ class EpisodeLimits(StrictModel):
     sim_steps: int = Field(default=2_000_000, ge=1, le=10**10)
 
 
+GRIP_KEYS = ("force_limit", "pad_friction", "pad_torsion", "kp", "kv", "armature", "speed", "grasp")
+
+
 class GripperChoice(StrictModel):
     """The task's gripper (``robot: {name: ..., gripper: {...}}``): a robot.yaml variant and
     overrides of its grip physics, each None = the robot.yaml value."""
@@ -161,17 +165,41 @@ class GripperChoice(StrictModel):
     pad_torsion: FiniteFloat | None = Field(default=None, ge=0.0, le=1.0)
     kp: FiniteFloat | None = Field(default=None, gt=0.0, le=1e6)
     kv: FiniteFloat | None = Field(default=None, ge=0.0, le=1e5)
+    armature: FiniteFloat | None = Field(
+        default=None, ge=0.0, le=100.0, description="Finger joint armature (kg)."
+    )
+    speed: FiniteFloat | None = Field(
+        default=None, gt=0.0, le=10.0, description="Finger speed that times open / close (m/s)."
+    )
     grasp: Literal["force", "position"] | None = Field(
         default=None, description="force-controlled or position-controlled closing."
     )
 
     def overrides(self) -> dict[str, float | str]:
         """The grip physics values this task sets (robot.yaml keys)."""
-        return {
-            key: value
-            for key in ("force_limit", "pad_friction", "pad_torsion", "kp", "kv", "grasp")
-            if (value := getattr(self, key)) is not None
-        }
+        return {key: value for key in GRIP_KEYS if (value := getattr(self, key)) is not None}
+
+
+class TimingChoice(StrictModel):
+    """The task's scaling of the robot's chosen timing limits (``robot: {name, timing: {...}}``):
+    each a factor on robot.yaml's values, None = 1 (issue 55: the acceleration and jerk limits
+    without a public source are swept through these). ``acceleration_scale`` /
+    ``jerk_scale`` scale every arm joint's, ``lift_acceleration_scale`` /
+    ``lift_jerk_scale`` the lift's."""
+
+    acceleration_scale: FiniteFloat | None = Field(default=None, gt=0.0, le=100.0)
+    jerk_scale: FiniteFloat | None = Field(default=None, gt=0.0, le=100.0)
+    lift_acceleration_scale: FiniteFloat | None = Field(default=None, gt=0.0, le=100.0)
+    lift_jerk_scale: FiniteFloat | None = Field(default=None, gt=0.0, le=100.0)
+
+    def factors(self, joints: Sequence[str], lift_joint: str | None) -> tuple[Any, Any]:
+        """Per joint of ``joints``: the (acceleration, jerk) factors."""
+        import numpy as np
+
+        arm_a, arm_j = self.acceleration_scale or 1.0, self.jerk_scale or 1.0
+        lift_a, lift_j = self.lift_acceleration_scale or 1.0, self.lift_jerk_scale or 1.0
+        is_lift = np.array([name == lift_joint for name in joints])
+        return np.where(is_lift, lift_a, arm_a), np.where(is_lift, lift_j, arm_j)
 
 
 def _split_robot_mapping(data: Any) -> Any:
@@ -180,9 +208,9 @@ def _split_robot_mapping(data: Any) -> Any:
         return data
     robot, data = dict(data["robot"]), dict(data)
     for key in robot:
-        if key not in ("name", "gripper"):
+        if key not in ("name", "gripper", "timing"):
             raise KeyedValueError(
-                ("robot", key), f"unknown key{suggest(str(key), ['name', 'gripper'])}"
+                ("robot", key), f"unknown key{suggest(str(key), ['name', 'gripper', 'timing'])}"
             )
     if "name" not in robot:
         raise KeyedValueError("robot", "a robot mapping needs name (robots/<name> or a robot.yaml)")
@@ -196,6 +224,15 @@ def _split_robot_mapping(data: Any) -> Any:
             err = exc.errors()[0]
             loc = tuple(p for p in err["loc"] if isinstance(p, (str, int)))
             raise KeyedValueError(("robot", "gripper", *loc), err["msg"]) from None
+    if "timing" in robot:
+        if data.get("timing") is not None:
+            raise KeyedValueError(("robot", "timing"), "timing is given twice")
+        try:
+            data["timing"] = TimingChoice.model_validate(robot["timing"] or {})
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            loc = tuple(p for p in err["loc"] if isinstance(p, (str, int)))
+            raise KeyedValueError(("robot", "timing", *loc), err["msg"]) from None
     return data
 
 
@@ -207,6 +244,11 @@ class TaskConfig(StrictModel):
     gripper: GripperChoice = Field(
         default_factory=GripperChoice,
         description="Gripper variant and grip physics; in a file: robot: {name, gripper}.",
+    )
+    timing: TimingChoice = Field(
+        default_factory=TimingChoice,
+        description="Factors on the robot's chosen acceleration / jerk limits; in a file: "
+        "robot: {name, timing}.",
     )
     arm: Literal["left", "right"] = "left"
     robot_placement: Placement | None = Field(

@@ -253,9 +253,10 @@ def _play_goto(
     handles = scene.arms[arm]
     names = handles.active_names
     robot = scene.robot
+    acceleration, jerk = task.timing.factors(names, robot.lift_joint)  # the chosen limits' keys
     limits = TimingLimits(
-        robot.velocity_limits(names), robot.acceleration_limits(names),
-        robot.jerk_limits(names), prelude.pick.speed_scale,
+        robot.velocity_limits(names), robot.acceleration_limits(names) * acceleration,
+        robot.jerk_limits(names) * jerk, prelude.pick.speed_scale,
     )  # fmt: skip
     try:
         trajectory = plan_timing(

@@ -8,7 +8,8 @@ The ``*_failure`` functions give ``failure_stage`` and the colliding pair (``col
 ``collision_b``, body names, '' when the failure was no collision) for the stage the episode
 stopped at, so failures group without parsing ``error_message``; for a target out of reach
 also the best IK attempt's position residual and the joint at a limit there (``limit_joint``,
-``ik_residual_mm``), so a reach failure says which joint limits it. Stages:
+``ik_residual_mm``) and what limits the reach (``reach_limit``: joint_limit, lift_height,
+collision, beyond_reach, unconverged; ``harness.planning.reach``). Stages:
 
 - ``settle`` / ``warmup``: the physics went unstable before the motion;
 - ``filter``: no candidate passed the direction filters;
@@ -46,9 +47,10 @@ def _columns(
     stage: str, pair: tuple[str, str] | None, point: FailurePoint | None = None
 ) -> FailureLocationColumns:
     a, b = pair if pair is not None else ("", "")
+    reach = point.reach_limit if point is not None else ""
     if point is None or point.residual_m is None:
-        return FailureLocationColumns(stage, a, b)
-    return FailureLocationColumns(stage, a, b, point.limit_joint, point.residual_m * 1e3)
+        return FailureLocationColumns(stage, a, b, reach_limit=reach)
+    return FailureLocationColumns(stage, a, b, point.limit_joint, point.residual_m * 1e3, reach)
 
 
 def stage_failure(stage: str) -> FailureLocationColumns:

@@ -120,6 +120,7 @@ class FailureLocationColumns:
     collision_b: str
     limit_joint: str = ""
     ik_residual_mm: float | None = None
+    reach_limit: str = ""
 
 
 @dataclass(frozen=True)

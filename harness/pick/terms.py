@@ -48,9 +48,6 @@ ROBUSTNESS_LEVELS_G: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
 # The validity cause of an episode that ended before its verdict (no candidate, no plan,
 # timeout, instability, error, a strict stop): the phase did not run.
 NOT_RUN = "not_run"
-# Validity, a handover's second pick: the opened first gripper's force on the object after the
-# release (N; harness.pick.release; chosen, no public source: any force is a support).
-MAX_FIRST_GRIPPER_FORCE = 0.0
 
 
 @dataclass(frozen=True)
@@ -215,10 +212,10 @@ TERMS: tuple[TermCfg, ...] = (
         # A handover's second pick (harness.pick.release; chosen, no public source): the
         # opened first gripper must not still press on the object. NaN (no handover) passes.
         "first_gripper_contact", "dropped", "first_gripper_force_n (after the release)",
-        ("first_gripper_force_n",), "MAX_FIRST_GRIPPER_FORCE", ("validity",),
+        ("first_gripper_force_n",), "max_first_gripper_force", ("validity",),
         (TermCheck(
             "validity",
-            lambda pick, v: not v.first_gripper_force_n > MAX_FIRST_GRIPPER_FORCE,
+            lambda pick, v: not v.first_gripper_force_n > pick.max_first_gripper_force,
             lambda pick, v: f"the opened first gripper still presses on the object "
             f"({v.first_gripper_force_n:.2f} N) after the release: no handover",
         ),),

@@ -7,6 +7,8 @@ TOP-RA for the dense Cartesian segments near the object.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from harness.config import TaskConfig
@@ -17,6 +19,7 @@ from harness.planning.timing import (
     plan_timing,
     time_parameterize_toppra,
 )
+from harness.robots import RobotModel
 from harness.sim import Scene
 
 TOPPRA_GRIDPOINTS = 30
@@ -27,19 +30,26 @@ TOPPRA_GRIDPOINTS = 30
 CARTESIAN_SPEED_SCALE = 0.5
 
 
+def task_timing_limits(robot: RobotModel, names: Sequence[str], task: TaskConfig) -> TimingLimits:
+    """The timing limits of ``names`` for ``task``: robot.yaml's velocity, acceleration and
+    jerk limits, the acceleration and jerk times the task's ``timing`` factors (the sweep keys
+    of the chosen values, issue 55), at the task's ``speed_scale``."""
+    acceleration, jerk = task.timing.factors(names, robot.lift_joint)
+    return TimingLimits(
+        robot.velocity_limits(names),
+        robot.acceleration_limits(names) * acceleration,
+        robot.jerk_limits(names) * jerk,
+        task.pick.speed_scale,
+    )
+
+
 def time_plan(plan: ChainPlan, scene: Scene, arm: str, task: TaskConfig) -> dict[str, Trajectory]:
     """Timed segments of a chain plan. ``pick.timing`` times the joint-space transport; the
     Cartesian approach, lift and retreat always use TOPP-RA through their dense IK waypoints
     (offline Ruckig would stop at every waypoint), at ``speed_scale`` capped at
     ``CARTESIAN_SPEED_SCALE``."""
-    robot = scene.robot
     names = scene.arms[arm].active_names
-    limits = TimingLimits(
-        robot.velocity_limits(names),
-        robot.acceleration_limits(names),
-        robot.jerk_limits(names),
-        task.pick.speed_scale,
-    )
+    limits = task_timing_limits(scene.robot, names, task)
     segments: dict[str, Trajectory] = {
         "transport": plan_timing(
             plan.transport, limits, task.pick.timing, names, "transport", TOPPRA_GRIDPOINTS

@@ -34,6 +34,7 @@ from harness.planning.collision import CollisionChecker, Phase
 from harness.planning.ik import IKResult, IKSettings, WholeBodyIK
 from harness.planning.paths import PoseLine, rrt_connect, shortcut
 from harness.planning.plans import CandidateVerdict, ChainPlan, FailurePoint
+from harness.planning.reach import classify_reach
 from harness.planning.world import PlanningWorld
 from harness.sim.scene import Scene
 
@@ -85,6 +86,9 @@ class PickPlanner:
         self.checker = CollisionChecker(scene, arm, self.settings.penetration_tolerance)
         self.lower = ik.lower
         self.upper = ik.upper
+        # The arm's shoulder: the link its second joint moves (harness.planning.reach).
+        arm_joints = scene.robot.arm(arm).joints
+        self.shoulder_frame = scene.robot.urdf.joints[arm_joints[1]].child
         # The configuration (and colliding pair) of the last failed check, for the verdict.
         self.last_failure: FailurePoint | None = None
 
@@ -94,21 +98,39 @@ class PickPlanner:
         """Remember ``q`` (and its first colliding pair) as the last failure; the pairs
         described as in the failure messages."""
         names = self.checker.pair_names(pairs[0]) if pairs else None
-        self.last_failure = FailurePoint(np.array(q, dtype=float), names)
+        reach = "collision" if pairs else ""
+        self.last_failure = FailurePoint(np.array(q, dtype=float), names, reach_limit=reach)
         return self.checker.describe(pairs) if pairs else ""
 
-    def _note_unreachable(self, result: IKResult) -> str:
-        """Remember the best IK attempt at an unreachable target with its residual and the
-        joint at a limit there; returns that joint ('' when none is at a limit)."""
+    def _note_unreachable(self, result: IKResult, T_world_target: np.ndarray) -> str:
+        """Remember the best IK attempt at an unreachable target with its residual, the joint
+        at a limit there and what limits the reach (``harness.planning.reach``); returns that
+        joint ('' when none is at a limit)."""
         joint = self.limiting_joint(result.q)
+        free_lift = None
+        if self.ik.lift_joint is not None and self.ik.lift_held:
+            free_lift = lambda: self._reaches_with_free_lift(T_world_target, result.q)  # noqa: E731
+        reach = classify_reach(
+            self.ik, result.q, T_world_target, joint, self.shoulder_frame, free_lift
+        )
         self.last_failure = FailurePoint(
             np.array(result.q, dtype=float),
             None,
             joint,
             result.position_error,
             result.orientation_error,
+            reach,
         )
         return joint
+
+    def _reaches_with_free_lift(self, T_world_target: np.ndarray, q: np.ndarray) -> bool:
+        """Whether the IK reaches ``T_world_target`` from ``q`` once the held lift may move
+        within its range (one deterministic solve; the lift is held again after it)."""
+        self.ik.hold_lift(False)
+        try:
+            return self.ik.solve(T_world_target, q, None, self.settings.ik).success
+        finally:
+            self.ik.hold_lift(True)
 
     def limiting_joint(self, q: np.ndarray) -> str:
         """The active joint of ``q`` nearest a position limit, as ``name:lower`` or
@@ -166,7 +188,7 @@ class PickPlanner:
                     return result, ""
                 colliding = (result, f"IK solution in collision ({self._note(result.q, pairs)})")
             elif attempt == 0:
-                self._note_unreachable(result)  # the best attempt at an unreachable target
+                self._note_unreachable(result, T_world_target)  # the best attempt: unreachable
                 return result, ""  # not reachable at all: restarts were already spent
             if rng is None or attempt == attempts:
                 break
@@ -229,7 +251,7 @@ class PickPlanner:
             T = line.at(k / count)
             result = self.ik.solve(T, q, None, s.ik)
             if not result.success:
-                joint = self._note_unreachable(result)
+                joint = self._note_unreachable(result, T)
                 return None, (
                     f"IK failed at {k}/{count} of the line ({result.position_error * 1e3:.1f} mm, "
                     f"{result.orientation_error:.3f} rad{', ' + joint if joint else ''})"
@@ -286,7 +308,7 @@ class PickPlanner:
         if path_why:
             return None, f"no collision-free joint path to the pose in {tries}: {path_why}"
         assert best is not None
-        joint = self._note_unreachable(best)
+        joint = self._note_unreachable(best, T_to)
         return None, (
             f"pose out of reach in {tries}: best IK residual {best.position_error * 1e3:.1f} mm"
             f" / {best.orientation_error:.3f} rad{' at ' + joint if joint else ''}"

@@ -41,6 +41,9 @@ class FailurePoint:
     limit_joint: str = ""
     residual_m: float | None = None
     residual_rad: float | None = None
+    # What limits the reach (``harness.planning.reach``): joint_limit, lift_height, collision,
+    # beyond_reach or unconverged; '' for a failure that is neither reach nor collision.
+    reach_limit: str = ""
 
 
 @dataclass

@@ -26,7 +26,7 @@ import numpy as np
 from harness.config import Placement, read_yaml, validate_model
 from harness.config.robot_registry import resolve_robot_yaml
 from harness.config.task import GripperChoice
-from harness.errors import HarnessError
+from harness.errors import HarnessError, InputFileError
 from harness.grasps import GripperConvention
 from harness.robots.facts import gripper_convention
 from harness.robots.gripper import resolve_arm, variant_name
@@ -125,8 +125,34 @@ class RobotModel:
 
     @property
     def collisions_path(self) -> Path:
-        """placo's self-collision pairs file next to the URDF."""
+        """The self-collision pairs file next to the URDF (placo's format)."""
         return self.urdf_path.parent / "collisions.json"
+
+    def self_collision_pairs(self) -> frozenset[frozenset[str]]:
+        """The robot's one list of self-collision pairs (``collisions.json``, link names).
+
+        The MuJoCo model excludes every other pair of links (``build_robot_spec``), so the
+        physics, the planner's collision checks and the execution check all count exactly
+        these pairs (issue 55). A file that is not a list of two known link names is one
+        error naming the file and the entry."""
+        from harness.reading import read_json
+
+        path = self.collisions_path
+        data = read_json(path, what="self-collision pairs file")
+        links = set(self.urdf.links)
+        if not isinstance(data, list):
+            raise InputFileError(path, "expected a list of [link, link] pairs")
+        pairs = set()
+        for index, entry in enumerate(data):
+            if (
+                not isinstance(entry, list)
+                or len(entry) != 2
+                or not all(isinstance(name, str) and name in links for name in entry)
+            ):
+                message = f"entry {index} {entry!r} is not a pair of URDF link names"
+                raise InputFileError(path, message, key=str(index))
+            pairs.add(frozenset(entry))
+        return frozenset(pairs)
 
     def arm(self, name: str) -> ArmSpec:
         try:

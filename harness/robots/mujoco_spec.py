@@ -19,7 +19,10 @@ MuJoCo Menagerie gripper recipe (../shared/reference/robots.md sections 7-8):
   whose gap ``pad_gap`` reports): the gripper's ``pad_friction``, condim 4 (torsional friction
   against pivoting) and a stiffer solref; finger-finger contacts are excluded (the pads meet when
   closed), and so are contacts across each joint (links that overlap by construction; MuJoCo's
-  own parent-child filter does not apply when the parent is welded to the world).
+  own parent-child filter does not apply when the parent is welded to the world);
+- every other pair of links that ``collisions.json`` leaves out is excluded too, so the
+  physics, the planner's checks and the execution check count one list of self-collision
+  pairs (``RobotModel.self_collision_pairs``).
 
 Geoms: URDF visuals are group 1 (no contact), collision geoms group 3 (hidden by default),
 named ``<link>_col<i>`` / ``<finger>_pad``.
@@ -72,6 +75,7 @@ def build_robot_spec(robot: RobotModel) -> mujoco.MjSpec:
     spec.modelname = robot.name
     _name_and_group_geoms(spec)
     _exclude_adjacent_contacts(spec, robot)
+    _exclude_unlisted_pairs(spec, robot)
     for body in spec.bodies:
         if body.name != "world":
             body.gravcomp = 1.0
@@ -130,6 +134,42 @@ def _exclude_adjacent_contacts(spec: mujoco.MjSpec, robot: RobotModel) -> None:
             for b in rigid_group(joint.child):
                 if a in has_geoms and b in has_geoms:
                     spec.add_exclude(bodyname1=a, bodyname2=b)
+
+
+def _exclude_unlisted_pairs(spec: mujoco.MjSpec, robot: RobotModel) -> None:
+    """Exclude every contact between two links that ``collisions.json`` does not list.
+
+    One list of self-collision pairs for the physics, the planner and the execution check: the
+    generated file already leaves out adjacent links, the two fingers of a gripper, pairs
+    touching at home and a robot's declared artefact pairs (FR3 link1-link3, whose capsules
+    overlap inside link2's J2 housing, robots/fr3/build.py); without this exclusion MuJoCo kept
+    the artefact pair, and the planner failed an FR3 cube approach for it (issue 55). Pairs
+    across one rigid group or one joint are excluded already (``_exclude_adjacent_contacts``
+    and MuJoCo's own filters); excluding them again is harmless but skipped."""
+    listed = robot.self_collision_pairs()
+    joints = robot.urdf.joints
+    parent_joint = {j.child: j for j in joints.values()}
+
+    def root_of(link: str) -> str:
+        while link in parent_joint and parent_joint[link].kind == "fixed":
+            link = parent_joint[link].parent
+        return link
+
+    has_geoms = sorted(
+        {geom.parent.name for geom in spec.geoms if geom.contype or geom.conaffinity}
+    )
+    for index, a in enumerate(has_geoms):
+        for b in has_geoms[index + 1 :]:
+            ra, rb = root_of(a), root_of(b)
+            if ra == rb or frozenset((a, b)) in listed:
+                continue
+            adjacent = any(
+                {root_of(j.parent), j.child} == {ra, rb}
+                for j in (parent_joint.get(ra), parent_joint.get(rb))
+                if j is not None and j.kind != "fixed"
+            )
+            if not adjacent:
+                spec.add_exclude(bodyname1=a, bodyname2=b)
 
 
 def _position_servo(
