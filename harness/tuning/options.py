@@ -18,7 +18,21 @@ from harness.errors import HarnessError
 
 OPTIONS_FILE = "tune.json"
 TARGET_GAIN = 0.05  # the gain a default race has 80% power to confirm (issue 35)
-RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain", "coarse")
+RACE_KEYS = (
+    "objective",
+    "top",
+    "block",
+    "max_seeds",
+    "alpha",
+    "target_gain",
+    "coarse",
+    "groups",
+    "exception_seeds",
+)
+# Fresh paired seeds per object on which an object's own best setting is tested against the
+# template (chosen, no public source: 80% power for a ~+25-point gain at discordance 0.3 with
+# Holm over ~8 objects; a larger --exception-seeds sees smaller gains).
+EXCEPTION_SEEDS = 60
 
 
 @dataclass(frozen=True)
@@ -38,6 +52,13 @@ class TuneOptions:
     seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
     plans: dict[str, dict[str, Any]] = field(default_factory=dict)  # unit key -> its Plan
     coarse: bool = True  # screen every direction coarsely first, then refine the best
+    # Template groups (harness.tuning.templates): group name -> its tasks (one object each); a
+    # group is raced as one unit over its objects, and its objects' exceptions are tested.
+    groups: dict[str, list[str]] = field(default_factory=dict)
+    pick_paths: dict[str, str] = field(default_factory=dict)  # task -> its pick block's key path
+    exception_seeds: int = (
+        EXCEPTION_SEEDS  # fresh paired seeds per object an exception is tested on
+    )
 
     @staticmethod
     def load(path: Path) -> TuneOptions:
@@ -72,6 +93,9 @@ _TYPES: dict[str, tuple[type, ...]] = {
     "seconds_each": (float, int),
     "plans": (dict,),
     "coarse": (bool,),
+    "groups": (dict,),
+    "pick_paths": (dict,),
+    "exception_seeds": (int,),
 }
 _PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
 
@@ -81,7 +105,12 @@ def _fits(key: str, value: Any) -> bool:
         return isinstance(value, bool)
     if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
         return False
-    if key in ("screen_seeds", "top", "block") and value < 1:
+    if key in ("groups", "pick_paths") and isinstance(value, dict):
+        return all(isinstance(k, str) for k in value) and all(
+            isinstance(v, str) or (isinstance(v, list) and all(isinstance(t, str) for t in v))
+            for v in value.values()
+        )
+    if key in ("screen_seeds", "top", "block", "exception_seeds") and value < 1:
         return False
     if key == "max_seeds" and value is not None and value < 1:
         return False

@@ -100,12 +100,28 @@ class Budget:
 
 @dataclass
 class Unit:
-    """One race: a task and one value of the other axes (its object)."""
+    """One race: a task and one value of the other axes (its object), or a template group's
+    tasks (``members``, one object each) raced as one unit with the objects as strata.
 
-    task: str
+    A template unit's look gives every alive racer the same seeds on every member (its plan
+    counts (object, seed) pairs: ``plan.seeds`` and ``plan.block`` are multiples of the member
+    count), so each racer's outcomes are paired across racers object by object and the exact
+    McNemar test of :mod:`harness.tuning.decide` on the pooled pairs tests the mean gain over
+    the objects, each object weighted equally (equal seeds per object)."""
+
+    task: str  # the task, or the template group's name
     context: str  # JSON of the point's other axes
     race: UnitRace
     rows: list[dict[str, Any]] = field(default_factory=list)  # its race rows, every racer
+    members: tuple[str, ...] = ()  # a template group's tasks; () for one task
+
+    @property
+    def tasks(self) -> tuple[str, ...]:
+        return self.members or (self.task,)
+
+    @property
+    def is_template(self) -> bool:
+        return bool(self.members)
 
 
 @dataclass
@@ -148,12 +164,15 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 60.0:.1f} min" if seconds >= 90 else f"{seconds:.0f} s"
 
 
-def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
-    """The screening sweep with fresh seeds and ``max_seeds`` episodes per point."""
+def confirm_sweep(
+    screen: SweepConfig, max_seeds: int, offset: int = CONFIRM_SEED_OFFSET, name: str = "confirm"
+) -> SweepConfig:
+    """The screening sweep with fresh seeds (sweep seed + ``offset``) and ``max_seeds``
+    episodes per point."""
     data = screen.model_dump(mode="json")
     data.update(
-        name=f"{screen.name}-confirm",
-        seed=screen.seed + CONFIRM_SEED_OFFSET,
+        name=f"{screen.name}-{name}",
+        seed=screen.seed + offset,
         episodes_per_point=max_seeds,
         record="none",
     )
@@ -181,11 +200,13 @@ class RaceRunner:
         seconds_each: float = 0.0,
         announce: Callable[[str], None] | None = None,
         fill: int = 0,
+        seed_offset: int = CONFIRM_SEED_OFFSET,
+        name: str = "confirm",
     ) -> None:
         """``progress``: each round's episodes as the sweep shows them (``SweepProgress``);
         ``announce``: a line per round with its pace and what the rest costs at it; ``fill``:
         the episodes a round may grow to with later looks' blocks (``round_fill``)."""
-        self.sweep = confirm_sweep(screen, max_seeds)
+        self.sweep = confirm_sweep(screen, max_seeds, seed_offset, name)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
         self.points = {
@@ -242,7 +263,8 @@ class RaceRunner:
     def _look(self, unit: Unit, look: int) -> list[tuple[Any, list[EpisodeSpec]]]:
         """Each alive racer of ``unit`` with its specs of block ``look`` (0-based)."""
         others = json.loads(unit.context)
-        start, stop = unit.race.seeds_of(look), unit.race.seeds_of(look + 1)
+        count = len(unit.tasks)  # a template unit's plan counts (object, seed) pairs
+        start, stop = unit.race.seeds_of(look) // count, unit.race.seeds_of(look + 1) // count
         blocks = []
         for racer in unit.race.alive():
             point = {
@@ -250,7 +272,8 @@ class RaceRunner:
                 FACING_KEY: json.loads(racer.setting[1]),
                 **others,
             }
-            blocks.append((racer, [self._spec(unit.task, point, i) for i in range(start, stop)]))
+            specs = [self._spec(t, point, i) for t in unit.tasks for i in range(start, stop)]
+            blocks.append((racer, specs))
         return blocks
 
     def _ahead(self, units: list[Unit], size: int) -> list[EpisodeSpec]:
@@ -316,6 +339,7 @@ class RaceRunner:
             unit.rows.extend(rows)
             racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
             racer.reference.extend(bool(r.get("success")) for r in rows)
+            racer.strata.extend(s.task_name for s in specs)
             racer.fallback = racer.fallback or any(
                 r.get("filter_outcome") == "fallback" for r in rows
             )
