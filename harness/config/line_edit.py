@@ -98,7 +98,7 @@ def set_values(text: str, edits: dict[KeyPath, dict[str, Any | None]], where: st
             elif value is not None:
                 last = list(block)[-1]
                 line, _ = block.lc.value(last)
-                indent = block.lc.key(list(block)[0])[1]
+                indent = block.lc.key(next(iter(block)))[1]
                 changes.append((line, "after", " " * indent + f"{key}: {flow_text(value)}\n"))
     for line, kind, new in sorted(changes, key=lambda c: -c[0]):
         if kind == "set":

@@ -70,7 +70,8 @@ def picked_object(data: object, where: Path) -> tuple[int, int]:
     distinct = list(dict.fromkeys(p for p in picked if p in names))
     if len(distinct) != 1:
         raise ConfigError(
-            f"a template for per-object files picks one object; this one picks {distinct or 'none'}",
+            "a template for per-object files picks one object; this one picks "
+            f"{distinct or 'none'}",
             file=where,
             key="tasks[0].skills",
         )
