@@ -245,6 +245,13 @@ def _add_tune(sub: Subparsers) -> None:
         "--object", action="append", default=[], metavar="NAME=PATH", help="an asset substitute"
     )
     p.add_argument(
+        "--template",
+        action="store_true",
+        default=None,
+        help="one setting per task over its objects (its sweep's object.mesh values), as a "
+        "folder of per-object files is tuned: the objects' mean rate, exceptions tested",
+    )
+    p.add_argument(
         "--exception-seeds",
         type=_bounded_int(1, 100_000),
         help="fresh paired seeds per object on which an object's own best setting is tested "

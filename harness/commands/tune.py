@@ -32,6 +32,7 @@ def _options(args: argparse.Namespace) -> TuneOptions:
         "engine": args.engine,
         "coarse": None if args.directions is None else args.directions == "all",
         "exception_seeds": args.exception_seeds,
+        "template": args.template,
     }
     base = {
         k: v

@@ -60,6 +60,7 @@ from harness.report.tables import (
 from harness.report.tune_link import (
     check_table,
     decisions_table,
+    objects_tables,
     own_tune,
     related_tunes,
     relative,
@@ -146,6 +147,7 @@ def first_screen(
         )  # fmt: skip
         checked = check_table(tune)  # the decisions on fresh seeds, when checked
         tables.extend([checked] if checked is not None else [])
+        tables.extend(objects_tables(tune))  # a template tune's objects
         tables.append(
             answer_table(answers, objective, "Screening candidates (chosen on these seeds)")
         )

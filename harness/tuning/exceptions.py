@@ -20,6 +20,7 @@ one: the *template*), each object is looked at on its own:
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,7 +30,7 @@ from typing import Any
 import pandas as pd
 
 from harness.config import SweepConfig, TaskConfig
-from harness.report.frames import frame_of, series_rows
+from harness.report.frames import column, frame_of, series_rows
 from harness.tuning.analysis import ranked
 from harness.tuning.causes import cause_sentence
 from harness.tuning.decide import (
@@ -41,7 +42,7 @@ from harness.tuning.decide import (
     one_sided_mcnemar,
     rate_bounds,
 )
-from harness.tuning.decisions import setting_label
+from harness.tuning.decisions import object_name, setting_label
 from harness.tuning.options import TuneOptions
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
 from harness.tuning.sequential import Plan
@@ -76,19 +77,20 @@ def template_of(row: dict[str, Any]) -> tuple[str, str]:
 
 def candidates(
     unit: Unit, template: tuple[str, str], success: pd.DataFrame
-) -> list[tuple[str, tuple[str, str]]]:
-    """The group's objects whose own best screening setting beat the template on them."""
+) -> list[tuple[tuple[str, str], tuple[str, str]]]:
+    """The group's members (task, context) whose own best screening setting beat the template
+    on them."""
     out = []
-    for task in unit.members:
-        rows = frame_of(success[(success["task"] == task) & (success["context"] == unit.context)])
+    for task, context in unit.members:
+        rows = frame_of(success[(success["task"] == task) & (success["context"] == context)])
         if not len(rows):
             continue
         best = ranked(rows, template).iloc[0]
         setting = (str(best["approach"]), str(best["facing"]))
-        at = rows[(rows["approach"] == template[0]) & (rows["facing"] == template[1])]
-        base = float(at["rate"].iloc[0]) if len(at) else 0.0
+        at = frame_of(rows[(rows["approach"] == template[0]) & (rows["facing"] == template[1])])
+        base = float(column(at, "rate").iloc[0]) if len(at) else 0.0
         if setting != template and float(best["rate"]) > base:
-            out.append((task, setting))
+            out.append(((task, context), setting))
     return out
 
 
@@ -134,27 +136,45 @@ def run_exceptions(
     log = run_race(units, runner, Budget())
     for test, unit in zip(tests, units, strict=True):
         test.rows = unit.rows
+    if not (log.interrupted or log.missing):
+        decide_exceptions(tests, seeds, options.alpha)
+    return log
+
+
+def decide_exceptions(tests: list[ExceptionTest], seeds: int, alpha: float) -> None:
+    """Per group, the exact one-sided McNemar p-value of each test that ran all ``seeds``
+    (its own best better than the template), Holm over the group's tests at ``alpha``: a
+    rejection with more successes is a confirmed override. A test short of its seeds (an
+    interrupted run) decides nothing."""
     for group in dict.fromkeys(t.group for t in tests):
         mine = [t for t in tests if t.group == group and len(t.best.outcomes) == seeds]
-        if not mine or log.interrupted or log.missing:
+        if not mine:
             continue
         p_values = [
             float(one_sided_mcnemar(*discordant(t.best.outcomes, t.template.outcomes)))
             for t in mine
         ]
-        rejected, adjusted = holm(p_values, options.alpha)
+        rejected, adjusted = holm(p_values, alpha)
         for test, p, p_adj, ok in zip(mine, p_values, adjusted, rejected, strict=True):
             test.p_value, test.p_holm = p, p_adj
-            gained = test.best.successes > test.template.successes
-            test.confirmed = bool(ok and gained)
-    return log
+            test.confirmed = bool(ok and test.best.successes > test.template.successes)
 
 
-def _share(racer: Racer | None, task: str) -> tuple[int, int]:
+def _share(racer: Racer | None, member: tuple[str, str]) -> tuple[int, int]:
+    """A racer's successes and seeds on one member of its template."""
     if racer is None:
         return 0, 0
-    picked = [o for o, s in zip(racer.outcomes, racer.strata, strict=False) if s == task]
+    key = f"{member[0]}\t{member[1]}"
+    picked = [o for o, s in zip(racer.outcomes, racer.strata, strict=False) if s == key]
     return int(sum(picked)), len(picked)
+
+
+def _in(row: dict[str, Any], context: str) -> bool:
+    """Whether a race row's point has ``context``'s values (its object among them)."""
+    others = json.loads(context)
+    point = row.get("point")
+    values = json.loads(point) if isinstance(point, str) and point else {}
+    return all(values.get(k) == v for k, v in others.items())
 
 
 def objects_table(
@@ -168,7 +188,7 @@ def objects_table(
     """``objects.csv``: per template group and object, its rates under the current and the
     chosen template on the race's seeds, its own best screening setting, its exception test and
     whether no setting helps (with the cause)."""
-    by_task = {t.task: t for t in tests}
+    by_member = {(t.task, t.context): t for t in tests}
     rows = []
     for unit in units:
         if not unit.is_template:
@@ -180,28 +200,28 @@ def objects_table(
         template = template_of(row)
         chosen = next((r for r in unit.race.racers if r.setting == template), None)
         current = unit.race.current
-        for task in unit.members:
-            screen = frame_of(
-                success[(success["task"] == task) & (success["context"] == unit.context)]
-            )
+        for task, context in unit.members:
+            member = (task, context)
+            screen = frame_of(success[(success["task"] == task) & (success["context"] == context)])
             best = ranked(screen, template).iloc[0] if len(screen) else None
-            at = screen[(screen["approach"] == template[0]) & (screen["facing"] == template[1])]
-            cur_k, cur_n = _share(current, task)
-            tpl_k, tpl_n = _share(chosen, task)
-            test = by_task.get(task)
-            object_rows = [r for r in unit.rows if r.get("task") == task]
-            helpless = bool(
-                len(screen) and int(screen["successes"].max()) == 0 and tpl_n and tpl_k == 0
+            at = frame_of(
+                screen[(screen["approach"] == template[0]) & (screen["facing"] == template[1])]
             )
+            cur_k, cur_n = _share(current, member)
+            tpl_k, tpl_n = _share(chosen, member)
+            test = by_member.get(member)
+            object_rows = [r for r in unit.rows if r.get("task") == task and _in(r, context)]
+            most = float(column(screen, "successes").max()) if len(screen) else math.nan
+            helpless = bool(most == 0 and tpl_n and tpl_k == 0)
             verdict = ""
             if test is not None and test.best.outcomes:
                 verdict = OVERRIDE if test.confirmed else NOT_CONFIRMED
             rows.append(
                 {
                     "group": unit.task,
-                    "context": unit.context,
+                    "context": context,
                     "task": task,
-                    "object": labels.get(task, task),
+                    "object": object_name(context, labels.get(task, task)),
                     "template": setting_label(template),
                     "verdict": row["verdict"],
                     "current_successes": cur_k,
@@ -210,7 +230,9 @@ def objects_table(
                     "template_successes": tpl_k,
                     "template_n": tpl_n,
                     "template_rate": tpl_k / tpl_n if tpl_n else math.nan,
-                    "screen_template_rate": float(at["rate"].iloc[0]) if len(at) else math.nan,
+                    "screen_template_rate": float(column(at, "rate").iloc[0])
+                    if len(at)
+                    else math.nan,
                     "own_best": setting_label((str(best["approach"]), str(best["facing"])))
                     if best is not None
                     else "",
@@ -254,12 +276,14 @@ def object_lines(objects: pd.DataFrame) -> list[str]:
     if not len(objects):
         return out
     for group, rows in objects.groupby("group", sort=False):
-        tested = rows[rows["exception"] != ""]
-        confirmed = rows[rows["exception"] == OVERRIDE]
-        helpless = rows[rows["no_setting_helps"].astype(bool)]
+        rows = frame_of(rows).assign(exception=lambda t: t["exception"].fillna("").astype(str))
+        tested = frame_of(rows[rows["exception"] != ""])
+        confirmed = frame_of(rows[rows["exception"] == OVERRIDE])
+        helpless = frame_of(rows[rows["no_setting_helps"].astype(bool)])
         line = (
             f"{group}: {len(rows)} objects; {len(tested)} tested for an exception on "
-            f"{int(tested['exception_n'].max()) if len(tested) else 0} seeds of their own, "
+            f"{int(column(tested, 'exception_n').max()) if len(tested) else 0} seeds of their "
+            "own, "
             f"{len(confirmed)} confirmed (Holm over the {len(tested)})"
         )
         out.append(line)

@@ -28,6 +28,7 @@ RACE_KEYS = (
     "coarse",
     "groups",
     "exception_seeds",
+    "template",
 )
 # Fresh paired seeds per object on which an object's own best setting is tested against the
 # template (chosen, no public source: 80% power for a ~+25-point gain at discordance 0.3 with
@@ -56,9 +57,8 @@ class TuneOptions:
     # group is raced as one unit over its objects, and its objects' exceptions are tested.
     groups: dict[str, list[str]] = field(default_factory=dict)
     pick_paths: dict[str, str] = field(default_factory=dict)  # task -> its pick block's key path
-    exception_seeds: int = (
-        EXCEPTION_SEEDS  # fresh paired seeds per object an exception is tested on
-    )
+    exception_seeds: int = EXCEPTION_SEEDS  # fresh paired seeds per object an exception test
+    template: bool = False  # pool each task's objects (its object.mesh values) into one template
 
     @staticmethod
     def load(path: Path) -> TuneOptions:
@@ -96,12 +96,13 @@ _TYPES: dict[str, tuple[type, ...]] = {
     "groups": (dict,),
     "pick_paths": (dict,),
     "exception_seeds": (int,),
+    "template": (bool,),
 }
 _PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
 
 
 def _fits(key: str, value: Any) -> bool:
-    if key == "coarse":
+    if key in ("coarse", "template"):
         return isinstance(value, bool)
     if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
         return False
@@ -126,6 +127,11 @@ def _fits(key: str, value: Any) -> bool:
             and p["seeds"] >= 1
             and p["block"] >= 1
             and isinstance(p.get("challengers", []), list)
+            and isinstance(p.get("members", []), list)
+            and all(
+                isinstance(m, list) and len(m) == 2 and all(isinstance(v, str) for v in m)
+                for m in p.get("members", [])
+            )
             and all(
                 isinstance(c, list) and len(c) == 2 and all(isinstance(v, str) for v in c)
                 for c in p.get("challengers", [])
@@ -144,6 +150,12 @@ def check_continuation(out: Path, stored: TuneOptions, given: TuneOptions) -> No
     """Refuse options that would make a continued race a different test."""
     for key in RACE_KEYS:
         before, now = getattr(stored, key), getattr(given, key)
+        if before != now and key == "groups":
+            raise HarnessError(
+                f"the files given group into other templates than the race in {out} was planned "
+                f"with ({OPTIONS_FILE} key 'groups': {sorted(before)}, now {sorted(now)}); give "
+                "the same files, or a new --out (and --seed) for a new test"
+            )
         if before != now:
             flag = "--" + key.replace("_", "-")
             raise HarnessError(

@@ -103,6 +103,8 @@ class Unit:
     """One race: a task and one value of the other axes (its object), or a template group's
     tasks (``members``, one object each) raced as one unit with the objects as strata.
 
+    A member is a (task, context) pair: a reference folder's files (one object each) or one
+    task's objects (the values of its sweep's ``object.mesh`` axis, ``harness tune --template``).
     A template unit's look gives every alive racer the same seeds on every member (its plan
     counts (object, seed) pairs: ``plan.seeds`` and ``plan.block`` are multiples of the member
     count), so each racer's outcomes are paired across racers object by object and the exact
@@ -113,11 +115,12 @@ class Unit:
     context: str  # JSON of the point's other axes
     race: UnitRace
     rows: list[dict[str, Any]] = field(default_factory=list)  # its race rows, every racer
-    members: tuple[str, ...] = ()  # a template group's tasks; () for one task
+    members: tuple[tuple[str, str], ...] = ()  # a template's (task, context) pairs; () for one
 
     @property
-    def tasks(self) -> tuple[str, ...]:
-        return self.members or (self.task,)
+    def strata(self) -> tuple[tuple[str, str], ...]:
+        """The (task, context) pairs the unit's looks run: its members, or its own pair."""
+        return self.members or ((self.task, self.context),)
 
     @property
     def is_template(self) -> bool:
@@ -262,17 +265,19 @@ class RaceRunner:
 
     def _look(self, unit: Unit, look: int) -> list[tuple[Any, list[EpisodeSpec]]]:
         """Each alive racer of ``unit`` with its specs of block ``look`` (0-based)."""
-        others = json.loads(unit.context)
-        count = len(unit.tasks)  # a template unit's plan counts (object, seed) pairs
+        count = len(unit.strata)  # a template unit's plan counts (object, seed) pairs
         start, stop = unit.race.seeds_of(look) // count, unit.race.seeds_of(look + 1) // count
         blocks = []
         for racer in unit.race.alive():
-            point = {
+            filters = {
                 APPROACH_KEY: json.loads(racer.setting[0]),
                 FACING_KEY: json.loads(racer.setting[1]),
-                **others,
             }
-            specs = [self._spec(t, point, i) for t in unit.tasks for i in range(start, stop)]
+            specs = [
+                self._spec(task, {**filters, **json.loads(context)}, i)
+                for task, context in unit.strata
+                for i in range(start, stop)
+            ]
             blocks.append((racer, specs))
         return blocks
 
@@ -339,7 +344,7 @@ class RaceRunner:
             unit.rows.extend(rows)
             racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
             racer.reference.extend(bool(r.get("success")) for r in rows)
-            racer.strata.extend(s.task_name for s in specs)
+            racer.strata.extend(stratum_of(s) for s in specs)
             racer.fallback = racer.fallback or any(
                 r.get("filter_outcome") == "fallback" for r in rows
             )
@@ -361,6 +366,13 @@ class RaceRunner:
     def _store(self, row: dict[str, Any]) -> None:
         self.run.append(row)
         self.stored[str(row["episode_id"])] = row
+
+
+def stratum_of(spec: EpisodeSpec) -> str:
+    """An episode's (task, context) as one key: ``task`` TAB the JSON of its point's other
+    axes, as the screening's ``context`` (``harness.tuning.analysis.point_parts``)."""
+    others = {k: v for k, v in spec.point.items() if k not in (APPROACH_KEY, FACING_KEY)}
+    return f"{spec.task_name}\t{json.dumps(others, sort_keys=True)}"
 
 
 def run_race(units: list[Unit], runner: RaceRunner, budget: Budget) -> RaceLog:

@@ -73,7 +73,13 @@ from harness.tuning.options import (
 from harness.tuning.phase_clock import PhaseClock
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, round_fill, run_race
-from harness.tuning.template_units import pooled_map, template_plan, with_template_maps
+from harness.tuning.template_units import (
+    Member,
+    pooled_map,
+    template_groups,
+    template_plan,
+    with_template_maps,
+)
 from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
@@ -286,10 +292,11 @@ def _units(
     options: TuneOptions,
 ) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]], dict[str, dict[str, Any]]]:
     units, names, plans = [], {}, {}
-    grouped = {t for members in options.groups.values() for t in members}
+    templates = template_groups(success, options)
+    grouped = {m for members in templates.values() for m in members}
     for key, group in success.groupby(["task", "context"], sort=False):
         task, context = cast(tuple[str, str], key)
-        if task in grouped:
+        if (str(task), str(context)) in grouped:
             continue  # raced with its template group (below)
         current = _current(tasks[str(task)], axes)
         name = unit_key(str(task), str(context))
@@ -320,21 +327,20 @@ def _units(
             "arm": str(first["arm"]),
             "object": object_name(str(context), str(first["object"])),
         }
-    for name, members in options.groups.items():
-        for context in dict.fromkeys(success[success["task"].isin(members)]["context"]):
-            unit, label, plan = _template_unit(
-                name, list(members), str(context), success, settings, tasks, axes, options
-            )
-            units.append(unit)
-            names[(name, str(context))] = label
-            plans[unit_key(name, str(context))] = plan
+    for (name, context), members in templates.items():
+        unit, label, plan = _template_unit(
+            name, context, members, success, settings, tasks, axes, options
+        )
+        units.append(unit)
+        names[(name, context)] = label
+        plans[unit_key(name, context)] = plan
     return units, names, plans
 
 
 def _template_unit(
     name: str,
-    members: list[str],
     context: str,
+    members: list[Member],
     success: pd.DataFrame,
     settings: pd.DataFrame,
     tasks: dict[str, TaskConfig],
@@ -343,9 +349,9 @@ def _template_unit(
 ) -> tuple[Unit, dict[str, str], dict[str, Any]]:
     """A template group's race unit (``harness.tuning.template_units``): its challengers are
     the best settings of the objects' mean screening rate."""
-    current = _current(tasks[members[0]], axes)
+    current = _current(tasks[members[0][0]], axes)
     key = unit_key(name, context)
-    pooled = pooled_map(success, members, context)
+    pooled = pooled_map(success, members)
     stored = options.plans.get(key, {}).get("challengers")
     if isinstance(stored, list):
         chosen = [(str(a), str(f)) for a, f in stored]
@@ -354,11 +360,11 @@ def _template_unit(
     if key in options.plans:
         plan_data = {**options.plans[key]}
     else:
-        plan_data = template_plan(success, settings, members, context, current, chosen, options)
+        plan_data = template_plan(success, settings, members, current, chosen, options)
     plan = plan_of(plan_data, options, len(chosen))
     racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
     unit = Unit(name, context, UnitRace(racers, plan), members=tuple(members))
-    first = tasks[members[0]]
+    first = tasks[members[0][0]]
     label = {
         "robot": first.robot,
         "arm": first.arm or "",
@@ -485,9 +491,9 @@ def _exception_tests(
         if decided["verdict"] == UNDECIDED:
             continue
         template = template_of(decided)
-        for task, best in candidates(unit, template, success):
+        for (task, context), best in candidates(unit, template, success):
             tests.append(
-                ExceptionTest(unit.task, task, unit.context, Racer(template, 0), Racer(best, 1))
+                ExceptionTest(unit.task, task, context, Racer(template, 0), Racer(best, 1))
             )
     return tests
 

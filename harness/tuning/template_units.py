@@ -14,6 +14,7 @@ gains differ (it is conservative then).
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -24,14 +25,24 @@ from harness.tuning.analysis import SETTING
 from harness.tuning.options import TuneOptions
 from harness.tuning.planning import make_plan, screening_discordance
 
+Member = tuple[str, str]  # (task, context): one object of a template
 
-def pooled_map(success: pd.DataFrame, members: list[str], context: str) -> pd.DataFrame:
+
+def member_rows(frame: pd.DataFrame, members: list[Member]) -> pd.DataFrame:
+    """The rows of ``frame`` (task and context columns) that belong to ``members``."""
+    keys = frame["task"].astype(str) + "\t" + frame["context"].astype(str)
+    return frame_of(frame[keys.isin([f"{t}\t{c}" for t, c in members])])
+
+
+def pooled_map(success: pd.DataFrame, members: list[Member]) -> pd.DataFrame:
     """The group's screening map: per setting the objects' mean rate (equal weights), summed
     counts, the earliest grid order; only the settings every member screened."""
-    rows = frame_of(success[success["task"].isin(members) & (success["context"] == context)])
+    rows = member_rows(success, members).assign(
+        member=lambda t: t["task"].astype(str) + "\t" + t["context"].astype(str)
+    )
     grouped = rows.groupby(SETTING, sort=False)
     table = grouped.agg(
-        objects=("task", "nunique"),
+        objects=("member", "nunique"),
         n=("n", "sum"),
         successes=("successes", "sum"),
         reference_successes=("reference_successes", "sum"),
@@ -54,26 +65,27 @@ def pooled_map(success: pd.DataFrame, members: list[str], context: str) -> pd.Da
 def template_plan(
     success: pd.DataFrame,
     settings: pd.DataFrame,
-    members: list[str],
-    context: str,
+    members: list[Member],
     current: tuple[str, str],
     chosen: list[tuple[str, str]],
     options: TuneOptions,
 ) -> dict[str, Any]:
     """The group's race plan, in (object, seed) pairs: sized for ``target_gain`` on the pooled
-    rate at the objects' mean screening discordance (or ``max_seeds`` per object), seeds and
-    look spacing rounded up to whole seeds per object."""
+    rate at the objects' mean screening discordance (or ``max_seeds`` per object), looks at
+    least every ``block`` seeds per object, seeds and look spacing rounded up to whole seeds
+    per object."""
     count = len(members)
-    at = frame_of(success[success["task"].isin(members) & (success["context"] == context)])
+    at = member_rows(success, members)
     at = frame_of(at[(at["approach"] == current[0]) & (at["facing"] == current[1])])
     rate = float(column(at, "rate").mean()) if len(at) else 0.5
-    shares = [screening_discordance(settings, (m, context), current, chosen) for m in members]
+    shares = [screening_discordance(settings, m, current, chosen) for m in members]
     shares = [s for s in shares if not math.isnan(s)]
     psi = sum(shares) / len(shares) if shares else math.nan
     pooled = TuneOptions(
         **{
             **options.__dict__,
             "max_seeds": options.max_seeds * count if options.max_seeds else None,
+            "block": options.block * count,  # --block and --max-seeds count seeds per object
         }
     )
     plan = make_plan(rate, psi, pooled, len(chosen))
@@ -85,6 +97,7 @@ def template_plan(
         "discordance": plan.discordance,
         "rate": rate,
         "challengers": [list(c) for c in chosen],
+        "members": [list(m) for m in members],
     }
 
 
@@ -98,10 +111,43 @@ def with_template_maps(
     for unit in units:
         if not unit.is_template:
             continue
-        table = pooled_map(success, list(unit.members), unit.context)
+        table = pooled_map(success, list(unit.members))
         table["task"], table["context"] = unit.task, unit.context
         table["object"] = names[(unit.task, unit.context)]["object"]
         extra.append(table.drop(columns=["objects"]))
     if not extra:
         return success
     return frame_of(pd.concat([success, *extra], ignore_index=True))
+
+
+def object_free(context: str) -> str:
+    """A context without its object keys (``object.*``): what the objects of a template share."""
+    others = json.loads(context)
+    return json.dumps(
+        {k: v for k, v in others.items() if not str(k).startswith("object.")}, sort_keys=True
+    )
+
+
+def template_groups(
+    success: pd.DataFrame, options: TuneOptions
+) -> dict[tuple[str, str], list[Member]]:
+    """The template units to race: (group name, shared context) -> its (task, context) members.
+
+    A group of InternDataEngine files (``options.groups``) pools its files' objects; with
+    ``options.template`` every other task with several objects (its sweep's ``object.mesh``
+    values) is a template of its own, named after the task. Members share their context but for
+    the object keys; a template of one member is an ordinary unit (not listed)."""
+    tasks, contexts = success["task"].astype(str), success["context"].astype(str)
+    pairs = list(dict.fromkeys(zip(tasks, contexts, strict=True)))
+    groups: dict[tuple[str, str], list[Member]] = {}
+    in_group: set[str] = set()
+    for name, tasks in options.groups.items():
+        for task, context in pairs:
+            if task in tasks:
+                groups.setdefault((name, object_free(context)), []).append((task, context))
+                in_group.add(task)
+    if options.template:
+        for task, context in pairs:
+            if task not in in_group:
+                groups.setdefault((task, object_free(context)), []).append((task, context))
+    return {key: members for key, members in groups.items() if len(members) > 1}
