@@ -32,8 +32,9 @@ from harness.tuning.decisions import file_decision, lines, setting_label
 # model: the keys to merge never include them, so they merge into an InternDataEngine file too.
 HARNESS_PICK_KEYS = harness_only_keys()
 MERGE_NOTE = (
-    "Merge these keys into each task file's pick block (only the filter keys change; keep "
-    "every other key): harness tune ... --write DIR writes the merged copies and their diffs."
+    "Merge these keys into each task file's pick block (an InternDataEngine file: the skill "
+    "block at the key path given; only the filter keys change, keep every other key): "
+    "harness tune ... --write DIR writes the merged copies and their diffs."
 )
 
 
@@ -90,7 +91,12 @@ def tuned_yaml(
         if not decided["agree"]:
             text.append("  # the objects disagree: no pooled setting; the file keeps its own")
         text.append(f"  # decision: {decided['verdict']} -> {setting_label(decided['setting'])}")
-        block = {"pick": filter_keys(tasks[name], decided["setting"])}
+        keys = filter_keys(tasks[name], decided["setting"])
+        if name in pick_paths:  # an InternDataEngine file: the keys live in its skill block
+            text.append(f"  # at {pick_paths[name]} of the file:")
+            block: dict[str, Any] = {"keys": keys}
+        else:
+            block = {"pick": keys}
         dumped = yaml.safe_dump(block, sort_keys=False, default_flow_style=None)
         text.extend(f"  {line}" for line in dumped.splitlines())
     return "\n".join(text) + "\n"
