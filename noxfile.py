@@ -75,8 +75,8 @@ def tests(session: nox.Session) -> None:
 @nox.session(python=PYTHON)
 def demo(session: nox.Session) -> None:
     """The main job: the default sweep over the three robots (report, videos, recording), then
-    a tune of every robot arm's approach x facing filters (screening maps, a race on fresh
-    seeds, a decision per robot, arm and object, tuned.yaml).
+    a template tune of the FR3 arm's approach x facing filters over the nine default objects
+    (screening maps, a pooled race on fresh seeds, exceptions per object, tuned.yaml).
 
     Arguments after ``--`` replace the sweep's (the tune is then skipped)."""
     _install(session, "-e", ".")
@@ -84,10 +84,11 @@ def demo(session: nox.Session) -> None:
         session.run("harness", "sweep", *session.posargs, env=RENDER_ENV)
         return
     session.run("harness", "sweep", "tasks/sweeps/demo.yaml", "--videos", env=RENDER_ENV)
-    # --directions canonical: the demo's tune stays minutes on 2 cores (the coarse pass over
-    # every direction adds 81 settings x 10 seeds per unit; docs/tune.md).
-    tune = ["tasks/sweeps/demo.yaml", "--step", "15", "--bands", "1", "--episodes", "10",
-            "--block", "10", "--max-seeds", "40", "--directions", "canonical"]  # fmt: skip
+    # The template tune: one filter setting for the FR3 arm over the nine default objects
+    # (docs/template-tune.md). --directions canonical and a small grid keep it minutes on 2 cores.
+    tune = ["tasks/sweeps/demo_template.yaml", "--template", "--directions", "canonical",
+            "--step", "45", "--bands", "0", "--episodes", "4", "--top", "2", "--block", "4",
+            "--max-seeds", "8", "--exception-seeds", "20"]  # fmt: skip
     session.run("harness", "tune", *tune, env=RENDER_ENV)
 
 

@@ -248,7 +248,28 @@ def _add_tune(sub: Subparsers) -> None:
         "tune", help="screen an approach x facing grid, race the best on fresh seeds, decide"
     )
     p.add_argument(
-        "files", nargs="*", metavar="TASK_OR_SWEEP", help="task or sweep YAML files to tune"
+        "files",
+        nargs="*",
+        metavar="TASK_OR_SWEEP",
+        help="task, sweep or InternDataEngine task files, folders or globs of them (a folder of "
+        "per-object files is tuned as one template)",
+    )
+    p.add_argument("--asset-root", metavar="DIR", help="root for InternDataEngine asset paths")
+    p.add_argument(
+        "--object", action="append", default=[], metavar="NAME=PATH", help="an asset substitute"
+    )
+    p.add_argument(
+        "--template",
+        action="store_true",
+        default=None,
+        help="one setting per task over its objects (its sweep's object.mesh values), as a "
+        "folder of per-object files is tuned: the objects' mean rate, exceptions tested",
+    )
+    p.add_argument(
+        "--exception-seeds",
+        type=bounded_int(1, 100_000),
+        help="fresh paired seeds per object on which an object's own best setting is tested "
+        "against its template (60)",
     )
     p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
     p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
@@ -409,6 +430,29 @@ def _add_objects(sub: Subparsers) -> None:
     p.add_argument("--only", nargs="+", metavar="NAME", help="build only these objects")
     p.add_argument("--num", type=GRASP_COUNT, default=3000, help="grasps to generate per object")
     p.set_defaults(func=_handler("objects", "build"))
+    p = osub.add_parser(
+        "library",
+        help="build an object library in the reference's layout (<group>/<name>/Aligned_obj.usd "
+        "+ Aligned_grasp_sparse.npy) from the project's shapes at several sizes",
+    )
+    p.add_argument("out", metavar="DIR", help="the library folder to write")
+    p.add_argument(
+        "--count", type=bounded_int(1, 1000), help="the first N objects only (default: all 50)"
+    )
+    p.add_argument("--num", type=bounded_int(1, 100_000), default=3000, help="grasps per object")
+    p.set_defaults(func=_handler("objects", "library"))
+    p = osub.add_parser(
+        "tasks",
+        help="one InternDataEngine task file per object from one template (the reference's "
+        "generate_pick_configs.py): only the object's path, category and task_dir change",
+    )
+    p.add_argument("template", metavar="TEMPLATE.yaml", help="a single-pick task file")
+    p.add_argument("objects", nargs="+", metavar="OBJECTS_DIR", help="reference-layout folders")
+    p.add_argument("--out", required=True, metavar="DIR", help="the folder of task files")
+    p.add_argument(
+        "--asset-root", metavar="DIR", help="write paths relative to this (default: absolute)"
+    )
+    p.set_defaults(func=_handler("objects", "tasks"))
 
 
 def _add_bench(sub: Subparsers) -> None:

@@ -201,3 +201,25 @@ def build(args: argparse.Namespace) -> int:
             f"fits {info['fits']} ({time.perf_counter() - start:.1f} s)"
         )
     return 0
+
+
+def library(args: argparse.Namespace) -> int:
+    """``harness objects library DIR``: the reference-layout object library."""
+    from harness.objects.library import build_library
+
+    out = Path(args.out)
+    written = build_library(out, args.count, args.num, say=lambda line: say(f"  {line}"))
+    say(f"{len(written)} objects in {out} (harness objects tasks TEMPLATE {out} --out DIR)")
+    return 0
+
+
+def tasks(args: argparse.Namespace) -> int:
+    """``harness objects tasks TEMPLATE OBJECTS... --out DIR``: per-object task files."""
+    from harness.interndata.generate import generate_task_files
+
+    root = Path(args.asset_root) if args.asset_root else None
+    written = generate_task_files(
+        Path(args.template), [Path(o) for o in args.objects], Path(args.out), root
+    )
+    say(f"{len(written)} task files in {args.out} (harness tune {args.out} ...)")
+    return 0

@@ -9,6 +9,8 @@ from typing import Any
 
 from harness.commands.console import make_console, styled
 from harness.errors import HarnessError
+from harness.interndata.substitutes import parse_object_substitutions
+from harness.tuning.exceptions import object_lines
 from harness.tuning.race import Budget
 from harness.tuning.run import OPTIONS_FILE, TuneOptions, analyse, lines, tune
 
@@ -28,9 +30,13 @@ def _options(args: argparse.Namespace) -> TuneOptions:
         "max_seeds": args.max_seeds,
         "budget": args.budget,
         "coarse": None if args.directions is None else args.directions == "all",
+        "exception_seeds": args.exception_seeds,
+        "template": args.template,
     }
     base = {
-        k: v for k, v in asdict(stored).items() if k not in ("sources", "plans", "seconds_each")
+        k: v
+        for k, v in asdict(stored).items()
+        if k not in ("sources", "plans", "seconds_each", "groups", "pick_paths")
     }
     base["budget"] = None  # a budget is this invocation's, never carried over
     return TuneOptions(**{**base, **{k: v for k, v in given.items() if v is not None}})
@@ -97,6 +103,8 @@ def main(args: argparse.Namespace) -> int:
             announce=lambda line: console.print(
                 line, highlight=False, markup=False, soft_wrap=True
             ),
+            asset_root=Path(args.asset_root) if args.asset_root else None,
+            objects=parse_object_substitutions(args.object),
         )
     if result.interrupted and result.decisions.empty:
         console.print(
@@ -107,7 +115,7 @@ def main(args: argparse.Namespace) -> int:
             )
         )
         return 130
-    for line in lines(result.decisions):
+    for line in lines(result.decisions) + object_lines(result.objects):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     rows = [("tuned", result.tuned_yaml), ("report", result.tuned_md), ("run", result.run_dir)]
     page = result.run_dir / "screen" / "report.html"  # the tune's page, decisions first

@@ -68,7 +68,7 @@ class PickConfig(StrictModel):
     )
     use_batch: bool = Field(
         default=False,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         description="Batch feasibility (an InternData robot entry's use_batch, Genie1's tasks): "
         "every candidate's pre-grasp and grasp are tested and the executed one is chosen as "
         "the reference's select_index_by_priority_dual does (harness.pick.batch); False: "
@@ -153,7 +153,7 @@ class PickConfig(StrictModel):
     )
     max_first_gripper_force: FiniteFloat = Field(
         default=0.0,
-        json_schema_extra=HARNESS_ONLY,
+        json_schema_extra=NOT_IN_REFERENCE,
         ge=0.0,
         description="validity, a handover's second pick: the force the opened first gripper "
         "may still exert on the object after the release (N; chosen, no public source: any "

@@ -58,8 +58,10 @@ from harness.report.tables import (
     summarize,
 )
 from harness.report.tune_link import (
+    RUN_PARTS,
     check_table,
     decisions_table,
+    objects_tables,
     own_tune,
     related_tunes,
     relative,
@@ -146,6 +148,7 @@ def first_screen(
         )  # fmt: skip
         checked = check_table(tune)  # the decisions on fresh seeds, when checked
         tables.extend([checked] if checked is not None else [])
+        tables.extend(objects_tables(tune))  # a template tune's objects
         tables.append(
             answer_table(answers, objective, "Screening candidates (chosen on these seeds)")
         )
@@ -156,7 +159,19 @@ def first_screen(
         for found in related_tunes(run_dir, tasks):
             page = found.page() if found.page().is_file() else found.markdown()
             links.append((f"{found.path.name} (decided on fresh seeds)", relative(page, run_dir)))
-    return FirstScreen(tables, objective, tune.path if tune else None, links)
+    note = ""
+    parent = Path(run_dir).resolve().parent
+    if (
+        tune is None
+        and Path(run_dir).resolve().name in RUN_PARTS
+        and (parent / "tune.json").is_file()
+    ):
+        note = (
+            "this is a tune's screening: its race on fresh seeds has not decided yet (running, "
+            "or interrupted: run the same harness tune command to continue); the candidates "
+            "below were chosen on these seeds, not tested"
+        )
+    return FirstScreen(tables, objective, tune.path if tune else None, links, note)
 
 
 def build_report(

@@ -252,3 +252,51 @@ def check_table(tune: Tune) -> Table | None:
         "challenger, on seeds neither the screening nor the race used; exact McNemar, Holm over "
         "the units (docs/tune.md).",
     )
+
+
+OBJECTS = Path("tune") / "objects.csv"  # a template tune's objects (harness.tuning.exceptions)
+
+
+def objects_tables(tune: Tune) -> list[Table]:
+    """Per template group of the tune, its objects sorted by the rate under the decided
+    template, the exceptions and the objects no setting helps marked."""
+    path = tune.path / OBJECTS
+    try:
+        frame = pd.read_csv(path) if path.is_file() else None
+    except (OSError, ValueError, pd.errors.EmptyDataError):
+        return []
+    if frame is None or frame.empty or "group" not in frame:
+        return []
+    tables = []
+    header = ["object", "current template", "decided template", "own best (screening)", "mark"]
+    for group, rows in frame.groupby("group", sort=False):
+        body = []
+        for row in series_rows(rows):
+            mark = ""
+            if str(row.get("exception")) == "override":
+                mark = f"exception: override (Holm p {_format(row.get('p_holm'))})"
+            elif str(row.get("exception")) not in ("", "nan"):
+                mark = f"exception {row['exception']} (Holm p {_format(row.get('p_holm'))})"
+            if str(row.get("no_setting_helps")) == "True":
+                mark = f"no setting helps: {row.get('cause', '')}"
+            body.append(
+                [
+                    str(row["object"]),
+                    f"{_int(row['current_successes'])}/{_int(row['current_n'])}",
+                    f"{_int(row['template_successes'])}/{_int(row['template_n'])}",
+                    f"{row['own_best']} ({_number(row['screen_own_best_rate']):.0%} vs "
+                    f"{_number(row['screen_template_rate']):.0%})",
+                    mark,
+                ]
+            )
+        tables.append(
+            Table(
+                f"Template group {group}: every object under the current and the decided template",
+                header,
+                body,
+                f"{path}: rates on the race's fresh seeds (few per object: the pooled test is "
+                "the evidence); an exception is tested on seeds of its own, Holm over the "
+                f"group's objects; picture: tune/objects_{group}.png",
+            )
+        )
+    return tables

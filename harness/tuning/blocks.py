@@ -32,8 +32,9 @@ from harness.tuning.decisions import file_decision, lines, setting_label
 # model: the keys to merge never include them, so they merge into an InternDataEngine file too.
 OWN_PICK_KEYS = harness_only_keys()
 MERGE_NOTE = (
-    "Merge these keys into each task file's pick block (only the filter keys change; keep "
-    "every other key): harness tune ... --write DIR writes the merged copies and their diffs."
+    "Merge these keys into each task file's pick block (an InternDataEngine file: the skill "
+    "block at the key path given; only the filter keys change, keep every other key): "
+    "harness tune ... --write DIR writes the merged copies and their diffs."
 )
 
 
@@ -69,17 +70,33 @@ def tuned_yaml(
     tasks: dict[str, TaskConfig],
     header: list[str],
     sources: dict[str, str],
+    groups: dict[str, list[str]] | None = None,
+    pick_paths: dict[str, str] | None = None,
+    objects: pd.DataFrame | None = None,
 ) -> str:
-    """The text of ``tuned.yaml``: per task, the keys to merge, with the decision in comments."""
+    """The text of ``tuned.yaml``: per task, the keys to merge, with the decision in comments;
+    per template group, the template block once (the keys at the pick block's key path of every
+    file, ready to paste into the generator's template) and the confirmed overrides."""
     text = [f"# {line}" for line in [*header, MERGE_NOTE]]
+    groups, pick_paths = groups or {}, pick_paths or {}
     for name, decided, rows in task_decisions(decisions):
+        if name in groups:
+            text.extend(
+                _template_block(name, decided, rows, groups[name], tasks, pick_paths, objects)
+            )
+            continue
         first = rows.iloc[0]
         text.append(f"{name}:  # {first['robot']} {first['arm']}, file {sources.get(name, '?')}")
         text.extend(f"  # {line}" for line in lines(rows))
         if not decided["agree"]:
             text.append("  # the objects disagree: no pooled setting; the file keeps its own")
         text.append(f"  # decision: {decided['verdict']} -> {setting_label(decided['setting'])}")
-        block = {"pick": filter_keys(tasks[name], decided["setting"])}
+        keys = filter_keys(tasks[name], decided["setting"])
+        if name in pick_paths:  # an InternDataEngine file: the keys live in its skill block
+            text.append(f"  # at {pick_paths[name]} of the file:")
+            block: dict[str, Any] = {"keys": keys}
+        else:
+            block = {"pick": keys}
         dumped = yaml.safe_dump(block, sort_keys=False, default_flow_style=None)
         text.extend(f"  {line}" for line in dumped.splitlines())
     return "\n".join(text) + "\n"
@@ -146,3 +163,49 @@ def tuned_markdown(
         "",
     ]
     return "\n".join(parts)
+
+
+def _template_block(
+    name: str,
+    decided: dict[str, Any],
+    rows: pd.DataFrame,
+    members: list[str],
+    tasks: dict[str, TaskConfig],
+    pick_paths: dict[str, str],
+    objects: pd.DataFrame | None,
+) -> list[str]:
+    """A template group's part of ``tuned.yaml``."""
+    first = rows.iloc[0]
+    task = tasks[members[0]]
+    where = pick_paths.get(members[0], "pick")
+    text = [f"{name}:  # {first['robot']} {first['arm']}: template over {len(members)} files"]
+    text.extend(f"  # {line}" for line in lines(rows))
+    text.append(f"  # decision: {decided['verdict']} -> {setting_label(decided['setting'])}")
+    text.append(f"  # the template (at {where} of every file of the group):")
+    dumped = yaml.safe_dump(
+        {"template": filter_keys(task, decided["setting"])},
+        sort_keys=False,
+        default_flow_style=None,
+    )
+    text.extend(f"  {line}" for line in dumped.splitlines())
+    mine = (
+        frame_of(objects[objects["group"] == name])
+        if objects is not None and len(objects)
+        else pd.DataFrame()
+    )
+    overrides = {}
+    for row in series_rows(mine) if len(mine) else []:
+        if row["exception"] == "override":
+            setting = (str(row["own_best_approach"]), str(row["own_best_facing"]))
+            overrides[str(row["task"])] = filter_keys(tasks[str(row["task"])], setting)
+    if overrides:
+        text.append(
+            "  # confirmed exceptions (their own setting beat the template on seeds of their own):"
+        )
+        dumped = yaml.safe_dump({"overrides": overrides}, sort_keys=False, default_flow_style=None)
+        text.extend(f"  {line}" for line in dumped.splitlines())
+    else:
+        text.append(
+            "  # no object's own setting is confirmed better than the template: no overrides"
+        )
+    return text

@@ -141,7 +141,7 @@ def read_decisions(tune_dir: Path) -> pd.DataFrame:
 def tune_seeds(tune_dir: Path) -> dict[str, int]:
     """The sweep seeds the tune used: its screening passes' and its race's."""
     seeds: dict[str, int] = {}
-    for name in ("screen", "refine", "confirm"):
+    for name in ("screen", "refine", "confirm", "exceptions"):
         run = RunDir(tune_dir / name)
         if run.sweep_yaml.is_file():
             seeds[name] = int(run.load_sweep().seed)
@@ -153,7 +153,12 @@ def tune_seeds(tune_dir: Path) -> dict[str, int]:
 
 def refuse_overlap(seed: int, seeds: dict[str, int], tune_dir: Path) -> None:
     """One line when ``seed`` is a sweep seed the tune used (its episode seeds would repeat)."""
-    used = {"screen": "screening", "refine": "refine pass", "confirm": "race"}
+    used = {
+        "screen": "screening",
+        "refine": "refine pass",
+        "confirm": "race",
+        "exceptions": "exception tests",
+    }
     for name, value in seeds.items():
         if value == seed:
             free = max(seeds.values()) + CHECK_SEED_OFFSET
@@ -207,6 +212,56 @@ def check_units(
             _check_setting(setting, tune_dir, task)
         units.append(
             CheckUnit(task, context, names, str(row["verdict"]), current, candidate, role, interval)
+        )
+    return units + override_units(tune_dir, decisions)
+
+
+def override_units(tune_dir: Path, decisions: pd.DataFrame) -> list[CheckUnit]:
+    """A template tune's confirmed overrides (``tune/objects.csv``): each object's own setting
+    against its group's template, checked as a switch is (``role`` "override")."""
+    path = tune_dir / "tune" / "objects.csv"
+    if not path.is_file():
+        return []
+    columns = ("group", "context", "task", "exception", "own_best_approach", "own_best_facing")
+    try:
+        table = pd.read_csv(path, dtype={"task": str, "context": str, "group": str})
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as error:
+        raise HarnessError(f"{path}: not a tune's objects.csv ({error})") from None
+    if table.empty:
+        return []
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise HarnessError(f"{path}: not a tune's objects.csv: column {missing[0]!r} is missing")
+    units = []
+    for row in frame_of(table[table["exception"] == "override"]).to_dict("records"):
+        group = decisions[decisions["task"] == str(row["group"])]
+        if group.empty:
+            raise HarnessError(f"{path}: group {row['group']!r} is not in decisions.csv")
+        decided = group.iloc[0].to_dict()
+        template = (
+            (str(decided["approach"]), str(decided["facing"]))
+            if decided["verdict"] == SWITCH
+            else (str(decided["current_approach"]), str(decided["current_facing"]))
+        )
+        override = (str(row["own_best_approach"]), str(row["own_best_facing"]))
+        for setting in (template, override):
+            _check_setting(setting, tune_dir, str(row["task"]))
+        names = {
+            "robot": str(decided["robot"]),
+            "arm": str(decided["arm"]),
+            "object": str(row["task"]),
+        }
+        units.append(
+            CheckUnit(
+                str(row["task"]),
+                str(row["context"]),
+                names,
+                SWITCH,
+                template,
+                override,
+                "override",
+                (math.nan, math.nan),
+            )
         )
     return units
 
@@ -405,13 +460,16 @@ def run_check(
         may_run=True,
         progress=progress,
     )
-    races = [_race(u, episodes) for u in units]
+    members = [_members(options, u) for u in units]
+    races = [_race(u, episodes * max(1, len(m))) for u, m in zip(units, members, strict=True)]
     log = RaceLog()
     runner.open()
-    try:
-        runner.round(
-            [Unit(u.task, u.context, r) for u, r in zip(units, races, strict=True)], Budget(), log
-        )
+    try:  # a template unit runs ``episodes`` seeds on each of its objects (paired, pooled)
+        checked = [
+            Unit(u.task, u.context, r, members=m)
+            for u, r, m in zip(units, races, members, strict=True)
+        ]
+        runner.round(checked, Budget(), log)
     finally:
         runner.close()
     if log.interrupted:
@@ -430,6 +488,14 @@ def run_check(
     if out.resolve() == (tune_dir / CHECK_DIR).resolve() and page.is_file():
         build_report(page.parent, objective=options.objective)  # the tune's page shows it
     return CheckResult(out, False, table, csv, md)
+
+
+def _members(options: TuneOptions, unit: CheckUnit) -> tuple[tuple[str, str], ...]:
+    """A template unit's (task, context) members, from its stored plan; () for one task."""
+    if unit.role == "override":
+        return ()
+    stored = options.plans.get(unit_key(unit.task, unit.context), {}).get("members") or []
+    return tuple((str(t), str(c)) for t, c in stored)
 
 
 def _race(unit: CheckUnit, episodes: int) -> UnitRace:

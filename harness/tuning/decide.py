@@ -72,6 +72,7 @@ class Racer:
     rank: int  # screening order (0 = the current setting)
     outcomes: list[bool] = field(default_factory=list)
     reference: list[bool] = field(default_factory=list)  # the reference success, beside it
+    strata: list[str] = field(default_factory=list)  # each outcome's "task\tcontext" (a stratum)
     alive: bool = True
     fallback: bool = False
     confirmed_at: int | None = None  # the look that confirmed it better than current

@@ -28,10 +28,12 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from harness.config import ConfigError, SweepConfig, TaskConfig, load_sweep, load_task, read_yaml
+from harness.config.loading import kind_of
 from harness.episode.candidate_cache import SELECTION_KEYS
 from harness.grasps import neutral_form, resolve_filters
 from harness.grasps.filters import DIRECTION_ROW_SIGN
@@ -154,29 +156,72 @@ def current_setting(task: TaskConfig) -> dict[str, list[Any] | None]:
     }
 
 
-def load_inputs(paths: list[Path]) -> tuple[list[TaskConfig], dict[str, list[Any]], int | None]:
-    """Tasks of task and sweep files, the sweeps' non-filter axes, and the first sweep's seed."""
-    tasks: list[TaskConfig] = []
-    axes: dict[str, list[Any]] = {}
+@dataclass
+class TuneInputs:
+    """What a tune is given: its tasks, the sweeps' non-filter axes, the first sweep's seed, and
+    for InternDataEngine files their template groups (``harness.tuning.templates``: group name
+    -> its tasks, groups of two or more files) and each task's pick block key path."""
+
+    tasks: list[TaskConfig]
+    axes: dict[str, list[Any]]
     seed: int | None = None
-    for path in paths:
+    groups: dict[str, list[str]] = field(default_factory=dict)
+    pick_paths: dict[str, str] = field(default_factory=dict)
+    group_lines: list[str] = field(default_factory=list)
+
+
+def load_inputs(
+    paths: list[Path], asset_root: Path | None = None, objects: dict[str, str] | None = None
+) -> TuneInputs:
+    """Tasks of task, sweep and InternDataEngine files (folders and globs expanded), the
+    sweeps' non-filter axes, the first sweep's seed, and the InternDataEngine files' groups."""
+    from harness.tuning.templates import body_of, expand_paths, group_files, group_lines
+
+    inputs = TuneInputs([], {})
+    bodies: dict[Path, Any] = {}
+    tasks_of: dict[Path, list[str]] = {}
+    for path in expand_paths(paths):
         data = read_yaml(path).data
-        if isinstance(data, dict) and "tasks" in data:
+        if kind_of(data) == "interndata":
+            from harness.interndata import load_interndata_tasks
+            from harness.interndata.interpolation import resolve_interpolations
+
+            picks = load_interndata_tasks(
+                path, asset_root=asset_root, objects=objects, check_grasps=True
+            )
+            picks = [p for p in picks if p.task.name not in inputs.pick_paths]
+            for pick in picks:
+                inputs.tasks.append(absolute_paths(pick.task))
+                inputs.pick_paths[pick.task.name] = pick.key
+            bodies[path] = body_of(resolve_interpolations(read_yaml(path), path))
+            tasks_of[path] = [p.task.name for p in picks]
+        elif isinstance(data, dict) and "tasks" in data:
             sweep = load_sweep(path)
             if sweep.mode != "grid":
                 raise ConfigError("tune takes grid sweeps (mode: grid)", file=path, key="mode")
-            tasks.extend(load_sweep_tasks(sweep, path))
-            seed = sweep.seed if seed is None else seed
+            inputs.tasks.extend(load_sweep_tasks(sweep, path))
+            inputs.seed = sweep.seed if inputs.seed is None else inputs.seed
             for key, values in sweep.axes.items():
                 if key.split(".")[-1] in SELECTION_KEYS:
                     continue  # tune chooses the filters
-                merged = axes.setdefault(key, [])
+                merged = inputs.axes.setdefault(key, [])
                 merged.extend(v for v in values if v not in merged)
         else:
-            tasks.append(absolute_paths(load_task(path)))
-    if not tasks:
+            inputs.tasks.append(absolute_paths(load_task(path)))
+    if not inputs.tasks:
         raise ConfigError("tune needs at least one task or sweep file")
-    return tasks, axes, seed
+    names = [t.name for t in inputs.tasks]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ConfigError(f"task names must be unique within a tune, repeated: {repeated}")
+    if bodies:
+        groups = group_files(bodies)
+        inputs.group_lines = group_lines(groups)
+        for group in groups:
+            members = [name for f in group.files for name in tasks_of[f]]
+            if len(group.files) > 1 and all(len(tasks_of[f]) == 1 for f in group.files):
+                inputs.groups[group.name] = members
+    return inputs
 
 
 def objective_tasks(tasks: list[TaskConfig], objective: str) -> list[TaskConfig]:

@@ -18,7 +18,22 @@ from harness.errors import HarnessError
 
 OPTIONS_FILE = "tune.json"
 TARGET_GAIN = 0.05  # the gain a default race has 80% power to confirm (issue 35)
-RACE_KEYS = ("objective", "top", "block", "max_seeds", "alpha", "target_gain", "coarse")
+RACE_KEYS = (
+    "objective",
+    "top",
+    "block",
+    "max_seeds",
+    "alpha",
+    "target_gain",
+    "coarse",
+    "groups",
+    "exception_seeds",
+    "template",
+)
+# Fresh paired seeds per object on which an object's own best setting is tested against the
+# template (chosen, no public source: 80% power for a ~+25-point gain at discordance 0.3 with
+# Holm over ~8 objects; a larger --exception-seeds sees smaller gains).
+EXCEPTION_SEEDS = 60
 
 
 @dataclass(frozen=True)
@@ -37,6 +52,12 @@ class TuneOptions:
     seconds_each: float = 0.0  # measured screening wall seconds per episode (0: not measured)
     plans: dict[str, dict[str, Any]] = field(default_factory=dict)  # unit key -> its Plan
     coarse: bool = True  # screen every direction coarsely first, then refine the best
+    # Template groups (harness.tuning.templates): group name -> its tasks (one object each); a
+    # group is raced as one unit over its objects, and its objects' exceptions are tested.
+    groups: dict[str, list[str]] = field(default_factory=dict)
+    pick_paths: dict[str, str] = field(default_factory=dict)  # task -> its pick block's key path
+    exception_seeds: int = EXCEPTION_SEEDS  # fresh paired seeds per object an exception test
+    template: bool = False  # pool each task's objects (its object.mesh values) into one template
 
     @staticmethod
     def load(path: Path) -> TuneOptions:
@@ -71,16 +92,25 @@ _TYPES: dict[str, tuple[type, ...]] = {
     "seconds_each": (float, int),
     "plans": (dict,),
     "coarse": (bool,),
+    "groups": (dict,),
+    "pick_paths": (dict,),
+    "exception_seeds": (int,),
+    "template": (bool,),
 }
 _PLAN_KEYS = {"seeds": int, "block": int, "discordance": (float, int), "rate": (float, int)}
 
 
 def _fits(key: str, value: Any) -> bool:
-    if key == "coarse":
+    if key in ("coarse", "template"):
         return isinstance(value, bool)
     if isinstance(value, bool) or not isinstance(value, _TYPES[key]):
         return False
-    if key in ("screen_seeds", "top", "block") and value < 1:
+    if key in ("groups", "pick_paths") and isinstance(value, dict):
+        return all(isinstance(k, str) for k in value) and all(
+            isinstance(v, str) or (isinstance(v, list) and all(isinstance(t, str) for t in v))
+            for v in value.values()
+        )
+    if key in ("screen_seeds", "top", "block", "exception_seeds") and value < 1:
         return False
     if key == "max_seeds" and value is not None and value < 1:
         return False
@@ -96,6 +126,11 @@ def _fits(key: str, value: Any) -> bool:
             and p["seeds"] >= 1
             and p["block"] >= 1
             and isinstance(p.get("challengers", []), list)
+            and isinstance(p.get("members", []), list)
+            and all(
+                isinstance(m, list) and len(m) == 2 and all(isinstance(v, str) for v in m)
+                for m in p.get("members", [])
+            )
             and all(
                 isinstance(c, list) and len(c) == 2 and all(isinstance(v, str) for v in c)
                 for c in p.get("challengers", [])
@@ -114,6 +149,12 @@ def check_continuation(out: Path, stored: TuneOptions, given: TuneOptions) -> No
     """Refuse options that would make a continued race a different test."""
     for key in RACE_KEYS:
         before, now = getattr(stored, key), getattr(given, key)
+        if before != now and key == "groups":
+            raise HarnessError(
+                f"the files given group into other templates than the race in {out} was planned "
+                f"with ({OPTIONS_FILE} key 'groups': {sorted(before)}, now {sorted(now)}); give "
+                "the same files, or a new --out (and --seed) for a new test"
+            )
         if before != now:
             flag = "--" + key.replace("_", "-")
             raise HarnessError(

@@ -99,8 +99,15 @@ def plan_lines(
             else f"80% power for a {plan.target_gain * 100:+.0f}-point gain at the screening's "
             f"rate, discordance {plan.discordance:.2f}"
         )
+        count = len(unit.strata)
+        seeds = (
+            f"~{plan.seeds} (object, seed) pairs per contender, {plan.seeds // count} seeds on "
+            f"each of {count} objects"
+            if unit.is_template
+            else f"~{plan.seeds} seeds per contender"
+        )
         line = (
-            f"{head}this race needs ~{plan.seeds} seeds per contender ({how}; "
+            f"{head}this race needs {seeds} ({how}; "
             f"{plan.looks} looks of {plan.block}): ~{took} on this engine "
             f"({len(unit.race.racers)} racers at the screening's {options.seconds_each:.2f} s "
             "per episode; the screening shares each seed across many settings, the race across "

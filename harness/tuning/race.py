@@ -82,12 +82,31 @@ class Budget:
 
 @dataclass
 class Unit:
-    """One race: a task and one value of the other axes (its object)."""
+    """One race: a task and one value of the other axes (its object), or a template group's
+    tasks (``members``, one object each) raced as one unit with the objects as strata.
 
-    task: str
+    A member is a (task, context) pair: a reference folder's files (one object each) or one
+    task's objects (the values of its sweep's ``object.mesh`` axis, ``harness tune --template``).
+    A template unit's look gives every alive racer the same seeds on every member (its plan
+    counts (object, seed) pairs: ``plan.seeds`` and ``plan.block`` are multiples of the member
+    count), so each racer's outcomes are paired across racers object by object and the exact
+    McNemar test of :mod:`harness.tuning.decide` on the pooled pairs tests the mean gain over
+    the objects, each object weighted equally (equal seeds per object)."""
+
+    task: str  # the task, or the template group's name
     context: str  # JSON of the point's other axes
     race: UnitRace
     rows: list[dict[str, Any]] = field(default_factory=list)  # its race rows, every racer
+    members: tuple[tuple[str, str], ...] = ()  # a template's (task, context) pairs; () for one
+
+    @property
+    def strata(self) -> tuple[tuple[str, str], ...]:
+        """The (task, context) pairs the unit's looks run: its members, or its own pair."""
+        return self.members or ((self.task, self.context),)
+
+    @property
+    def is_template(self) -> bool:
+        return bool(self.members)
 
 
 @dataclass
@@ -130,12 +149,15 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 60.0:.1f} min" if seconds >= 90 else f"{seconds:.0f} s"
 
 
-def confirm_sweep(screen: SweepConfig, max_seeds: int) -> SweepConfig:
-    """The screening sweep with fresh seeds and ``max_seeds`` episodes per point."""
+def confirm_sweep(
+    screen: SweepConfig, max_seeds: int, offset: int = CONFIRM_SEED_OFFSET, name: str = "confirm"
+) -> SweepConfig:
+    """The screening sweep with fresh seeds (sweep seed + ``offset``) and ``max_seeds``
+    episodes per point."""
     data = screen.model_dump(mode="json")
     data.update(
-        name=f"{screen.name}-confirm",
-        seed=screen.seed + CONFIRM_SEED_OFFSET,
+        name=f"{screen.name}-{name}",
+        seed=screen.seed + offset,
         episodes_per_point=max_seeds,
         record="none",
     )
@@ -162,11 +184,13 @@ class RaceRunner:
         seconds_each: float = 0.0,
         announce: Callable[[str], None] | None = None,
         fill: int = 0,
+        seed_offset: int = CONFIRM_SEED_OFFSET,
+        name: str = "confirm",
     ) -> None:
         """``progress``: each round's episodes as the sweep shows them (``SweepProgress``);
         ``announce``: a line per round with its pace and what the rest costs at it; ``fill``:
         the episodes a round may grow to with later looks' blocks (see the module)."""
-        self.sweep = confirm_sweep(screen, max_seeds)
+        self.sweep = confirm_sweep(screen, max_seeds, seed_offset, name)
         self.run = RunDir(run_dir)
         self.tasks = {t.name: t for t in tasks}
         self.points = {
@@ -220,16 +244,20 @@ class RaceRunner:
 
     def _look(self, unit: Unit, look: int) -> list[tuple[Any, list[EpisodeSpec]]]:
         """Each alive racer of ``unit`` with its specs of block ``look`` (0-based)."""
-        others = json.loads(unit.context)
-        start, stop = unit.race.seeds_of(look), unit.race.seeds_of(look + 1)
+        count = len(unit.strata)  # a template unit's plan counts (object, seed) pairs
+        start, stop = unit.race.seeds_of(look) // count, unit.race.seeds_of(look + 1) // count
         blocks = []
         for racer in unit.race.alive():
-            point = {
+            filters = {
                 APPROACH_KEY: json.loads(racer.setting[0]),
                 FACING_KEY: json.loads(racer.setting[1]),
-                **others,
             }
-            blocks.append((racer, [self._spec(unit.task, point, i) for i in range(start, stop)]))
+            specs = [
+                self._spec(task, {**filters, **json.loads(context)}, i)
+                for task, context in unit.strata
+                for i in range(start, stop)
+            ]
+            blocks.append((racer, specs))
         return blocks
 
     def _ahead(self, units: list[Unit], size: int) -> list[EpisodeSpec]:
@@ -295,6 +323,7 @@ class RaceRunner:
             unit.rows.extend(rows)
             racer.outcomes.extend(bool(r.get(verdict)) for r in rows)
             racer.reference.extend(bool(r.get("success")) for r in rows)
+            racer.strata.extend(stratum_of(s) for s in specs)
             racer.fallback = racer.fallback or any(
                 r.get("filter_outcome") == "fallback" for r in rows
             )
@@ -315,6 +344,13 @@ class RaceRunner:
     def _store(self, row: dict[str, Any]) -> None:
         self.run.append(row)
         self.stored[str(row["episode_id"])] = row
+
+
+def stratum_of(spec: EpisodeSpec) -> str:
+    """An episode's (task, context) as one key: ``task`` TAB the JSON of its point's other
+    axes, as the screening's ``context`` (``harness.tuning.analysis.point_parts``)."""
+    others = {k: v for k, v in spec.point.items() if k not in (APPROACH_KEY, FACING_KEY)}
+    return f"{spec.task_name}\t{json.dumps(others, sort_keys=True)}"
 
 
 def run_race(units: list[Unit], runner: RaceRunner, budget: Budget) -> RaceLog:

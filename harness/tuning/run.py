@@ -26,9 +26,10 @@ import yaml
 
 from harness.config import SweepConfig, TaskConfig
 from harness.errors import HarnessError
+from harness.files import safe_file_name
 from harness.report.build import build_report
 from harness.report.finish import finish_run
-from harness.report.frames import column, frame_of
+from harness.report.frames import column, frame_of, series_rows
 from harness.report.tables import load_episodes
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir, claim_new_dir
@@ -37,6 +38,16 @@ from harness.tuning.analysis import challengers, merge_passes, ranked, settings_
 from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
 from harness.tuning.decide import NO_SETTING_HELPS, UNDECIDED, Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
+from harness.tuning.exceptions import (
+    EXCEPTIONS_DIR,
+    OVERRIDE,
+    ExceptionTest,
+    candidates,
+    objects_markdown,
+    objects_table,
+    run_exceptions,
+    template_of,
+)
 from harness.tuning.grid import (
     APPROACH_KEY,
     FACING_KEY,
@@ -49,6 +60,7 @@ from harness.tuning.grid import (
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
+from harness.tuning.object_plot import object_plot
 from harness.tuning.options import (
     OPTIONS_FILE,
     RACE_KEYS,
@@ -59,6 +71,13 @@ from harness.tuning.options import (
 from harness.tuning.phase_clock import PhaseClock
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
+from harness.tuning.template_units import (
+    Member,
+    pooled_map,
+    template_groups,
+    template_plan,
+    with_template_maps,
+)
 from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
@@ -67,7 +86,14 @@ DEFAULT_OPTIONS = TuneOptions()
 REFINE_DIR = "refine"  # the fine pass about the coarse pass's best directions
 # Each pass's generated sweep, in the tune directory until its run directory holds it.
 PASS_SWEEPS = {SCREEN_DIR: ".screen-sweep.yaml", REFINE_DIR: ".refine-sweep.yaml"}
-TUNE_OUTPUTS = ("success_map.csv", "decisions.csv", "race.csv", "tuned.yaml", "tuned.md")
+TUNE_OUTPUTS = (
+    "success_map.csv",
+    "decisions.csv",
+    "race.csv",
+    "objects.csv",
+    "tuned.yaml",
+    "tuned.md",
+)
 
 
 @dataclass(frozen=True)
@@ -84,6 +110,7 @@ class TuneResult:
     written: list[Path] = field(default_factory=list)
     log: RaceLog = field(default_factory=RaceLog)
     timing: str = ""  # where the tune's wall time went (``PhaseClock.line``; a tune that ran)
+    objects: pd.DataFrame = field(default_factory=pd.DataFrame)  # template groups' objects
 
 
 def tune(
@@ -99,14 +126,21 @@ def tune(
     progress: bool = False,
     write: Path | None = None,
     announce: Callable[[str], None] | None = None,
+    asset_root: Path | None = None,
+    objects: dict[str, str] | None = None,
 ) -> TuneResult:
     """Screen the grid of ``harness.tuning.grid`` over the tasks of ``paths``, race and decide.
 
     On an ``out`` that holds a started race (``tune.json`` with plans) the tune continues that
     race: the same sequential test, its looks replayed from the stored rows at the same levels;
     options that would change the test (``RACE_KEYS``) must equal the stored ones."""
-    tasks, axes, sweep_seed = load_inputs(paths)
+    inputs = load_inputs(paths, asset_root, objects)
+    tasks, axes, sweep_seed = inputs.tasks, inputs.axes, inputs.seed
     tasks = objective_tasks(tasks, options.objective)
+    if announce:
+        for line in inputs.group_lines:
+            announce(line)
+    options = replace(options, groups=inputs.groups, pick_paths=inputs.pick_paths)
     grid = {
         "step": step,
         "bands": bands,
@@ -252,8 +286,12 @@ def _units(
     options: TuneOptions,
 ) -> tuple[list[Unit], dict[tuple[str, str], dict[str, str]], dict[str, dict[str, Any]]]:
     units, names, plans = [], {}, {}
+    templates = template_groups(success, options)
+    grouped = {m for members in templates.values() for m in members}
     for key, group in success.groupby(["task", "context"], sort=False):
         task, context = cast(tuple[str, str], key)
+        if (str(task), str(context)) in grouped:
+            continue  # raced with its template group (below)
         current = _current(tasks[str(task)], axes)
         name = unit_key(str(task), str(context))
         stored = options.plans.get(name, {}).get("challengers")
@@ -283,7 +321,50 @@ def _units(
             "arm": str(first["arm"]),
             "object": object_name(str(context), str(first["object"])),
         }
+    for (name, context), members in templates.items():
+        unit, label, plan = _template_unit(
+            name, context, members, success, settings, tasks, axes, options
+        )
+        units.append(unit)
+        names[(name, context)] = label
+        plans[unit_key(name, context)] = plan
     return units, names, plans
+
+
+def _template_unit(
+    name: str,
+    context: str,
+    members: list[Member],
+    success: pd.DataFrame,
+    settings: pd.DataFrame,
+    tasks: dict[str, TaskConfig],
+    axes: dict[str, list[object]],
+    options: TuneOptions,
+) -> tuple[Unit, dict[str, str], dict[str, Any]]:
+    """A template group's race unit (``harness.tuning.template_units``): its challengers are
+    the best settings of the objects' mean screening rate."""
+    current = _current(tasks[members[0][0]], axes)
+    key = unit_key(name, context)
+    pooled = pooled_map(success, members)
+    stored = options.plans.get(key, {}).get("challengers")
+    if isinstance(stored, list):
+        chosen = [(str(a), str(f)) for a, f in stored]
+    else:
+        chosen = challengers(pooled, current, options.top)
+    if key in options.plans:
+        plan_data = {**options.plans[key]}
+    else:
+        plan_data = template_plan(success, settings, members, current, chosen, options)
+    plan = plan_of(plan_data, options, len(chosen))
+    racers = [Racer(current, 0), *(Racer(s, i + 1) for i, s in enumerate(chosen))]
+    unit = Unit(name, context, UnitRace(racers, plan), members=tuple(members))
+    first = tasks[members[0][0]]
+    label = {
+        "robot": first.robot,
+        "arm": first.arm or "",
+        "object": f"template over {len(members)} objects",
+    }
+    return unit, label, plan_data
 
 
 def decide(
@@ -311,6 +392,7 @@ def decide(
         sweep = merged_sweep(sweep, second)
     success = success_map(settings)
     units, names, plans = _units(success, settings, tasks, sweep.axes, options)
+    success = with_template_maps(success, units, names)
     if may_run:
         options = TuneOptions(**{**asdict(options), "plans": plans})
         write_file(out / OPTIONS_FILE, json.dumps(asdict(options), indent=2), root=out)
@@ -340,22 +422,40 @@ def decide(
             for u in units
         ]
     )
+    tests = _exception_tests(units, decisions, success, log, why)
+    exception_log = run_exceptions(
+        out,
+        sweep,
+        list(tasks.values()),
+        tests,
+        options,
+        backend=backend,
+        workers=workers or default_workers(),
+        may_run=may_run,
+        progress=progress,
+        announce=announce,
+    )
+    labels = {name: _object_label(task) for name, task in tasks.items()}
+    objects = objects_table(units, decisions, success, tests, labels, options.objective)
+    if may_run and exception_log.episodes and not exception_log.interrupted:
+        finish_run(out / EXCEPTIONS_DIR, options.objective)
     folder = out / TUNE_DIR
     for name, table in (
         ("success_map.csv", success),
         ("decisions.csv", decisions),
         ("race.csv", race_rows(units)),
+        ("objects.csv", objects),
     ):
         write_file(folder / name, table.to_csv(index=False), root=out)
     images = write_heatmaps(success, decisions, folder / "heatmaps", options.objective, out)
     header = _header(out, sweep.seed, options, log)
-    text = _write_tuned(out, decisions, tasks, header, images, options.sources)
-    written = _write(decisions, tasks, options, write) if write else []
+    text = _write_tuned(out, decisions, tasks, header, images, options, objects)
+    written = _write(decisions, tasks, options, write, objects) if write else []
     if (screen.path / "report.html").is_file():  # the tune's page: its decisions first
         build_report(screen.path, objective=options.objective)
     return TuneResult(
         out,
-        log.interrupted,
+        log.interrupted or exception_log.interrupted,
         decisions,
         text,
         folder / "tuned.yaml",
@@ -363,7 +463,36 @@ def decide(
         list(images.values()),
         written,
         log,
+        objects=objects,
     )
+
+
+def _exception_tests(
+    units: list[Unit], decisions: pd.DataFrame, success: pd.DataFrame, log: RaceLog, why: str
+) -> list[ExceptionTest]:
+    """Per decided template group, its objects whose own best screening setting beat the
+    template (``harness.tuning.exceptions``); none while the race is cut short."""
+    if why or log.interrupted:
+        return []
+    tests = []
+    for unit in units:
+        if not unit.is_template:
+            continue
+        row = decisions[(decisions["task"] == unit.task) & (decisions["context"] == unit.context)]
+        decided = row.iloc[0].to_dict()
+        if decided["verdict"] == UNDECIDED:
+            continue
+        template = template_of(decided)
+        for (task, context), best in candidates(unit, template, success):
+            tests.append(
+                ExceptionTest(unit.task, task, context, Racer(template, 0), Racer(best, 1))
+            )
+    return tests
+
+
+def _object_label(task: TaskConfig) -> str:
+    """An object's name in the tables: its task's (a reference file's stem: one per object)."""
+    return task.name
 
 
 def _cut_short(log: RaceLog, options: TuneOptions) -> str:
@@ -384,18 +513,27 @@ def _write_tuned(
     tasks: dict[str, TaskConfig],
     header: list[str],
     images: dict[tuple[str, str], Path],
-    sources: dict[str, str],
+    options: TuneOptions,
+    objects: pd.DataFrame,
 ) -> str:
     """Write ``tuned.yaml`` (the keys to merge) and ``tuned.md`` (with the page's link); return
     the YAML text."""
     folder = out / TUNE_DIR
-    text = tuned_yaml(decisions, tasks, header, sources)
+    text = tuned_yaml(
+        decisions, tasks, header, options.sources, options.groups, options.pick_paths, objects
+    )
     write_file(folder / "tuned.yaml", text, root=out)
     link = f"../{SCREEN_DIR}/report.html"
     page = f"\nPage (decisions first, then the screening): [{link}]({link})\n"
-    write_file(
-        folder / "tuned.md", tuned_markdown(decisions, text, header, images) + page, root=out
-    )
+    pictures = {}
+    for group in dict.fromkeys(objects["group"]) if len(objects) else []:
+        title = f"template group {group}: every object's {options.objective} rate"
+        pictures[str(group)] = object_plot(
+            objects, str(group), title, folder / safe_file_name(f"objects_{group}", ".png")
+        )
+    body = tuned_markdown(decisions, text, header, images)
+    body += "\n".join(objects_markdown(objects, pictures)) + "\n"
+    write_file(folder / "tuned.md", body + page, root=out)
     return text
 
 
@@ -429,20 +567,35 @@ def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[st
 
 
 def _write(
-    decisions: pd.DataFrame, tasks: dict[str, TaskConfig], options: TuneOptions, folder: Path
+    decisions: pd.DataFrame,
+    tasks: dict[str, TaskConfig],
+    options: TuneOptions,
+    folder: Path,
+    objects: pd.DataFrame,
 ) -> list[Path]:
     """Per task with a file: the merged copy and its diff under ``folder``. A task whose race
     decided nothing (undecided: cut short, no look, rows missing) or found no setting that
-    helps gets no copy: there is nothing to merge."""
+    helps gets no copy: there is nothing to merge. A template group's files each get the
+    template, or their confirmed override."""
     written: list[Path] = []
+    settings: dict[str, tuple[str, str]] = {}
     for name, decided, _ in task_decisions(decisions):
         if decided["verdict"] in (UNDECIDED, NO_SETTING_HELPS):
             continue
+        for member in options.groups.get(name, [name]):
+            settings[member] = decided["setting"]
+    for row in series_rows(objects) if len(objects) else []:
+        if row["exception"] == OVERRIDE and str(row["task"]) in settings:
+            settings[str(row["task"])] = (
+                str(row["own_best_approach"]),
+                str(row["own_best_facing"]),
+            )
+    for name, setting in settings.items():
         source = options.sources.get(name)
         if source is None or not Path(source).is_file():
-            continue  # an inline or InternDataEngine task: no task file of ours to copy
-        keys = filter_keys(tasks[name], decided["setting"])
-        written.extend(write_copy(Path(source), keys, folder))
+            continue  # an inline task: no task file to copy
+        keys = filter_keys(tasks[name], setting)
+        written.extend(write_copy(Path(source), keys, folder, options.pick_paths.get(name)))
     return written
 
 
