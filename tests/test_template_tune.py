@@ -170,7 +170,7 @@ def test_template_tune_end_to_end_on_a_small_folder(examples_dir: Path, tmp_path
         changed = _changed((folder / name).read_text(), path.read_text())
         assert all(c.startswith(("filter_z_dir", "filter_x_dir")) for c in changed), changed
         if name != odd.name:  # the group switched: every file's approach line changed
-            assert changed == ['filter_z_dir: ["downward", 90]']
+            assert 'filter_z_dir: ["downward", 90]' in changed
     tuned = (out / "tune" / "tuned.yaml").read_text()
     assert f"# the template (at {PICK_PATH} of every file of the group):" in tuned
     assert (out / "tune" / "objects_folder.png").is_file()
