@@ -27,6 +27,8 @@ from harness.commands.flags import (
     record_policy,
     seconds_at_least,
 )
+from harness.commands.objects_parser import add_objects
+from harness.commands.tune_parser import add_tune
 from harness.errors import HarnessError
 from harness.version import __version__
 
@@ -242,73 +244,6 @@ def _add_compare(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("report", "compare"))
 
 
-def _add_tune(sub: Subparsers) -> None:
-    """``harness tune TASK_OR_SWEEP... [--episodes N] [--budget B] [--write DIR] ...``"""
-    p = sub.add_parser(
-        "tune", help="screen an approach x facing grid, race the best on fresh seeds, decide"
-    )
-    p.add_argument(
-        "files",
-        nargs="*",
-        metavar="TASK_OR_SWEEP",
-        help="task, sweep or InternDataEngine task files, folders or globs of them (a folder of "
-        "per-object files is tuned as one template)",
-    )
-    p.add_argument("--asset-root", metavar="DIR", help="root for InternDataEngine asset paths")
-    p.add_argument(
-        "--object", action="append", default=[], metavar="NAME=PATH", help="an asset substitute"
-    )
-    p.add_argument(
-        "--template",
-        action="store_true",
-        default=None,
-        help="one setting per task over its objects (its sweep's object.mesh values), as a "
-        "folder of per-object files is tuned: the objects' mean rate, exceptions tested",
-    )
-    p.add_argument(
-        "--exception-seeds",
-        type=bounded_int(1, 100_000),
-        help="fresh paired seeds per object on which an object's own best setting is tested "
-        "against its template (60)",
-    )
-    p.add_argument("--analyse", metavar="DIR", help="decide again from a tune's stored episodes")
-    p.add_argument("--check", metavar="DIR", help="test a tune's decisions on fresh seeds")
-    p.add_argument("--unit", action="append", help="--check: only this unit ('fr3 left cube')")
-    p.add_argument("--episodes", type=EPISODES, help="seeds per setting (10; --check: 100)")
-    p.add_argument("--step", type=bounded_int(1, 90), default=5, help="approach step (deg)")
-    p.add_argument("--bands", type=bounded_int(0, 18), default=3, help="bands per cone")
-    p.add_argument(
-        "--directions",
-        choices=["all", "canonical"],
-        help="all (default): a coarse pass over every Pick direction on both axes, then the "
-        "fine grid about the best; canonical: only the fine grid about downward / forward",
-    )
-    p.add_argument("--top", type=bounded_int(1, 20), help="settings raced against the current (3)")
-    p.add_argument("--block", type=bounded_int(1, 1000), help="fresh seeds per race look (20)")
-    p.add_argument(
-        "--max-seeds",
-        type=bounded_int(1, 100_000),
-        help="fresh seeds per robot, arm and object at most (default: sized for 80%% power "
-        "at a 5-point gain)",
-    )
-    p.add_argument(
-        "--budget",
-        metavar="N|Ns",
-        help="race episodes (N) or episode-seconds (Ns, e.g. 300s) the race may use at most",
-    )
-    p.add_argument("--seed", type=SEED, help="sweep seed (the sweep's, else 0; --check: +200000)")
-    p.add_argument("--out", metavar="DIR", help="the tune's directory (default: reports/)")
-    p.add_argument("--workers", type=WORKERS, help="worker processes (default: one per core)")
-    p.add_argument("--write", metavar="DIR", help="write tuned task files (keys merged) and diffs")
-    p.add_argument(
-        "--objective",
-        choices=["valid", "reference"],
-        help="decide by the validity verdict (default) or the reference success",
-    )
-    _add_progress_every(p)
-    p.set_defaults(func=_handler("tune", "main"))
-
-
 def _add_view(sub: Subparsers) -> None:
     """``harness view FILE.rrd``"""
     p = sub.add_parser("view", help="open a Rerun recording (or say how to)")
@@ -416,45 +351,6 @@ def _add_robots(sub: Subparsers) -> None:
     p.set_defaults(func=_handler("robots", "show"))
 
 
-def _add_objects(sub: Subparsers) -> None:
-    """``harness objects list | show | build``"""
-    objects = sub.add_parser("objects", help="list, show and build objects")
-    osub = objects.add_subparsers(dest="objects_command", metavar="SUBCOMMAND", required=True)
-    p = osub.add_parser("list", help="list the default objects")
-    p.set_defaults(func=_handler("objects", "list_objects"))
-    p = osub.add_parser("show", help="describe an object or mesh; optionally render it")
-    p.add_argument("name", metavar="NAME_OR_MESH_PATH", help="a default object name or a mesh file")
-    p.add_argument("--render", metavar="FILE.png", help="render the object to a PNG")
-    p.set_defaults(func=_handler("objects", "show"))
-    p = osub.add_parser("build", help="regenerate the default object set under tasks/objects")
-    p.add_argument("--only", nargs="+", metavar="NAME", help="build only these objects")
-    p.add_argument("--num", type=GRASP_COUNT, default=3000, help="grasps to generate per object")
-    p.set_defaults(func=_handler("objects", "build"))
-    p = osub.add_parser(
-        "library",
-        help="build an object library in the reference's layout (<group>/<name>/Aligned_obj.usd "
-        "+ Aligned_grasp_sparse.npy) from the project's shapes at several sizes",
-    )
-    p.add_argument("out", metavar="DIR", help="the library folder to write")
-    p.add_argument(
-        "--count", type=bounded_int(1, 1000), help="the first N objects only (default: all 50)"
-    )
-    p.add_argument("--num", type=bounded_int(1, 100_000), default=3000, help="grasps per object")
-    p.set_defaults(func=_handler("objects", "library"))
-    p = osub.add_parser(
-        "tasks",
-        help="one InternDataEngine task file per object from one template (the reference's "
-        "generate_pick_configs.py): only the object's path, category and task_dir change",
-    )
-    p.add_argument("template", metavar="TEMPLATE.yaml", help="a single-pick task file")
-    p.add_argument("objects", nargs="+", metavar="OBJECTS_DIR", help="reference-layout folders")
-    p.add_argument("--out", required=True, metavar="DIR", help="the folder of task files")
-    p.add_argument(
-        "--asset-root", metavar="DIR", help="write paths relative to this (default: absolute)"
-    )
-    p.set_defaults(func=_handler("objects", "tasks"))
-
-
 def _add_bench(sub: Subparsers) -> None:
     """``harness bench [--quick] [--json FILE] [--only SECTION...]``"""
     from harness.benchmarks.framework import SECTIONS
@@ -478,13 +374,13 @@ COMMANDS: tuple[Callable[[Subparsers], None], ...] = (
     _add_sweep,
     _add_report,
     _add_compare,
-    _add_tune,
+    lambda sub: add_tune(sub, _handler, _add_progress_every),
     _add_sensitivity,
     _add_view,
     _add_replay,
     _add_grasps,
     _add_robots,
-    _add_objects,
+    lambda sub: add_objects(sub, _handler),
     _add_bench,
 )
 

@@ -54,6 +54,7 @@ from harness.report.stats import mcnemar_exact
 from harness.report.tune_link import check_rows
 from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir
+from harness.tuning.check_overrides import override_units
 from harness.tuning.decide import SWITCH, Racer, UnitRace, holm
 from harness.tuning.decisions import setting_label
 from harness.tuning.grid import merged_sweep
@@ -213,57 +214,7 @@ def check_units(
         units.append(
             CheckUnit(task, context, names, str(row["verdict"]), current, candidate, role, interval)
         )
-    return units + override_units(tune_dir, decisions)
-
-
-def override_units(tune_dir: Path, decisions: pd.DataFrame) -> list[CheckUnit]:
-    """A template tune's confirmed overrides (``tune/objects.csv``): each object's own setting
-    against its group's template, checked as a switch is (``role`` "override")."""
-    path = tune_dir / "tune" / "objects.csv"
-    if not path.is_file():
-        return []
-    columns = ("group", "context", "task", "exception", "own_best_approach", "own_best_facing")
-    try:
-        table = pd.read_csv(path, dtype={"task": str, "context": str, "group": str})
-    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as error:
-        raise HarnessError(f"{path}: not a tune's objects.csv ({error})") from None
-    if table.empty:
-        return []
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise HarnessError(f"{path}: not a tune's objects.csv: column {missing[0]!r} is missing")
-    units = []
-    for row in frame_of(table[table["exception"] == "override"]).to_dict("records"):
-        group = decisions[decisions["task"] == str(row["group"])]
-        if group.empty:
-            raise HarnessError(f"{path}: group {row['group']!r} is not in decisions.csv")
-        decided = group.iloc[0].to_dict()
-        template = (
-            (str(decided["approach"]), str(decided["facing"]))
-            if decided["verdict"] == SWITCH
-            else (str(decided["current_approach"]), str(decided["current_facing"]))
-        )
-        override = (str(row["own_best_approach"]), str(row["own_best_facing"]))
-        for setting in (template, override):
-            _check_setting(setting, tune_dir, str(row["task"]))
-        names = {
-            "robot": str(decided["robot"]),
-            "arm": str(decided["arm"]),
-            "object": str(row["task"]),
-        }
-        units.append(
-            CheckUnit(
-                str(row["task"]),
-                str(row["context"]),
-                names,
-                SWITCH,
-                template,
-                override,
-                "override",
-                (math.nan, math.nan),
-            )
-        )
-    return units
+    return units + override_units(tune_dir, decisions, CheckUnit, _check_setting)
 
 
 def unit_name(unit: CheckUnit) -> str:

@@ -35,6 +35,7 @@ from harness.tuning.analysis import ranked
 from harness.tuning.causes import cause_sentence
 from harness.tuning.decide import (
     SWITCH,
+    UNDECIDED,
     Racer,
     UnitRace,
     discordant,
@@ -92,6 +93,29 @@ def candidates(
         if setting != template and float(best["rate"]) > base:
             out.append(((task, context), setting))
     return out
+
+
+def exception_tests(
+    units: list[Unit], decisions: pd.DataFrame, success: pd.DataFrame, log: RaceLog, why: str
+) -> list[ExceptionTest]:
+    """Per decided template group, its objects whose own best screening setting beat the
+    template (``harness.tuning.exceptions``); none while the race is cut short."""
+    if why or log.interrupted:
+        return []
+    tests = []
+    for unit in units:
+        if not unit.is_template:
+            continue
+        row = decisions[(decisions["task"] == unit.task) & (decisions["context"] == unit.context)]
+        decided = row.iloc[0].to_dict()
+        if decided["verdict"] == UNDECIDED:
+            continue
+        template = template_of(decided)
+        for (task, context), best in candidates(unit, template, success):
+            tests.append(
+                ExceptionTest(unit.task, task, context, Racer(template, 0), Racer(best, 1))
+            )
+    return tests
 
 
 def run_exceptions(
@@ -176,6 +200,21 @@ def _in(row: dict[str, Any], context: str) -> bool:
     return all(values.get(k) == v for k, v in others.items())
 
 
+def _exception_fields(test: ExceptionTest | None) -> dict[str, Any]:
+    """An object's exception test columns (zeros and NaN when it was not tested)."""
+    return {
+        "exception_n": len(test.best.outcomes) if test else 0,
+        "exception_successes": test.best.successes if test else 0,
+        "exception_template_successes": test.template.successes if test else 0,
+        "exception_lo": rate_bounds(test.best)[0] if test and test.best.outcomes else math.nan,
+        "exception_hi": rate_bounds(test.best)[1] if test and test.best.outcomes else math.nan,
+        "only_own_best": discordant(test.best.outcomes, test.template.outcomes)[0] if test else 0,
+        "only_template": discordant(test.best.outcomes, test.template.outcomes)[1] if test else 0,
+        "p": test.p_value if test else math.nan,
+        "p_holm": test.p_holm if test else math.nan,
+    }
+
+
 def objects_table(
     units: list[Unit],
     decisions: pd.DataFrame,
@@ -239,23 +278,7 @@ def objects_table(
                     "own_best_facing": str(best["facing"]) if best is not None else "",
                     "screen_own_best_rate": float(best["rate"]) if best is not None else math.nan,
                     "exception": verdict,
-                    "exception_n": len(test.best.outcomes) if test else 0,
-                    "exception_successes": test.best.successes if test else 0,
-                    "exception_template_successes": test.template.successes if test else 0,
-                    "exception_lo": rate_bounds(test.best)[0]
-                    if test and test.best.outcomes
-                    else math.nan,
-                    "exception_hi": rate_bounds(test.best)[1]
-                    if test and test.best.outcomes
-                    else math.nan,
-                    "only_own_best": discordant(test.best.outcomes, test.template.outcomes)[0]
-                    if test
-                    else 0,
-                    "only_template": discordant(test.best.outcomes, test.template.outcomes)[1]
-                    if test
-                    else 0,
-                    "p": test.p_value if test else math.nan,
-                    "p_holm": test.p_holm if test else math.nan,
+                    **_exception_fields(test),
                     "no_setting_helps": helpless,
                     "cause": cause_sentence(object_rows, objective) if helpless else "",
                 }

@@ -26,27 +26,20 @@ import yaml
 
 from harness.config import SweepConfig, TaskConfig
 from harness.errors import HarnessError
-from harness.files import safe_file_name
 from harness.report.build import build_report
 from harness.report.finish import finish_run
-from harness.report.frames import column, frame_of, series_rows
+from harness.report.frames import column, frame_of
 from harness.report.tables import load_episodes
-from harness.runs.expansion import load_sweep_tasks
 from harness.runs.rundir import RunDir, claim_new_dir
 from harness.runs.sweep import default_workers, run_sweep
-from harness.tuning.analysis import challengers, merge_passes, ranked, settings_frame, success_map
-from harness.tuning.blocks import filter_keys, task_decisions, tuned_markdown, tuned_yaml
-from harness.tuning.decide import NO_SETTING_HELPS, UNDECIDED, Racer, UnitRace
+from harness.tuning.analysis import challengers, ranked, settings_frame, success_map
+from harness.tuning.decide import Racer, UnitRace
 from harness.tuning.decisions import lines, object_name, race_rows, unit_row
 from harness.tuning.exceptions import (
     EXCEPTIONS_DIR,
-    OVERRIDE,
-    ExceptionTest,
-    candidates,
-    objects_markdown,
+    exception_tests,
     objects_table,
     run_exceptions,
-    template_of,
 )
 from harness.tuning.grid import (
     APPROACH_KEY,
@@ -55,12 +48,10 @@ from harness.tuning.grid import (
     direction_of,
     filter_key,
     load_inputs,
-    merged_sweep,
     objective_tasks,
     tune_sweep,
 )
 from harness.tuning.heatmaps import write_heatmaps
-from harness.tuning.object_plot import object_plot
 from harness.tuning.options import (
     OPTIONS_FILE,
     RACE_KEYS,
@@ -68,9 +59,11 @@ from harness.tuning.options import (
     check_continuation,
     stored_options,
 )
+from harness.tuning.outputs import header_lines, write_copies, write_tuned
 from harness.tuning.phase_clock import PhaseClock
 from harness.tuning.planning import make_plan, plan_lines, plan_of, screening_discordance, unit_key
 from harness.tuning.race import Budget, RaceLog, RaceRunner, Unit, run_race
+from harness.tuning.screening import load_screening
 from harness.tuning.template_units import (
     Member,
     pooled_map,
@@ -78,7 +71,6 @@ from harness.tuning.template_units import (
     template_plan,
     with_template_maps,
 )
-from harness.tuning.write import write_copy
 from harness.writes import check_outputs, write_file
 
 SCREEN_DIR, CONFIRM_DIR, TUNE_DIR = "screen", "confirm", "tune"
@@ -367,6 +359,33 @@ def _template_unit(
     return unit, label, plan_data
 
 
+def _objects(
+    out: Path, sweep: Any, tasks: dict[str, TaskConfig], units: list[Unit],
+    decisions: pd.DataFrame, success: pd.DataFrame, log: RaceLog, why: str,
+    options: TuneOptions, backend: str, workers: int | None, may_run: bool, progress: bool,
+    announce: Callable[[str], None] | None,
+) -> tuple[pd.DataFrame, RaceLog]:  # fmt: skip
+    """The template groups' exception tests and their objects table."""
+    tests = exception_tests(units, decisions, success, log, why)
+    exception_log = run_exceptions(
+        out,
+        sweep,
+        list(tasks.values()),
+        tests,
+        options,
+        backend=backend,
+        workers=workers or default_workers(),
+        may_run=may_run,
+        progress=progress,
+        announce=announce,
+    )
+    labels = {name: _object_label(task) for name, task in tasks.items()}
+    objects = objects_table(units, decisions, success, tests, labels, options.objective)
+    if may_run and exception_log.episodes and not exception_log.interrupted:
+        finish_run(out / EXCEPTIONS_DIR, options.objective)
+    return objects, exception_log
+
+
 def decide(
     out: Path,
     options: TuneOptions,
@@ -381,15 +400,7 @@ def decide(
     """Race the screening's best against the current setting per unit and write the outputs;
     ``progress`` shows each race round's episodes."""
     screen = RunDir(out / SCREEN_DIR)
-    sweep = screen.load_sweep()
-    tasks = {t.name: t for t in load_sweep_tasks(sweep, screen.sweep_yaml)}
-    settings = settings_frame(load_episodes(screen.path), sweep, options.objective)
-    refine = RunDir(out / REFINE_DIR)
-    if refine.sweep_yaml.is_file():  # the fine pass after the coarse one: both screen
-        second = refine.load_sweep()
-        later = settings_frame(load_episodes(refine.path), second, options.objective)
-        settings = merge_passes(settings, later)
-        sweep = merged_sweep(sweep, second)
+    sweep, tasks, settings = load_screening(out, options.objective)
     success = success_map(settings)
     units, names, plans = _units(success, settings, tasks, sweep.axes, options)
     success = with_template_maps(success, units, names)
@@ -422,23 +433,10 @@ def decide(
             for u in units
         ]
     )
-    tests = _exception_tests(units, decisions, success, log, why)
-    exception_log = run_exceptions(
-        out,
-        sweep,
-        list(tasks.values()),
-        tests,
-        options,
-        backend=backend,
-        workers=workers or default_workers(),
-        may_run=may_run,
-        progress=progress,
-        announce=announce,
-    )
-    labels = {name: _object_label(task) for name, task in tasks.items()}
-    objects = objects_table(units, decisions, success, tests, labels, options.objective)
-    if may_run and exception_log.episodes and not exception_log.interrupted:
-        finish_run(out / EXCEPTIONS_DIR, options.objective)
+    objects, exception_log = _objects(
+        out, sweep, tasks, units, decisions, success, log, why, options, backend, workers,
+        may_run, progress, announce,
+    )  # fmt: skip
     folder = out / TUNE_DIR
     for name, table in (
         ("success_map.csv", success),
@@ -448,9 +446,9 @@ def decide(
     ):
         write_file(folder / name, table.to_csv(index=False), root=out)
     images = write_heatmaps(success, decisions, folder / "heatmaps", options.objective, out)
-    header = _header(out, sweep.seed, options, log)
-    text = _write_tuned(out, decisions, tasks, header, images, options, objects)
-    written = _write(decisions, tasks, options, write, objects) if write else []
+    header = header_lines(out, sweep.seed, options, log)
+    text = write_tuned(out, decisions, tasks, header, images, options, objects)
+    written = write_copies(decisions, tasks, options, write, objects) if write else []
     if (screen.path / "report.html").is_file():  # the tune's page: its decisions first
         build_report(screen.path, objective=options.objective)
     return TuneResult(
@@ -465,29 +463,6 @@ def decide(
         log,
         objects=objects,
     )
-
-
-def _exception_tests(
-    units: list[Unit], decisions: pd.DataFrame, success: pd.DataFrame, log: RaceLog, why: str
-) -> list[ExceptionTest]:
-    """Per decided template group, its objects whose own best screening setting beat the
-    template (``harness.tuning.exceptions``); none while the race is cut short."""
-    if why or log.interrupted:
-        return []
-    tests = []
-    for unit in units:
-        if not unit.is_template:
-            continue
-        row = decisions[(decisions["task"] == unit.task) & (decisions["context"] == unit.context)]
-        decided = row.iloc[0].to_dict()
-        if decided["verdict"] == UNDECIDED:
-            continue
-        template = template_of(decided)
-        for (task, context), best in candidates(unit, template, success):
-            tests.append(
-                ExceptionTest(unit.task, task, context, Racer(template, 0), Racer(best, 1))
-            )
-    return tests
 
 
 def _object_label(task: TaskConfig) -> str:
@@ -507,96 +482,8 @@ def _cut_short(log: RaceLog, options: TuneOptions) -> str:
     return ""
 
 
-def _write_tuned(
-    out: Path,
-    decisions: pd.DataFrame,
-    tasks: dict[str, TaskConfig],
-    header: list[str],
-    images: dict[tuple[str, str], Path],
-    options: TuneOptions,
-    objects: pd.DataFrame,
-) -> str:
-    """Write ``tuned.yaml`` (the keys to merge) and ``tuned.md`` (with the page's link); return
-    the YAML text."""
-    folder = out / TUNE_DIR
-    text = tuned_yaml(
-        decisions, tasks, header, options.sources, options.groups, options.pick_paths, objects
-    )
-    write_file(folder / "tuned.yaml", text, root=out)
-    link = f"../{SCREEN_DIR}/report.html"
-    page = f"\nPage (decisions first, then the screening): [{link}]({link})\n"
-    pictures = {}
-    for group in dict.fromkeys(objects["group"]) if len(objects) else []:
-        title = f"template group {group}: every object's {options.objective} rate"
-        pictures[str(group)] = object_plot(
-            objects, str(group), title, folder / safe_file_name(f"objects_{group}", ".png")
-        )
-    body = tuned_markdown(decisions, text, header, images)
-    body += "\n".join(objects_markdown(objects, pictures)) + "\n"
-    write_file(folder / "tuned.md", body + page, root=out)
-    return text
-
-
 def _unit_map(success: pd.DataFrame, unit: Unit) -> pd.DataFrame:
     return frame_of(success[(success["task"] == unit.task) & (success["context"] == unit.context)])
-
-
-def _header(out: Path, seed: int, options: TuneOptions, log: RaceLog) -> list[str]:
-    return [
-        f"harness tune {out}: objective {options.objective}; screening {options.screen_seeds} "
-        f"seeds (sweep seed {seed}); race of the current + {options.top} best on fresh seeds "
-        f"(sweep seed {seed + 100_000}), per unit a group-sequential plan "
-        + (
-            f"of {options.max_seeds} seeds"
-            if options.max_seeds
-            else f"sized for 80% power at a +{options.target_gain:.0%} gain"
-        )
-        + f" in looks of {options.block} or more; exact one-sided McNemar at Lan-DeMets "
-        f"Pocock-type levels (one-sided alpha {options.alpha}), Holm over the challengers"
-        + (
-            "; the validity phase is not run under reference semantics (nothing this objective"
-            " reads needs it: the rows' validity columns are empty, as with validity: off)."
-            if options.objective == "reference"
-            else "."
-        ),
-        f"race: {log.rounds} rounds, {log.episodes} episodes, {log.seconds:.0f} episode-seconds"
-        + ("; budget spent" if log.budget_spent else "")
-        + ("; interrupted (run the tune again with the same --out)" if log.interrupted else "")
-        + ("; race rows missing (run the tune to continue the race)" if log.missing else ""),
-    ]
-
-
-def _write(
-    decisions: pd.DataFrame,
-    tasks: dict[str, TaskConfig],
-    options: TuneOptions,
-    folder: Path,
-    objects: pd.DataFrame,
-) -> list[Path]:
-    """Per task with a file: the merged copy and its diff under ``folder``. A task whose race
-    decided nothing (undecided: cut short, no look, rows missing) or found no setting that
-    helps gets no copy: there is nothing to merge. A template group's files each get the
-    template, or their confirmed override."""
-    written: list[Path] = []
-    settings: dict[str, tuple[str, str]] = {}
-    for name, decided, _ in task_decisions(decisions):
-        if decided["verdict"] in (UNDECIDED, NO_SETTING_HELPS):
-            continue
-        for member in options.groups.get(name, [name]):
-            settings[member] = decided["setting"]
-    for row in series_rows(objects) if len(objects) else []:
-        if row["exception"] == OVERRIDE and str(row["task"]) in settings:
-            settings[str(row["task"])] = (
-                str(row["own_best_approach"]),
-                str(row["own_best_facing"]),
-            )
-    for name, setting in settings.items():
-        source = options.sources.get(name)
-        if source is None or not Path(source).is_file():
-            continue  # an inline task: no task file to copy
-        keys = filter_keys(tasks[name], setting)
-        written.extend(write_copy(Path(source), keys, folder, options.pick_paths.get(name)))
-    return written
 
 
 __all__ = ["OPTIONS_FILE", "RACE_KEYS", "TuneOptions", "TuneResult", "analyse", "lines", "tune"]
