@@ -13,8 +13,8 @@ from rich.table import Table
 from rich.text import Text
 
 from harness.commands.console import make_console, styled, videos_possible
+from harness.commands.summary_table import summary_table
 from harness.report import (
-    FAIL_PREFIX,
     build_report,
     compare_runs,
     format_value,
@@ -48,8 +48,9 @@ def main(args: argparse.Namespace) -> int:
         console.print("replaying one success and one failure per robot arm for the videos ...")
     with run_lock(run_dir):  # a sweep still filling the directory: refused, not raced
         paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
-    console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
-    print_answers(console, pd.read_csv(paths.summary_csv), paths.objective)
+    summary = pd.read_csv(paths.summary_csv)
+    console.print(summary_table(summary, paths.objective))
+    print_answers(console, summary, paths.objective)
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),
@@ -85,45 +86,6 @@ def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
 def _short(column: str) -> str:
     """``param.pick.approach_filter`` -> ``approach_filter`` (the last part of the key)."""
     return column.split(".")[-1]
-
-
-def valid_cells(row: Any) -> list[str]:
-    """``valid k/m``, its rate and Wilson interval; blank when no episode was judged."""
-    judged = int(row.get("n_judged", 0) or 0)
-    if not judged:
-        return ["", "", ""]
-    return [
-        f"{int(row['valid'])}/{judged}",
-        f"{row['valid_rate']:.0%}",
-        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
-    ]
-
-
-def summary_table(summary: pd.DataFrame, title: str) -> Table:
-    """The per-point summary as a rich table (robot, arm, object, swept values, rate, CI)."""
-    params = [c for c in summary.columns if c.startswith("param.")]
-    shown = setting_params(summary) or varying_params(summary) or params
-    table = Table(title=title)
-    for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
-        table.add_column(column)
-    for column in ("k/n", "rate", "95% CI", "valid", "valid rate", "valid CI", "top failure"):
-        table.add_column(column, justify="right")
-    fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
-    for row in series_rows(summary):
-        fails = {c.removeprefix(FAIL_PREFIX): int(row[c]) for c in fail_columns if row[c] > 0}
-        top = max(sorted(fails), key=fails.__getitem__) if fails else ""
-        table.add_row(
-            str(row["robot"]),
-            str(row["arm"]),
-            str(row["object"]),
-            *[format_value(row[p]) for p in shown],
-            f"{int(row['successes'])}/{int(row['n'])}",
-            f"{row['rate']:.0%}" if row["n"] else "",
-            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
-            *valid_cells(row),
-            f"{top} ({fails[top]})" if top else "",
-        )
-    return table
 
 
 def _verdict(comparison: pd.DataFrame, objective: str) -> str:
