@@ -67,7 +67,7 @@ def main(args: argparse.Namespace) -> int:
     stats = outcome.stats
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
-    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos)  # built once
+    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos, announce=say)
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(
@@ -103,6 +103,8 @@ def main(args: argparse.Namespace) -> int:
                 run_dir=outcome.run_dir,
             )
         )
+    say(f"run directory: {outcome.run_dir}")  # the last line, for scripts and for people
+    if stats.interrupted:
         return 130
     return 1 if failing else 0
 
