@@ -77,8 +77,6 @@ def sweep(
     progress line every 30 s (``sweep: 40/120 episodes (33%), ... elapsed 0:01:22, 0:02:44
     left``), a line per output written after the episodes, and ``run directory: PATH`` last;
     ``progress=False`` prints nothing."""
-    from harness.report.finish import finish_run  # scipy, matplotlib: only when sweeping
-
     target = _out(out)
     existing = _existing_run(target, resume, overwrite)
     with tempfile.TemporaryDirectory(prefix="harness-sweep-") as folder:
@@ -101,6 +99,10 @@ def sweep(
                 path, out=target, workers=workers, backend=backend, progress=progress
             )
     announce = _say if progress else None
+    if announce is not None:
+        announce("writing the report ...")
+    from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
+
     finish_run(outcome.run_dir, announce=announce)
     if announce is not None:
         announce(f"run directory: {outcome.run_dir}")

@@ -85,7 +85,9 @@ def test_sweep_into_a_used_folder_says_which_flag_to_pass(tmp_path: Path) -> Non
 
 
 @pytest.mark.slow
-def test_sweep_into_a_used_folder_resumes_or_overwrites(tmp_path: Path) -> None:
+def test_sweep_into_a_used_folder_resumes_or_overwrites(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from harness.errors import HarnessError
 
     out = tmp_path / "run"
@@ -97,6 +99,9 @@ def test_sweep_into_a_used_folder_resumes_or_overwrites(tmp_path: Path) -> None:
     }
     first = harness.sweep(config, out=out, backend="serial")
     assert len(first) == 1
+    said = capsys.readouterr().out.splitlines()  # as the CLI prints without a terminal
+    assert said[-1] == f"run directory: {out}"
+    assert f"report: {out / 'report.html'}" in " ".join(said)
     with pytest.raises(HarnessError, match=r"pass resume=True .* or overwrite=True"):
         harness.sweep(config, out=out, backend="serial")
     before = (out / "episodes.jsonl").read_text(encoding="utf-8")

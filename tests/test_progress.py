@@ -185,3 +185,9 @@ def test_run_and_sweep_print_progress_lines_into_a_pipe(tmp_path: Path) -> None:
     assert ticks and {m["label"] for m in ticks} == {"sweep"}
     assert all(m["total"] == "2" for m in ticks)
     assert re.search(r"^sweep: 2/2 episodes in \d+s$", made.stdout, flags=re.M)
+    # After the episodes: a line per output as it is written, the run directory last.
+    for out in (run.stdout, made.stdout):
+        assert re.search(r"^report: \S+/report\.html \(\d+\.\d s\)$", out, flags=re.M)
+        assert re.search(r"^recording: \S+/recording\.rrd \(\d+\.\d s\)$", out, flags=re.M)
+        assert out.splitlines()[-1].startswith("run directory: ")
+        assert out.index("writing the report ...") < out.index("report: ")

@@ -198,6 +198,7 @@ def main(args: argparse.Namespace) -> int:
     if lines is not None:
         lines.stop()  # its last line: how long the run took
     run.finalize()
+    say("writing the report ...")
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
     finish_run(run.path, announce=say)

@@ -65,9 +65,12 @@ def main(args: argparse.Namespace) -> int:
         engine=args.engine,
     )
     stats = outcome.stats
+    if not args.no_progress:
+        say(f"writing the report{' and its videos (replayed episodes)' if args.videos else ''} ...")
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
-    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos, announce=say)
+    announce = None if args.no_progress else say
+    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos, announce=announce)
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(

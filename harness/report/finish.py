@@ -28,12 +28,12 @@ def finish_run(
     recording (``recording.rrd``, skipped without rerun-sdk). A full disk raises the run's
     one-line ``DiskFullError``.
 
-    ``announce`` gets a line before the work starts and one per output as it is written
-    (``report: RUN/report.html (12.0 s)``, ``videos: ...``, ``recording: ...``): building them
-    takes seconds to minutes after the last episode, which must not look like a hang."""
+    ``announce`` gets a line per output as it is written (``report: RUN/report.html (12.0 s)``,
+    ``videos: ...``, ``recording: ...``): building them takes seconds to minutes after the last
+    episode, which must not look like a hang. The caller says ``writing the report ...``
+    before it imports this module (its imports, scipy and matplotlib, take a second)."""
     tell = announce or _silent
     start = time.perf_counter()
-    tell(f"writing the report{' and its videos' if videos else ''} ...")
     try:
         paths = build_report(run_dir, objective=objective, videos=videos, announce=announce)
     except OSError as exc:
