@@ -9,10 +9,11 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+from rich.console import Group
 from rich.table import Table
 from rich.text import Text
 
-from harness.commands.console import make_console, styled, videos_possible
+from harness.commands.console import make_console, videos_possible, visible
 from harness.commands.summary_table import summary_table
 from harness.report import (
     build_report,
@@ -21,6 +22,7 @@ from harness.report import (
     varying_params,
 )
 from harness.report.answer import sweep_answers
+from harness.report.current import current_settings
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
 from harness.report.tables import setting_params
@@ -50,7 +52,7 @@ def main(args: argparse.Namespace) -> int:
         paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
     summary = pd.read_csv(paths.summary_csv)
     console.print(summary_table(summary, paths.objective))
-    print_answers(console, summary, paths.objective)
+    print_answers(console, summary, paths.objective, run_dir)
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),
@@ -63,24 +65,44 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
-    """The first screen's answers, one line per robot, arm and object."""
-    params = setting_params(summary) or varying_params(summary)
-    for answer in sweep_answers(summary, objective, params):
-        console.print(
-            styled(
-                "best for [bold]{unit}[/]: {rest}",
-                unit=answer.unit,
-                rest=f"{answer.decision} — {answer.setting}: {answer.rate} · {answer.other_rate}; "
-                f"runner-up {answer.runner_up}; {answer.reason}",
-            ),
-            soft_wrap=True,
-        )
+def print_answers(
+    console: Any, summary: pd.DataFrame, objective: str, run_dir: Path | None = None
+) -> None:
+    """The first screen's answers, one line per robot, arm and object (``run_dir``: where the
+    tasks' own settings are read, what a tie keeps)."""
+    params = setting_params(summary)  # an object axis alone is no setting (mesh=banana)
+    current = current_settings(run_dir, summary) if run_dir is not None else None
+    for answer in sweep_answers(summary, objective, params, current):
+        console.print(answer_block(answer))
     console.print(
         f"ranked by the {objective} rate; a best swept setting is not confirmed on fresh "
         "seeds: harness tune",
         soft_wrap=True,
     )
+
+
+# The decision's colour: green is for a tested switch only (harness.report.tune_link); a
+# candidate chosen on the sweep's own seeds is cyan, no clear winner and keep are uncoloured.
+DECISION_STYLES = (("switch", "green"), ("best swept", "cyan"), ("no setting", "red"))
+
+
+def answer_block(answer: Any) -> Group:
+    """One unit's answer in a few wrapped lines: the decision first, then the setting, its
+    rates, the others compared and why the rest miss (fits any width, cuts nothing)."""
+    style = next((s for prefix, s in DECISION_STYLES if answer.decision.startswith(prefix)), "")
+    rows = Table.grid(padding=(0, 1))
+    rows.add_column(no_wrap=True)
+    rows.add_column(overflow="fold")
+    head = Text(visible(answer.unit), style="bold")
+    head.append(": ").append(answer.decision, style=style)
+    for label, text in (
+        ("  setting", answer.setting),
+        ("  rate", f"{answer.rate} · {answer.other_rate}"),
+        ("  others", answer.runner_up),
+        ("  why", answer.reason),
+    ):
+        rows.add_row(label, text)
+    return Group(head, rows)
 
 
 def _short(column: str) -> str:

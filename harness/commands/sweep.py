@@ -125,7 +125,7 @@ def print_summary(run_dir: Path, console: Console) -> None:
 
         objective = effective_objective(summary, resolve_objective(run_dir, None))
         console.print(summary_table(summary, objective))
-        print_answers(console, summary, objective)  # the report's first screen, in short
+        print_answers(console, summary, objective, run_dir)  # the first screen, in short
         counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
         if sum(counts):
             console.print(

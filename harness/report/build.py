@@ -28,6 +28,7 @@ import pandas as pd
 from harness.files import refuse_planted_links, write_atomic
 from harness.report import failure_groups
 from harness.report.answer import FirstScreen, answer_table, sweep_answers
+from harness.report.current import current_settings
 from harness.report.episode_sections import (
     errors_table,
     examples_table,
@@ -134,8 +135,8 @@ def first_screen(
 ) -> FirstScreen:
     """The answer tables (a tune's decisions first, when ``run_dir`` is its screening or race),
     the objective line and links to tunes of the same tasks."""
-    params = setting_params(summary) or varying_params(summary)
-    answers = sweep_answers(summary, objective, params)
+    params = setting_params(summary)  # an object axis alone is no setting (mesh=banana)
+    answers = sweep_answers(summary, objective, params, current_settings(run_dir, summary))
     tune = own_tune(run_dir)
     tables: list[Table] = []
     links: list[tuple[str, str]] = []
