@@ -280,6 +280,17 @@ def test_the_sweep_recording_names_one_series_per_arm_object_and_setting(tmp_pat
         if "Scalars:scalars" in batch.schema.names:
             last[chunk.entity_path] = batch.column("Scalars:scalars").to_pylist()[-1][0]
     assert sorted(names) == series
+    # one colour per setting in every panel
+    colors: dict[str, set[int]] = {}
+    for chunk in RrdReader(str(path)).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if chunk.entity_path.startswith("/compare/") and "SeriesLines:colors" in batch.schema.names:
+            setting = chunk.entity_path.rsplit("/", 1)[1]
+            colors.setdefault(setting, set()).update(
+                batch.column("SeriesLines:colors").to_pylist()[0]
+            )
+    assert len(colors) == 3 and all(len(c) == 1 for c in colors.values())
+    assert len({next(iter(c)) for c in colors.values()}) == 3
     labels = [n[0] for n in names.values()]
     assert len(set(labels)) == 3  # each arm's three settings, named the same across arms
     fr3 = sorted(n[0] for e, n in names.items() if e.startswith("/compare/fr3/"))

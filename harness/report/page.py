@@ -312,4 +312,17 @@ def render_page(
         clips=[_clip_context(run_dir, c, links or {}) for c in clips],
         plots=[_figure(n, p) for n, p in others.items()],
         sorter=SORTER + FILTER + OPEN_TARGET,
+        **recording_commands(run_dir),
     )
+
+
+def recording_commands(run_dir: Path) -> dict[str, str]:
+    """The commands that open one of the run's recordings, as ``harness view`` prints them
+    (``harness.viz.viewer``), with the run's absolute path: they run from any directory."""
+    from harness.viz.viewer import rerun_viewer, web_command
+
+    example = Path(run_dir).resolve() / "episodes" / "ID.rrd"
+    return {
+        "view_command": f"harness view {example}",
+        "web_command": web_command(example, rerun_viewer()),
+    }
