@@ -16,10 +16,11 @@ the baseline on the value's seeds: the three columns are paired, same seeds).
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Any, cast
 
 import pandas as pd
 
+from harness.report.frames import column, frame_of
 from harness.report.sections import Table
 from harness.report.sensitivity import FLIP, MOVES, STABLE
 from harness.report.stats import wilson_interval
@@ -55,10 +56,10 @@ def _cone_text(cone: list[Any]) -> str:
 
 def _counts(rows: pd.DataFrame) -> tuple[int, int]:
     """(valid, judged) over rated rows (errors and not_runnable rows left out)."""
-    rated = rows[rows["failure_reason"].fillna("") != "error"]
+    rated = frame_of(rows[column(rows, "failure_reason").fillna("") != "error"])
     if "not_runnable" in rated:
-        rated = rated[~rated["not_runnable"].fillna(False).astype(bool)]
-    return int(rated["valid"].fillna(False).astype(bool).sum()), len(rated)
+        rated = frame_of(rated[~column(rated, "not_runnable").fillna(False).astype(bool)])
+    return int(column(rated, "valid").fillna(False).astype(bool).sum()), len(rated)
 
 
 def value_rows(
@@ -74,7 +75,7 @@ def value_rows(
     levels = [values[0], default, values[1]]
     # Paired: the baseline on the seeds the value ran (a baseline may have run more of them).
     if "seed" in baseline and "seed" in swept:
-        baseline = baseline[baseline["seed"].isin(set(swept["seed"]))]
+        baseline = frame_of(baseline[baseline["seed"].isin(list(set(swept["seed"])))])
     frames = []
     for index, level in enumerate(levels):
         if index == 1:
@@ -86,13 +87,14 @@ def value_rows(
         frames.append(part)
     rows = pd.concat(frames, ignore_index=True)
     out: list[list[str]] = []
-    for (robot, arm, obj), unit in rows.groupby(["robot", "arm", "object"], sort=True):
+    for key_, unit in rows.groupby(["robot", "arm", "object"], sort=True):
+        robot, arm, obj = cast(tuple[Any, Any, Any], key_)
         cells, bests, spans = [], [], []
         for index in range(3):
             at = unit[unit["_level"] == index]
             by_cone: dict[str, tuple[int, int]] = {}
             for cone_value, cone_rows in at.groupby(CONE, sort=True):
-                by_cone[_cone_text(_cone(cone_value))] = _counts(cone_rows)
+                by_cone[_cone_text(_cone(cone_value))] = _counts(frame_of(cone_rows))
             canonical = _cone_text([CANONICAL[0], float(CANONICAL[1])])
             valid, judged = by_cone.get(canonical, (0, 0))
             cells.append(f"{valid}/{judged}" if judged else "–")
