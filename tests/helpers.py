@@ -71,12 +71,8 @@ PICK_TASKS = [path.stem for name in ROBOTS for path in canonical_task_files(name
 AVAILABLE_ROBOTS_TEXT = ", ".join(ROBOTS)
 """How error messages list the bundled robots (``unknown robot ...; available robots: ...``)."""
 
-INTERNDATA_ROBOTS_TEXT = ", ".join(interndata_robots().values()) + (
-    " (a robot is added as a folder robots/<name>/ whose robot.yaml names this file in "
-    "interndata.robot_config_file: docs/extending.md, Add a robot)"
-)
-"""How error messages list the robots an InternDataEngine task may name (``supported: ...``)
-and say how one is added."""
+INTERNDATA_ROBOTS_TEXT = ", ".join(interndata_robots().values())
+"""How error messages list the robots an InternDataEngine task may name (``supported: ...``)."""
 
 FILTER_KEYS = ("filter_x_dir", "filter_y_dir", "filter_z_dir")
 

@@ -19,9 +19,8 @@ from harness.grasps import GripperConvention
 
 T = TypeVar("T")
 
-REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha", "genie1", "franka_robotiq85")
-"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml, genie1.yaml,
-franka_robotiq85.yaml) this harness reproduces."""
+REFERENCE_ROBOTS = ("fr3", "lift2", "split_aloha")
+"""The InternDataEngine robots (fr3.yaml, lift2.yaml, split_aloha.yaml) this harness reproduces."""
 
 
 def pinned(table: dict[str, T], robot: str) -> T:
@@ -30,10 +29,6 @@ def pinned(table: dict[str, T], robot: str) -> T:
         pytest.skip(f"{robot}: no pinned facts in tests/reference_robots.py (generic tests only)")
     return table[robot]
 
-
-CANONICAL_EQUIVALENT_ROBOTS = ("fr3", "lift2", "split_aloha")
-"""The robots whose canonical single-pick filters keep the same grasps (docs/reference-pick-skill.md
-section 11); Genie1's three-axis filters in its pitched arm_base_link are another choice."""
 
 # The reference robot configs' grasp conventions (InternDataEngine fr3.yaml, lift2.yaml,
 # split_aloha.yaml; docs/reference-pick-skill.md section 3), written out here as the expected
@@ -63,22 +58,6 @@ REFERENCE_CONVENTIONS: dict[str, GripperConvention] = {
         gripper_min_width=0.0,
         gripper_max_width=0.10,
     ),
-    "genie1": GripperConvention(
-        R_ee_graspnet=np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),
-        ee_axis="z",
-        facing_axis="y",  # +g_z: no EE axis is -g_z in this convention
-        tcp_offset=0.217,
-        gripper_min_width=0.0,
-        gripper_max_width=0.1,
-    ),
-    "franka_robotiq85": GripperConvention(
-        R_ee_graspnet=np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
-        ee_axis="z",
-        facing_axis="x",
-        tcp_offset=0.165,
-        gripper_min_width=0.0,
-        gripper_max_width=0.085,
-    ),
 }
 
 # The reference's robot config file per robot (the ``robot_config_file`` basename).
@@ -86,19 +65,11 @@ INTERNDATA_CONFIG_FILES = {
     "fr3": "fr3.yaml",
     "lift2": "lift2.yaml",
     "split_aloha": "split_aloha.yaml",
-    "genie1": "genie1.yaml",
-    "franka_robotiq85": "franka_robotiq85.yaml",
 }
 
 # Arms, and the reference EE link each arm's EE frame is named after (``<arm>_<link>``).
-ARM_NAMES = {
-    "fr3": ["left"],
-    "lift2": ["left", "right"],
-    "split_aloha": ["left", "right"],
-    "genie1": ["left", "right"],
-    "franka_robotiq85": ["left"],
-}
-EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6", "franka_robotiq85": "link8"}
+ARM_NAMES = {"fr3": ["left"], "lift2": ["left", "right"], "split_aloha": ["left", "right"]}
+EE_LINKS = {"fr3": "hand", "lift2": "link6", "split_aloha": "link6"}
 
 # Arm bases in the robot's root frame as the reference has them (issue 22): x, y from its
 # LeRobot converters (policy/lmdb2lerobotv21/lmdb2lerobot_{split_aloha,lift2}_a1.py lines
@@ -114,42 +85,18 @@ REFERENCE_ARM_BASES = {
         "left": (0.163030156, 0.248420062, 0.7545),
         "right": (0.163030139, -0.248420087, 0.7545),
     },
-    # Genie1: both arms' base is arm_base_link; lmdb2lerobot_genie1_a1.py 389-393 (the
-    # "dataengine" pose at body_home 0.63): (0.310688674, -8.5e-08, 1.21495271).
-    "genie1": {
-        "left": (0.310688674, 0.0, 1.21495271),
-        "right": (0.310688674, 0.0, 1.21495271),
-    },
 }
 
 # Left minus right arm base y (m) of the two-armed robots: the converters' (above), as built.
-ARM_SPACING = {"lift2": 2 * 0.24842, "split_aloha": 2 * 0.306, "genie1": 0.0}
-
-# The arm base frame's pitch about its y axis (rad) where the reference's is not level: Genie1's
-# arm_base_link (both arms' base), tilted by the waist's idx02_body_joint2 held at body_home 0.63
-# (robots_genie1.yaml; the reference's LeRobot converter lmdb2lerobot_genie1_a1.py 389-393 has
-# its rotation cos 0.808 = cos 0.63).
-ARM_BASE_PITCH = {"genie1": 0.63}
+ARM_SPACING = {"lift2": 2 * 0.24842, "split_aloha": 2 * 0.306}
 
 # Jaw opening (m): the reference's gripper_max_width (Split ALOHA: its piper100; the SDK's
 # 0.07 is the sdk070 variant).
-OPEN_WIDTHS = {
-    "fr3": 0.08,
-    "lift2": 0.088,
-    "split_aloha": 0.10,
-    "genie1": 0.1,
-    "franka_robotiq85": 0.085,
-}
+OPEN_WIDTHS = {"fr3": 0.08, "lift2": 0.088, "split_aloha": 0.10}
 
 # TCP frame past the EE frame (m): Franka's 0.1034 (the reference's tcp_offset 0.1043 is a digit
 # swap, kept in the convention), the Piper's 0.12, the R5a's 0.125.
-TCP_FRAME_OFFSET = {
-    "fr3": 0.1034,
-    "split_aloha": 0.12,
-    "lift2": 0.125,
-    "genie1": 0.217,
-    "franka_robotiq85": 0.165,
-}
+TCP_FRAME_OFFSET = {"fr3": 0.1034, "split_aloha": 0.12, "lift2": 0.125}
 
 # Where the approach axis points at home, in the arm base frame: fr3 down, split_aloha forward
 # and 15 deg down, lift2 straight forward.
@@ -164,8 +111,6 @@ PLACEMENTS = {
     "fr3": ((-0.495, -0.445), (0.0, 0.05)),
     "lift2": ((-0.80, -0.80), (-0.775, -0.67)),
     "split_aloha": ((-0.86, -0.86), (-0.765, -0.715)),
-    "genie1": ((-0.85, -0.80), (-0.85, -0.73)),
-    "franka_robotiq85": ((-0.50, -0.50), (-0.1, 0.1)),
 }
 
 # Link masses (kg) of the URDFs: FR3 inertials.yaml (+ Panda hand and fingers), Piper and R5a
@@ -207,8 +152,6 @@ FINGERTIP_M = {
     # split_aloha.yaml: link6 z 0.12). Menagerie's pads would reach 0.15657 and 0.13503.
     "lift2": 0.135,
     "split_aloha": 0.12,
-    # genie1.yaml tool_head: arm_<l|r>_end_link z 0.217.
-    "genie1": 0.217,
 }
 
 # The reference's cuRobo planner files per robot: the pre-grasp backs off along EE column 0
@@ -226,8 +169,6 @@ EE_AXES_IN_GRASPNET = {
     "fr3": (("-z", "y", "x"), ("z", "-y", "x")),  # flip about z
     "lift2": (("x", "-y", "-z"), ("x", "y", "z")),  # flip about x
     "split_aloha": (("-y", "-z", "x"), ("y", "z", "x")),  # flip about z
-    "genie1": (("y", "z", "x"), ("-y", "-z", "x")),  # flip about z
-    "franka_robotiq85": (("-z", "y", "x"), ("z", "-y", "x")),  # flip about z
 }
 
 # The fuzz test's arms whose canonical direction filter is downward 140 on EE z or that accept

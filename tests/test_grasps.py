@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from helpers import canonical_filters
 from pydantic import ValidationError
-from reference_robots import CANONICAL_EQUIVALENT_ROBOTS, EE_AXES_IN_GRASPNET, REFERENCE_ROBOTS
+from reference_robots import EE_AXES_IN_GRASPNET, REFERENCE_ROBOTS
 from scipy.spatial.transform import Rotation
 from scipy.stats import chisquare
 
@@ -100,10 +100,8 @@ def test_post_process_hand_math_top_down(robot: str) -> None:
     np.testing.assert_array_equal(poses.rotations[0], np.column_stack(unflipped))
     np.testing.assert_array_equal(poses.rotations[1], np.column_stack(flipped))
     # The EE origin sits tcp_offset - depth behind the grasp point along the approach (-Z), i.e.
-    # above it; both copies share it. A linkage gripper adds its extra depth at the clipped
-    # width (franka_robotiq85: step 4, the reference's tcp2base_offset.json).
-    clipped = np.clip([0.095], *convention.width_range)
-    behind = convention.tcp_offset - 0.02 - float(convention.extra_depth(clipped)[0])
+    # above it; both copies share it.
+    behind = convention.tcp_offset - 0.02
     np.testing.assert_allclose(poses.positions, [[0.01, 0.02, 0.03 + behind]] * 2, atol=1e-15)
     np.testing.assert_array_equal(poses.scores, [0.2, 0.2])
     np.testing.assert_array_equal(poses.source_row, [0, 0])
@@ -130,11 +128,8 @@ def test_post_process_general_rotation_rows_of_R_ee_graspnet(robot: str) -> None
         np.testing.assert_allclose(R[:, j], R_g @ convention.R_ee_graspnet[j], atol=1e-15)
     a = R[:, convention.approach_index]
     np.testing.assert_allclose(a, R_g[:, 0])  # the approach is g_x for every robot
-    # Scaled point, unscaled depth (plus a linkage gripper's extra depth), the overridden
-    # tcp_offset.
-    width = np.clip([grasps.widths[1]], *convention.width_range)
-    depth = 0.02 + float(convention.extra_depth(width)[0])
-    np.testing.assert_allclose(poses.positions[1], 0.5 * point + a * (depth - 0.13), atol=1e-15)
+    # Scaled point, unscaled depth, the overridden tcp_offset.
+    np.testing.assert_allclose(poses.positions[1], 0.5 * point + a * (0.02 - 0.13), atol=1e-15)
     np.testing.assert_allclose(poses.positions[3], poses.positions[1])
     flip = np.diag(np.where(np.arange(3) == convention.approach_index, 1.0, -1.0))
     np.testing.assert_allclose(poses.rotations[3], R @ flip)
@@ -295,7 +290,7 @@ def test_masks_are_anded_and_reported_individually() -> None:
 # Neutral filters
 
 
-@pytest.mark.parametrize("robot", CANONICAL_EQUIVALENT_ROBOTS)
+@pytest.mark.parametrize("robot", ROBOTS)
 def test_canonical_filters_translate_to_one_neutral_pair(robot: str) -> None:
     convention = REFERENCE_CONVENTIONS[robot]
     pick = PickConfig(**canonical_filters(robot))
@@ -601,9 +596,7 @@ def test_canonical_filters_select_identical_grasps_across_robots(
     rng = np.random.default_rng(2026)
     for folder in example_objects:
         grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
-        poses = {
-            r: post_process(grasps, REFERENCE_CONVENTIONS[r]) for r in CANONICAL_EQUIVALENT_ROBOTS
-        }
+        poses = {r: post_process(grasps, REFERENCE_CONVENTIONS[r]) for r in ROBOTS}
         for _ in range(25):
             T_base_obj = _random_base_object_pose(rng)
             seed = int(rng.integers(1 << 30))
@@ -616,11 +609,11 @@ def test_canonical_filters_select_identical_grasps_across_robots(
                     np.random.default_rng(seed),
                     rule_of(PickConfig(**canonical_filters(r))),
                 )
-                for r in CANONICAL_EQUIVALENT_ROBOTS
+                for r in ROBOTS
             }
             fr3 = selections["fr3"]
             assert fr3.filter_result.passed > 0, folder
-            for robot in CANONICAL_EQUIVALENT_ROBOTS[1:]:
+            for robot in ROBOTS[1:]:
                 other = selections[robot]
                 np.testing.assert_array_equal(
                     other.filter_result.combined, fr3.filter_result.combined, err_msg=robot
@@ -641,7 +634,7 @@ def test_neutral_filters_match_canonical_masks(example_objects: list[Path]) -> N
     grasps = load_grasp_file(example_objects[0] / "Aligned_grasp_sparse.npy")
     neutral = PickConfig(approach_filter=["downward", 140], facing_filter=["forward", 90])
     T_base_obj = make_T(yaw_matrix(1.1), [0.5, 0.1, 0.0])
-    for robot in CANONICAL_EQUIVALENT_ROBOTS:
+    for robot in ROBOTS:
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
         rng = np.random.default_rng(0)
@@ -663,7 +656,7 @@ def test_bottle_0_passes_430_of_6000_at_any_yaw(examples_dir: Path) -> None:
     assert len(grasps) == 3000
     rng = np.random.default_rng(0)
     yaws = np.concatenate([np.linspace(-np.pi, np.pi, 73), rng.uniform(-np.pi, np.pi, 50)])
-    for robot in CANONICAL_EQUIVALENT_ROBOTS:
+    for robot in ROBOTS:
         convention = REFERENCE_CONVENTIONS[robot]
         poses = post_process(grasps, convention)
         filters = PickConfig(**canonical_filters(robot)).axis_filters()
@@ -690,26 +683,3 @@ def test_example_reference_order_top_block_and_duplicates(
     )
     assert np.all(order.scores == np.float32(0.1))  # the lowest-score block fills the top 20
     assert len(np.unique(order.indices)) < 20
-
-
-def test_the_extra_depth_is_the_references_cubic_table_at_the_clipped_width() -> None:
-    """template_robot.py pose_post_process_fn 236-243: widths clipped to the table's range,
-    depth + interp1d(widths, offsets, kind="cubic")(width); a gripper without a table adds 0."""
-    from scipy.interpolate import interp1d
-
-    convention = reference_convention("franka_robotiq85")
-    widths, offsets = convention.extra_depth_widths, convention.extra_depth_offsets
-    assert convention.width_range == (0.0, 0.085) == (widths[0], widths[-1])
-    rows = [
-        grasp_row(R_TOP_DOWN, (0.0, 0.0, 0.0), score=0.1, width=w, depth=0.02)
-        for w in (0.0, 0.025, 0.047, 0.2)
-    ]
-    poses = post_process(GraspSet.from_array(np.stack(rows)), convention)
-    clipped = np.array([0.0, 0.025, 0.047, 0.085])
-    np.testing.assert_allclose(poses.widths[:4], clipped)
-    extra = interp1d(widths, offsets, kind="cubic")(clipped)
-    # top-down: the approach is -z, so the EE sits (tcp_offset - depth - extra) above the point
-    np.testing.assert_allclose(poses.positions[:4, 2], 0.165 - 0.02 - extra, atol=1e-12)
-    assert extra[-1] > 0.02 > 0.0 > extra[0]  # open: 23 mm deeper; closed: 4 mm back
-    assert not reference_convention("fr3").extra_depth_widths
-    np.testing.assert_array_equal(reference_convention("fr3").extra_depth(clipped), 0.0)

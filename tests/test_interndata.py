@@ -335,13 +335,13 @@ def test_unsupported_robot(examples_dir: Path, tmp_path: Path, bottle: Path) -> 
         "franka_single_pick_banana.yaml",
         tmp_path,
         "robots/fr3.yaml",
-        "robots/ur5e.yaml",
+        "robots/genie1.yaml",
     )
     err = one_line_error(path, None, {"pick_object_left": str(bottle)})
     line = line_of(path, "robot_config_file:")
     assert err.one_line() == (
-        f"{path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot 'ur5e.yaml' "
-        "(workflows/simbox/core/configs/robots/ur5e.yaml); supported: " + INTERNDATA_ROBOTS_TEXT
+        f"{path}:{line} tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT
     )
 
 
@@ -766,48 +766,3 @@ def test_compatibility_table_lists_every_key_the_mapper_knows() -> None:
     ]
     missing = [key for key in keys if f"`{key}`" not in text]
     assert not missing, f"docs/interndata.md does not mention {missing}"
-
-
-def test_a_non_picked_articulated_object_without_a_path_is_left_out_with_a_note(
-    examples_dir: Path, tmp_path: Path, bottle: Path
-) -> None:
-    """The reference fills an ArticulatedObject's empty ``path`` at reset from its ``art_cat``
-    folder (simbox_dual_workflow.py 88-101); a harness scene without that folder goes without
-    the object when it is not picked, as with any other non-picked object without its asset."""
-    data = yaml.safe_load(example(examples_dir, "franka_single_pick_banana.yaml").read_text())
-    task = data["tasks"][0]
-    task["objects"].append(
-        {
-            "name": "microwave",
-            "path": "",
-            "target_class": "ArticulatedObject",
-            "art_cat": "art/microwave",
-            "apply_randomization": True,
-        }
-    )
-    task["regions"].append(
-        {
-            "object": "microwave",
-            "target": "table",
-            "random_type": "A_on_B_region_sampler",
-            "random_config": {"pos_range": [[0.2, 0.2, 0.0], [0.3, 0.3, 0.0]]},
-        }
-    )
-    path = tmp_path / "with_microwave.yaml"
-    path.write_text(yaml.safe_dump(data))
-    for check in (False, True):
-        (pick,) = load_interndata_tasks(
-            path, None, {"pick_object_left": str(bottle)}, check_assets=check
-        )
-        assert [obj.name for obj in pick.task.objects] == ["pick_object_left"]
-        assert any(
-            "skipped object 'microwave': an ArticulatedObject with path ''" in note
-            and "'art/microwave'" in note
-            for note in pick.skipped
-        )
-    # Picked, it is still an error at its path.
-    picked = yaml.safe_load(path.read_text())
-    picked["tasks"][0]["skills"][0]["franka"][0]["left"][0]["objects"] = ["microwave"]
-    path.write_text(yaml.safe_dump(picked))
-    err = one_line_error(path, None, {})
-    assert "tasks[0].objects[1].path: an object needs a path" in err.one_line()

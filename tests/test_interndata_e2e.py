@@ -305,15 +305,15 @@ def assert_one_line_error(result: subprocess.CompletedProcess[str], expected: st
 
 
 def test_cli_unsupported_robot(examples_dir: Path, bottle: Path, tmp_path: Path) -> None:
-    path = broken_copy(examples_dir, tmp_path, "robots/fr3.yaml", "robots/ur5e.yaml")
+    path = broken_copy(examples_dir, tmp_path, "robots/fr3.yaml", "robots/genie1.yaml")
     result = run_cli_subprocess(
         "run", "--interndata", path, "--object", f"pick_object_left={bottle}"
     )
     assert_one_line_error(
         result,
         f"error: {path}:{line_of(path, 'robot_config_file')} "
-        "tasks[0].robots[0].robot_config_file: unsupported robot 'ur5e.yaml' "
-        "(workflows/simbox/core/configs/robots/ur5e.yaml); supported: " + INTERNDATA_ROBOTS_TEXT,
+        "tasks[0].robots[0].robot_config_file: unsupported robot 'genie1.yaml' "
+        "(workflows/simbox/core/configs/robots/genie1.yaml); supported: " + INTERNDATA_ROBOTS_TEXT,
     )
 
 

@@ -20,10 +20,8 @@ import yaml
 from helpers import AVAILABLE_ROBOTS_TEXT, ROBOTS, canonical_filters
 from reference_robots import (
     APPROACH_AT_HOME,
-    ARM_BASE_PITCH,
     ARM_NAMES,
     ARM_SPACING,
-    CANONICAL_EQUIVALENT_ROBOTS,
     EE_LINKS,
     INTERNDATA_CONFIG_FILES,
     LINK_MASSES,
@@ -50,7 +48,7 @@ from harness.robots.facts import (
     robot_arms,
 )
 from harness.robots.generator.collisions import candidate_pairs
-from harness.robots.generator.generate import build_module, build_robot, generated_robots
+from harness.robots.generator.generate import build_robot, generated_robots
 from harness.robots.generator.urdf_text import urdf_text
 from harness.robots.mujoco_spec import build_robot_spec, robot_addresses, set_configuration
 from harness.robots.spec import (
@@ -204,17 +202,14 @@ def test_approach_axis_direction_at_home(robot: RobotModel) -> None:
 
 
 def test_arm_base_frames_face_forward_and_up(robot: RobotModel) -> None:
-    """Level (x forward, z up) unless the reference's base frame is pitched (Genie1's
-    arm_base_link, tilted by its waist: ARM_BASE_PITCH)."""
     wrapper = _placo(robot)
-    pitch = ARM_BASE_PITCH.get(robot.name, 0.0)
-    expected = Rotation.from_euler("y", pitch).as_matrix()
     for arm in robot.arms.values():
         R = wrapper.get_T_a_b(robot.root_frame, arm.base_frame)[:3, :3]
-        np.testing.assert_allclose(R, expected, atol=1e-12)
+        np.testing.assert_allclose(R, np.eye(3), atol=1e-12)
     if len(robot.arms) == 2:
         left = wrapper.get_T_a_b(robot.root_frame, "left_arm_base")[:3, 3]
         right = wrapper.get_T_a_b(robot.root_frame, "right_arm_base")[:3, 3]
+        assert left[1] > right[1]
         spacing = pinned(ARM_SPACING, robot.name)
         assert left[1] - right[1] == pytest.approx(spacing, abs=1e-9)
 
@@ -265,7 +260,7 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
     """Reference section 11: with robot.yaml's conventions, FR3 x-forward-90 + z-downward-140,
     Lift-2 x-downward-140 + z-forward-90 and Split ALOHA y-forward-90 + z-downward-140 keep
     the same poses for the same object pose in each arm's base frame."""
-    canonical = {name: canonical_filters(name) for name in CANONICAL_EQUIVALENT_ROBOTS}
+    canonical = {name: canonical_filters(name) for name in REFERENCE_ROBOTS}
     rng = np.random.default_rng(11)
     for folder in example_objects[:4]:
         grasps = load_grasp_file(folder / "Aligned_grasp_sparse.npy")
@@ -280,7 +275,7 @@ def test_canonical_filters_select_the_same_grasps(example_objects: list[Path]) -
                 specs = {k: AxisFilter(direction=d, angles=(a,)) for k, (d, a) in filters.items()}
                 masks[name] = filter_ee_poses(poses, T_base_obj, specs).combined
             assert masks["fr3"].any()
-            for name in CANONICAL_EQUIVALENT_ROBOTS:
+            for name in REFERENCE_ROBOTS:
                 np.testing.assert_array_equal(masks["fr3"], masks[name], err_msg=name)
 
 
@@ -562,22 +557,3 @@ def test_grip_forces_are_the_derived_ones() -> None:
     r5a = RobotModel.load("lift2").arms["left"].gripper
     assert r5a.force_limit == pytest.approx(ideal_r5a, abs=0.05)
     assert RobotModel.load("fr3").arms["left"].gripper.force_limit == 70.0  # Franka Hand datasheet
-
-
-def test_robotiq_extra_depth_is_derived_from_the_menagerie_linkage() -> None:
-    """franka_robotiq85's extra-depth table (the reference's tcp2base_offset.json, not public)
-    is tcp_offset minus the pad centre of Menagerie's 2F-85 four-bar linkage at each jaw, and
-    the linkage spans the datasheet's 85 mm stroke with the pads rising 28 mm as it closes."""
-    build = build_module("franka_robotiq85")
-    convention = RobotModel.load("franka_robotiq85").convention
-    table = build.extra_depth_table(convention.extra_depth_widths)
-    np.testing.assert_allclose(table, convention.extra_depth_offsets, atol=1e-5)
-    open_centre, open_width = build.pad_centre_and_width(0.0)
-    closed_centre, closed_width = build.pad_centre_and_width(0.8)
-    assert open_width == pytest.approx(0.0854, abs=2e-4) and abs(closed_width) < 0.002
-    assert closed_centre - open_centre == pytest.approx(0.028, abs=5e-4)
-    # The prismatic pads sit at the linkage's depth at a 40 mm jaw.
-    wrapper = _placo(RobotModel.load("franka_robotiq85"))
-    pad = wrapper.get_T_a_b("left_link8", "left_right_inner_finger_pad")
-    assert build.pad_centre_at(0.04) == pytest.approx(0.1622, abs=1e-4)
-    assert pad[2, 3] < build.pad_centre_at(0.04)  # the finger root is below the pad centre

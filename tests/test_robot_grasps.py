@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 from helpers import canonical_filters
-from reference_robots import CANONICAL_EQUIVALENT_ROBOTS
+from reference_robots import REFERENCE_ROBOTS
 
 from harness.config import PickConfig
 from harness.grasps import CandidateRule, ee_poses_for_pick, load_grasp_file, select_candidates
@@ -14,7 +14,7 @@ from harness.pick.semantics import Semantics
 from harness.robots import RobotModel
 from harness.transforms import make_T, yaw_matrix
 
-CANONICAL = {name: canonical_filters(name) for name in CANONICAL_EQUIVALENT_ROBOTS}
+CANONICAL = {name: canonical_filters(name) for name in REFERENCE_ROBOTS}
 
 
 def rule_of(pick: PickConfig) -> CandidateRule:

@@ -264,14 +264,6 @@ def _print_outcome(
     say(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")  # the last line
     if len(rows) != planned:
         return 130
-    if rows and all(row.get("failure_reason") == "not_runnable" for row in rows):
-        say(
-            f"error: every one of the {len(rows)} episode(s) is not_runnable: no pick of the "
-            "run can start from the initial scene (error_message says why; harness validate "
-            "lists them)",
-            file=sys.stderr,
-        )
-        return 1
     return 1 if too_many_errors(errors, len(rows)) else 0
 
 

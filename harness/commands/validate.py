@@ -55,31 +55,10 @@ def describe_pick(pick: InternDataPick) -> str:
     """One indented line per InternData pick: where it is, robot, arm, picked object."""
     task = pick.task
     alias = f" ({pick.robot_name!r} in the file)" if pick.robot_name != task.robot else ""
-    line = (
+    return (
         f"pick {pick.order} {pick.key}: task {task.name!r}, robot {task.robot}{alias} "
         f"arm {task.arm}, object {task.target_object.name!r}"
     )
-    if task.handover is not None:
-        steps = task.handover.first_key + (
-            f" and {task.handover.goto_key}" if task.handover.goto_key else ""
-        )
-        line += f"; a handover's second pick (each episode runs {steps} first)"
-    if task.not_runnable:
-        line += "; not runnable alone (its rows are not_runnable, in no rate)"
-    return line
-
-
-def interndata_summary(path: str, picks: list[InternDataPick]) -> str:
-    """The ``ok`` line of an InternData file: its picks, how many are handover second picks
-    and how many are not runnable alone (``TaskConfig.not_runnable``)."""
-    handovers = sum(pick.task.handover is not None for pick in picks)
-    blocked = sum(bool(pick.task.not_runnable) for pick in picks)
-    parts = [f"{len(picks)} pick task(s)"]
-    if handovers:
-        parts.append(f"{handovers} handover second pick(s)")
-    if blocked:
-        parts.append(f"{blocked} not runnable alone")
-    return f"ok {path}: InternDataEngine task file, {', '.join(parts)}"
 
 
 def sweep_warning_lines(sweep: SweepConfig, path: str) -> list[str]:
@@ -151,16 +130,9 @@ def main(args: argparse.Namespace) -> int:
                 from harness.interndata import load_interndata_tasks
 
                 picks = load_interndata_tasks(path, asset_root=None, objects={}, check_assets=False)
-                say(interndata_summary(path, picks))
+                say(f"ok {path}: InternDataEngine task file, {len(picks)} pick task(s)")
                 for pick in picks:
                     say(f"  {describe_pick(pick)}")
-                if all(pick.task.not_runnable for pick in picks):
-                    say(
-                        f"warning: {path}: no pick is runnable alone (each follows a skill that "
-                        "handles its object first); a run gives only not_runnable rows and "
-                        "exits 1",
-                        file=sys.stderr,
-                    )
                 for pick in picks:
                     print_warnings(warning_lines(pick.task, path, f"pick {pick.order}"))
                 continue

@@ -66,14 +66,6 @@ class PickConfig(StrictModel):
         "ignore_substring): under reference it REPLACES the controllers' default list "
         "(template_controller.py __init__); None keeps the default.",
     )
-    use_batch: bool = Field(
-        default=False,
-        json_schema_extra=NOT_IN_REFERENCE,
-        description="Batch feasibility (an InternData robot entry's use_batch, Genie1's tasks): "
-        "every candidate's pre-grasp and grasp are tested and the executed one is chosen as "
-        "the reference's select_index_by_priority_dual does (harness.pick.batch); False: "
-        "the candidates in order until one passes (the reference's sequential mode).",
-    )
     test_mode: Literal["forward", "ik"] = "forward"
     t_eps: FiniteFloat = Field(default=1e-3, gt=0.0)
     o_eps: FiniteFloat = Field(default=5e-3, gt=0.0)

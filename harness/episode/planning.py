@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,7 +33,6 @@ from harness.grasps import CandidateSelection, select_candidates
 from harness.pick.outcome import PickOutcome
 from harness.pick.selection import candidate_failures_json, none_feasible_message
 from harness.pick.targets import CandidatePoses, PickTargets
-from harness.planning.ik import IKResult
 from harness.planning.plans import CandidateVerdict, FailurePoint
 from harness.transforms import invert_T, quat_to_matrix
 
@@ -132,35 +130,6 @@ def candidates(setup: Setup) -> Planning:
     return planning
 
 
-def batch_feasibility(
-    planning: Planning, test: Callable[[int, int, float], CandidateVerdict]
-) -> tuple[list[CandidateVerdict], CandidateVerdict | None, CandidateVerdict]:
-    """``use_batch``: every candidate tested, the choice of the reference's priority rule
-    (``harness.pick.batch``); (verdicts, chosen when feasible, the candidate the rule picks)."""
-    from harness.pick.batch import batch_walk
-
-    setup = planning.setup
-    order = planning.selection.order
-    T_base_candidates = planning.selection.T_base_ee_at(order.indices)
-    q_now = setup.facts.q_now
-
-    def grasp_test(position: int) -> tuple[IKResult, bool]:
-        setup.ensure_synced()
-        _, T_grasp, _ = planning.poses.world(
-            T_base_candidates[position], setup.semantics.fixed_orientation_in_test
-        )
-        rng = setup.streams.planner(int(order.indices[position]))
-        ik, why = setup.planner.collision_free_ik(T_grasp, [q_now], "approach", rng)
-        return ik, not why
-
-    choice = batch_walk(
-        order.indices.tolist(), order.scores.tolist(), q_now, test, grasp_test,
-        setup.streams.batch_choice(), setup.evaluation.memory.verdicts,
-    )  # fmt: skip
-    chosen = choice.picked if choice.picked.feasible else None
-    return choice.verdicts, chosen, choice.picked
-
-
 def feasibility(planning: Planning) -> Choice:
     """3. Feasibility, candidate by candidate, in the planning world of the semantics."""
     setup = planning.setup
@@ -194,13 +163,7 @@ def feasibility(planning: Planning) -> Choice:
         return verdict
 
     planning.ik_time_before = planner.ik.total_time
-    fallback = None
-    if pick.use_batch:  # the reference's batch choice (harness.pick.batch)
-        verdicts, chosen, fallback = batch_feasibility(planning, test)
-    else:
-        verdicts, chosen = setup.evaluation.walk(
-            order.indices.tolist(), order.scores.tolist(), test
-        )
+    verdicts, chosen = setup.evaluation.walk(order.indices.tolist(), order.scores.tolist(), test)
     planning.verdicts, planning.chosen = verdicts, chosen
     setup.records.append(
         TestedColumns(
@@ -216,8 +179,7 @@ def feasibility(planning: Planning) -> Choice:
                 location.feasibility_failure(verdicts),
                 verdicts[-1].failure_point if verdicts else None,
             )  # fmt: skip
-        # The reference proceeds with the last candidate tested (batch: the one its rule picks).
-        chosen = fallback or verdicts[-1]
+        chosen = verdicts[-1]  # the reference proceeds with the last candidate tested
         planning.chosen = chosen
     T_base_chosen = T_base_candidates[chosen.position]
     axis = T_base_chosen[:3, planning.poses.approach_index]

@@ -38,8 +38,6 @@ EXECUTION_STREAM = 4
 # second pick, apart from the first pick's (which uses the purposes above).
 GOTO_STREAM = 5
 SECOND_PICK_STREAM = 6
-# The random picks of the batch choice (use_batch: harness.pick.batch).
-BATCH_STREAM = 7
 
 
 @dataclass(frozen=True)
@@ -70,10 +68,6 @@ class EpisodeStreams:
     def execution(self, pose_index: int) -> np.random.Generator:
         """The executed plan of the chosen grasp ``pose_index``."""
         return self._stream(EXECUTION_STREAM, pose_index)
-
-    def batch_choice(self) -> np.random.Generator:
-        """The batch choice's random picks (``use_batch``: harness.pick.batch)."""
-        return self._stream(BATCH_STREAM)
 
 
 @dataclass(frozen=True)

@@ -29,11 +29,6 @@ class GripperConvention:
     tcp_offset: float
     gripper_min_width: float
     gripper_max_width: float
-    # The width-dependent extra depth (the reference's tcp2base_offset.json, read by
-    # template_robot.py _load_extra_depth): grasp widths (m, ascending) and the depth added at
-    # each (m), interpolated cubically; empty for a gripper without one.
-    extra_depth_widths: tuple[float, ...] = ()
-    extra_depth_offsets: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         R = np.asarray(self.R_ee_graspnet, dtype=float)
@@ -52,22 +47,3 @@ class GripperConvention:
     @property
     def approach_index(self) -> int:
         return AXES.index(self.ee_axis)
-
-    @property
-    def width_range(self) -> tuple[float, float]:
-        """The range grasp widths are clipped to: the extra-depth table's when there is one
-        (the reference resets gripper_min/max_width to it), else the gripper's."""
-        if self.extra_depth_widths:
-            return min(self.extra_depth_widths), max(self.extra_depth_widths)
-        return self.gripper_min_width, self.gripper_max_width
-
-    def extra_depth(self, widths: np.ndarray) -> np.ndarray:
-        """The depth the reference adds to grasps of these (clipped) widths: a cubic
-        interpolation of the table (scipy ``interp1d(kind="cubic")``, as the reference); zeros
-        without one."""
-        if not self.extra_depth_widths:
-            return np.zeros_like(widths, dtype=float)
-        from scipy.interpolate import interp1d
-
-        curve = interp1d(self.extra_depth_widths, self.extra_depth_offsets, kind="cubic")
-        return np.asarray(curve(widths), dtype=float)

@@ -169,9 +169,7 @@ def post_process(
     the approach column; 6. optional ``constraints = (axis, rmin, rmax)`` keep the rows whose
     ``t_tcp[axis]`` lies in ``[lo + rmin (hi - lo), lo + rmax (hi - lo)]`` over the scaled TCP
     range; 7. the copies turned 180 degrees about the approach axis follow, scores ``[s, s]``.
-    Step 4, between 3 and 5: a gripper with an extra-depth table (the reference's
-    tcp2base_offset.json; the widths clipped to its range) adds its cubic interpolation at the
-    clipped width to the depth (template_robot.py pose_post_process_fn 236-243).
+    (Step 4, the width-dependent depth correction, applies to none of the project robots.)
     """
     offset = convention.tcp_offset if tcp_offset is None else float(tcp_offset)
     rows = np.arange(len(grasps), dtype=np.int64)
@@ -189,11 +187,9 @@ def post_process(
 
     rotations = _rotate_grasps(R_g, convention.R_ee_graspnet)
     approach = rotations[:, :, convention.approach_index]
-    widths = np.clip(widths, *convention.width_range)
-    if convention.extra_depth_widths:  # step 4
-        depths = depths + convention.extra_depth(widths)
     positions = approach * (depths - offset)[:, None]
     positions += tcp
+    widths = np.clip(widths, convention.gripper_min_width, convention.gripper_max_width)
     return EEPoses(
         grasp_rotations=read_only(rotations),
         grasp_positions=read_only(positions),

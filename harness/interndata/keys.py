@@ -36,9 +36,8 @@ ROBOT_KEYS_IGNORED: dict[str, str] = {
     "target_class": "robot class; the harness robot comes from robot_config_file",
     "translation": "the robot's region sets its position",
     "constrain_grasp_approach": "no effect in the reference (the pose-cost metric is reset)",
-    "collision_activation_distance": "cuRobo's collision-cost activation distance (a "
-    "trajectory-optimisation margin); the harness checks collisions of the planned path "
-    "exactly, without a margin",
+    "collision_activation_distance": "cuRobo planning setting",
+    "use_batch": "the harness tests candidates sequentially (the reference default)",
     "lift_home": "the lift home comes from robots/lift2/robot.yaml (0.46, the reference value)",
 }
 OBJECT_KEYS_IGNORED: dict[str, str] = {

@@ -97,8 +97,6 @@ class TaskMapper(TaskResolver):
         target = str(wanted[0]) if isinstance(wanted, list) and wanted else None
         object_configs: list[dict[str, Any]] = []
         for obj in objects.values():
-            if obj.name not in required and self.unfilled_articulation(obj):
-                continue
             config = self.object_config(obj, obj.name in required, regions, origin, object_configs)
             if config is not None and obj.name == target and self.check_grasps:
                 self.check_grasp_file(obj, Path(config["mesh"]), block, pick.path)
@@ -207,16 +205,11 @@ class TaskMapper(TaskResolver):
     def pick_block(self, pick: PickSkill, origin: dict[KeyPath, KeyPath]) -> dict[str, Any]:
         """The pick's block, with the robot's ``ignore_substring`` as
         ``robot_ignore_substring``: it replaces the controllers' default planning-world ignore
-        list (template_controller.py __init__), the pick's own list adds to it; and the robot's
-        ``use_batch`` (template_controller.py, pick.py 101-113: batch feasibility)."""
+        list (template_controller.py __init__), the pick's own list adds to it."""
         robot = pick.robot
         block = dict(pick.block)
         if "objects" not in block:
             raise self.error((*pick.path, "objects"), "a pick needs objects (the first is picked)")
-        use_batch = robot.config.get("use_batch")
-        if use_batch is not None:
-            block["use_batch"] = use_batch
-            origin[("pick", "use_batch")] = (*robot.path, "use_batch")
         robot_ignore = robot.config.get("ignore_substring")
         if robot_ignore is not None:
             block["robot_ignore_substring"] = robot_ignore
@@ -319,26 +312,6 @@ class TaskMapper(TaskResolver):
         else:
             self.note(f"{obj.name!r}: no table region; the arm's object region from robot.yaml")
         return config
-
-    def unfilled_articulation(self, obj: ObjectEntry) -> bool:
-        """An ``ArticulatedObject`` whose ``path`` the reference fills at reset (empty in the
-        file, no substitute; noted): its workflow draws one of ``<asset_root>/<art_cat>/*``
-        each episode (simbox_dual_workflow.py 88-101)."""
-        raw = obj.config.get("path")
-        unfilled = (
-            obj.config.get("target_class") == "ArticulatedObject"
-            and obj.name not in self.substitutes
-            and (raw is None or raw == "")
-        )
-        if unfilled:
-            self.note(
-                f"skipped object {obj.name!r}: an ArticulatedObject with path '' (the reference "
-                f"fills it at reset from a random asset of its art_cat folder "
-                f"{obj.config.get('art_cat')!r}, simbox_dual_workflow.py 88-101); it is not "
-                f"picked, so the scene goes without it (give --object {obj.name}=PATH to "
-                "include it)"
-            )
-        return unfilled
 
     def check_grasp_file(
         self, obj: ObjectEntry, mesh: Path, block: dict[str, Any], pick_path: KeyPath

@@ -145,9 +145,7 @@ class TaskResolver:
                 raise self.error(
                     (*rpath, "robot_config_file"),
                     f"unsupported robot {basename!r} ({config_file}); supported: "
-                    f"{', '.join(supported.values())} (a robot is added as a folder "
-                    "robots/<name>/ whose robot.yaml names this file in "
-                    "interndata.robot_config_file: docs/extending.md, Add a robot)",
+                    f"{', '.join(supported.values())}",
                 )
             for key in robot:
                 if key in ROBOT_KEYS_IGNORED:

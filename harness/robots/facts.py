@@ -37,8 +37,6 @@ def gripper_convention(spec: ConventionSpec) -> GripperConvention:
         tcp_offset=spec.tcp_offset,
         gripper_min_width=spec.gripper_min_width,
         gripper_max_width=spec.gripper_max_width,
-        extra_depth_widths=tuple(spec.extra_depth.widths) if spec.extra_depth else (),
-        extra_depth_offsets=tuple(spec.extra_depth.offsets) if spec.extra_depth else (),
     )
 
 

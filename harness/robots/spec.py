@@ -177,23 +177,6 @@ class LiftSpec(_Strict):
     armature: NonNegative = 0.0
 
 
-class ExtraDepthSpec(_Strict):
-    """The reference's ``tcp2base_offset.json`` as its post-processing reads it (every entry
-    but the first: ``width`` and ``offset``, m): the depth added to a grasp of that width,
-    interpolated cubically; grasp widths are clipped to the table's range."""
-
-    widths: list[NonNegative] = Field(min_length=4)
-    offsets: list[FiniteFloat] = Field(min_length=4)
-
-    @model_validator(mode="after")
-    def _table(self) -> ExtraDepthSpec:
-        if len(self.widths) != len(self.offsets):
-            raise ValueError("widths and offsets must have the same length")
-        if any(b <= a for a, b in zip(self.widths, self.widths[1:], strict=False)):
-            raise ValueError("widths must be strictly ascending")
-        return self
-
-
 class ConventionSpec(_Strict):
     """Grasp convention: how GraspNet grasp axes map to the EE frame (reference robot yaml)."""
 
@@ -208,11 +191,6 @@ class ConventionSpec(_Strict):
     tcp_offset: Positive
     gripper_min_width: NonNegative
     gripper_max_width: Positive
-    extra_depth: ExtraDepthSpec | None = Field(
-        default=None,
-        description="The width-dependent extra depth (the reference's tcp2base_offset.json): "
-        "None for a gripper without one.",
-    )
 
     @model_validator(mode="after")
     def _consistent(self) -> ConventionSpec:
