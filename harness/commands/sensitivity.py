@@ -16,6 +16,7 @@ from typing import Any
 import yaml
 
 from harness.commands.console import make_console
+from harness.files import safe_file_name
 
 
 def main(args: argparse.Namespace) -> int:
@@ -51,8 +52,8 @@ def main(args: argparse.Namespace) -> int:
     from harness.writes import write_file
 
     for sweep in sweeps:
-        path = out / f"{sweep['name']}.yaml"
-        run_dir = out / sweep["name"]
+        path = out / safe_file_name(str(sweep["name"]), ".yaml")
+        run_dir = out / safe_file_name(str(sweep["name"]))
         resume = run_dir if (run_dir / "sweep.yaml").is_file() else None
         if resume is None:  # a resumed run keeps its own sweep (its size too)
             write_file(path, yaml.safe_dump(sweep, sort_keys=False))

@@ -35,12 +35,14 @@ def parse_key_path(text: str) -> KeyPath:
     return tuple(parts)
 
 
-def flow_text(value: Any) -> str:
-    """A one-line YAML text of ``value``: a flow list, a quoted string or a number."""
+def flow_text(value: Any, quoted: bool = True) -> str:
+    """A one-line YAML text of ``value``: a flow list, a string (quoted, or plain as the file
+    writes its own) or a number."""
     if isinstance(value, list):
-        return "[" + ", ".join(flow_text(v) for v in value) + "]"
+        return "[" + ", ".join(flow_text(v, quoted) for v in value) + "]"
     if isinstance(value, str):
-        return json.dumps(value)
+        plain = value.replace("_", "").isalnum()
+        return value if plain and not quoted else json.dumps(value)
     if isinstance(value, float) and value.is_integer():
         return str(int(value))
     return json.dumps(value)
@@ -75,6 +77,20 @@ def _node(data: Any, path: KeyPath, where: str) -> CommentedMap:
     return node
 
 
+def _same(old: Any, new: Any) -> bool:
+    """Whether a parsed value equals ``new`` (numbers by value: 90 == 90.0)."""
+    try:
+        return (
+            json.dumps(
+                json.loads(json.dumps(list(old) if isinstance(old, list) else old)), sort_keys=True
+            )
+            == json.dumps(new, sort_keys=True)
+            or old == new
+        )
+    except (TypeError, ValueError):
+        return False
+
+
 def set_values(text: str, edits: dict[KeyPath, dict[str, Any | None]], where: str = "file") -> str:
     """``text`` with, for each mapping at a key path, its keys set (``None``: removed)."""
     data = YAML().load(text)
@@ -92,14 +108,19 @@ def set_values(text: str, edits: dict[KeyPath, dict[str, Any | None]], where: st
                 if value is None:
                     changes.append((line, "drop", None))
                     continue
+                if _same(block[key], value):
+                    continue  # the value it already holds: its line stays as written
                 old = lines[line]
                 end = _value_end(old, col)
-                changes.append((line, "set", old[:col] + flow_text(value) + old[end:]))
+                quoted = '"' in old[col:end] or "'" in old[col:end]
+                changes.append((line, "set", old[:col] + flow_text(value, quoted) + old[end:]))
             elif value is not None:
                 last = list(block)[-1]
                 line, _ = block.lc.value(last)
                 indent = block.lc.key(next(iter(block)))[1]
-                changes.append((line, "after", " " * indent + f"{key}: {flow_text(value)}\n"))
+                quoted = any('"' in lines[block.lc.value(k)[0]] for k in block)
+                new_line = " " * indent + f"{key}: {flow_text(value, quoted)}\n"
+                changes.append((line, "after", new_line))
     for line, kind, new in sorted(changes, key=lambda c: -c[0]):
         if kind == "set":
             lines[line] = str(new)

@@ -19,7 +19,7 @@ from functools import cache
 import numpy as np
 import pandas as pd
 
-from harness.report.frames import column
+from harness.report.frames import column, frame_of
 
 LIMIT_SHARE = 0.5  # a joint at its limit in at least this share of the group names the cause
 
@@ -70,8 +70,8 @@ def limit_cause(robot: str, failed: pd.DataFrame) -> str | None:
 def _median(frame: pd.DataFrame, name: str, scale: float = 1.0) -> float:
     if name not in frame:
         return math.nan
-    values = pd.to_numeric(column(frame, name), errors="coerce").dropna()
-    return float(np.median(values)) * scale if len(values) else math.nan
+    values = pd.Series(pd.to_numeric(column(frame, name), errors="coerce")).dropna()
+    return float(np.median(values.to_numpy(dtype=float))) * scale if len(values) else math.nan
 
 
 FARTHER_M = 0.02  # failures this much farther (median) than the successes: placement is the cause
@@ -82,7 +82,7 @@ def reach_advice(limit: str | None, failed: pd.DataFrame, group: pd.DataFrame) -
     the objects lie; the action moves the objects nearer when the failures lie farther than the
     successes, else turns the grasp directions towards what the arm reaches."""
     distance = _median(failed, "object_distance_m")
-    good = _median(group[column(group, "success").astype(bool)], "object_distance_m")
+    good = _median(frame_of(group[column(group, "success").astype(bool)]), "object_distance_m")
     residual = _median(failed, "ik_residual_mm")
     bits = [limit] if limit else []
     if not math.isnan(residual):

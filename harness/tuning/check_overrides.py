@@ -24,6 +24,8 @@ def override_units(
     columns = ("group", "context", "task", "exception", "own_best_approach", "own_best_facing")
     try:
         table = pd.read_csv(path, dtype={"task": str, "context": str, "group": str})
+    except pd.errors.EmptyDataError:  # a tune without template groups: no objects
+        return []
     except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as error:
         raise HarnessError(f"{path}: not a tune's objects.csv ({error})") from None
     if table.empty:
