@@ -60,7 +60,7 @@ def sweep(
     out: PathLike | None = None,
     workers: int | None = None,
     backend: str = "process",
-    progress: bool = True,
+    progress: bool = False,
     resume: bool = False,
     overwrite: bool = False,
 ) -> pd.DataFrame:
@@ -71,12 +71,9 @@ def sweep(
     When ``out`` already holds a run: ``resume=True`` runs only its missing episodes (the
     run's own sweep: a ``config`` that differs from it is refused), ``overwrite=True`` deletes
     that run and starts again; without either, ``HarnessError`` says which to pass. A script
-    that calls ``sweep(..., out=X, resume=True)`` can therefore run again and again.
+    that calls ``sweep(..., out=X, resume=True)`` can therefore run again and again."""
+    from harness.report.finish import finish_run  # scipy, matplotlib: only when sweeping
 
-    ``progress`` (on by default) prints what ``harness sweep`` prints without a terminal: a
-    progress line every 30 s (``sweep: 40/120 episodes (33%), ... elapsed 0:01:22, 0:02:44
-    left``), a line per output written after the episodes, and ``run directory: PATH`` last;
-    ``progress=False`` prints nothing."""
     target = _out(out)
     existing = _existing_run(target, resume, overwrite)
     with tempfile.TemporaryDirectory(prefix="harness-sweep-") as folder:
@@ -98,20 +95,8 @@ def sweep(
             outcome = run_sweep(
                 path, out=target, workers=workers, backend=backend, progress=progress
             )
-    announce = _say if progress else None
-    if announce is not None:
-        announce("writing the report ...")
-    from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
-
-    finish_run(outcome.run_dir, announce=announce)
-    if announce is not None:
-        announce(f"run directory: {outcome.run_dir}")
+    finish_run(outcome.run_dir)
     return load_run(outcome.run_dir)
-
-
-def _say(line: str) -> None:
-    """A progress line of the API, flushed (a notebook or a pipe shows it at once)."""
-    print(line, flush=True)
 
 
 def _existing_run(out: Path | None, resume: bool, overwrite: bool) -> Path | None:

@@ -282,12 +282,6 @@ def _add_grasps(sub: Subparsers) -> None:
     p.add_argument("--approach", nargs="+", metavar=("DIR", "A"), help="approach_filter")
     p.add_argument("--facing", nargs="+", metavar=("DIR", "A"), help="facing_filter")
     p.add_argument(
-        "--no-filters",
-        action="store_true",
-        help="no direction filter (default: the robot's canonical filters, from its "
-        "tasks/pick file, unless a filter flag is given)",
-    )
-    p.add_argument(
         "--direction-to-obj",
         choices=["left", "right"],
         help="pick.direction_to_obj: keep grasps on the base's +y (left) or -y (right) side",

@@ -1326,7 +1326,7 @@ def test_report_and_validate_print_markup_names_as_text(
     run_dir, _ = markup_run
     assert cli.main(["report", str(run_dir), "--no-videos"]) == 0
     out = capsys.readouterr().out
-    assert "valid per point" in out and f"{run_dir}/report.html" in out
+    assert f"success per point ({run_dir})" in out and f"{run_dir}/report.html" in out
     assert cli.main(["validate", str(run_dir.parent.parent / "t.yaml")]) == 0
     out = capsys.readouterr().out
     assert "\\x1b]0;pwned\\x07" in out and "\x1b" not in out

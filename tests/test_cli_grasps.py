@@ -149,20 +149,3 @@ def test_robot_convention_comes_from_robot_yaml() -> None:
         robot_convention("ur5", "left")
     with pytest.raises(HarnessError, match="no right arm"):
         robot_convention("fr3", "right")
-
-
-def test_inspect_applies_the_robots_canonical_filters_unless_told_otherwise(
-    bottle: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """Issue 56: ``--robot fr3`` alone said "6000 of 6000 approach directions pass"."""
-    explicit = _inspect_json(capsys, str(bottle), "--robot", "fr3", *FR3_CANONICAL)
-    default = _inspect_json(capsys, str(bottle), "--robot", "fr3")
-    assert default["filters"] == explicit["filters"] and default["passed"] == 430
-    assert default["filters_from"] == str(Path("tasks/pick/fr3.yaml"))
-    assert explicit["filters_from"] is None  # flags given: only those
-    none = _inspect_json(capsys, str(bottle), "--robot", "fr3", "--no-filters")
-    assert none["passed"] == 6000 and none["filters"] == {}
-    aloha = _inspect_json(capsys, str(bottle), "--robot", "split_aloha", "--arm", "right")
-    assert aloha["filters_from"].endswith("split_aloha_right.yaml") and aloha["passed"] < 6000
-    assert main(["grasps", "inspect", str(bottle), "--robot", "fr3"]) == 0
-    assert "the canonical ones of tasks/pick/fr3.yaml" in capsys.readouterr().out

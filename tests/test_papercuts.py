@@ -109,25 +109,3 @@ def test_sweep_recording_opens_on_its_point_timeline_one_series_per_arm_and_obje
         if "TimePanelBlueprint:timeline" in chunk.to_record_batch().schema.names
     ]
     assert timelines == [[["point"]]]
-
-
-def test_a_robot_folder_beside_the_task_file_is_found_from_any_directory(
-    tmp_path, monkeypatch, capsys
-) -> None:
-    """docs/extending.md's no-fork path: ``robot: ../my_fr3`` is found next to the task file,
-    as its meshes are, whatever the working directory."""
-    import shutil
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[1]
-    shutil.copytree(root / "robots" / "fr3", tmp_path / "my_fr3")
-    (tmp_path / "tasks").mkdir()
-    text = (root / "tasks" / "pick" / "fr3.yaml").read_text(encoding="utf-8")
-    assert "\nrobot: fr3\n" in text
-    task = tmp_path / "tasks" / "my.yaml"
-    task.write_text(text.replace("\nrobot: fr3\n", "\nrobot: ../my_fr3\n"), encoding="utf-8")
-    elsewhere = tmp_path / "elsewhere"
-    elsewhere.mkdir()
-    monkeypatch.chdir(elsewhere)
-    assert main(["validate", str(task)]) == 0
-    assert f"robot {tmp_path / 'my_fr3'} arm left" in capsys.readouterr().out

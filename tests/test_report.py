@@ -385,8 +385,7 @@ def test_compare_uses_the_z_test_for_large_samples(tmp_path: Path) -> None:
 def test_report_and_compare_commands(fixture_run: Path, tmp_path: Path, capsys) -> None:
     assert cli_main(["report", str(fixture_run)]) == 0
     out = capsys.readouterr().out
-    assert "fr3 left cube: no clear winner: keep the current setting" in out  # 5 a point
-    assert "report.html" in out
+    assert "best for fr3" in out and "report.html" in out
     csv_path = tmp_path / "out" / "compare.csv"
     assert cli_main(["compare", str(fixture_run), str(fixture_run), "--csv", str(csv_path)]) == 0
     written = pd.read_csv(csv_path)

@@ -59,9 +59,8 @@ def styled(template: str, **values: object) -> Text:
 
 
 def say(line: str = "", file: TextIO | None = None) -> None:
-    """``print`` for plain lines that may hold names: controls shown, no rich involved;
-    flushed, so a pipe (``| tee``) shows each line when it is said."""
-    print(visible(line), file=file if file is not None else sys.stdout, flush=True)
+    """``print`` for plain lines that may hold names: controls shown, no rich involved."""
+    print(visible(line), file=file if file is not None else sys.stdout)
 
 
 def videos_possible(wanted: bool) -> bool:

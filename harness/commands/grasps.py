@@ -58,49 +58,9 @@ def _filter_value(flag: str, values: list[str] | None) -> list[Any] | None:
         raise HarnessError(f"{flag}: angles must be numbers of degrees, got {angles}") from None
 
 
-FILTER_KEYS = (
-    "filter_x_dir", "filter_y_dir", "filter_z_dir", "approach_filter", "facing_filter",
-    "direction_to_obj",
-)  # fmt: skip
-
-
-def given_filters(args: argparse.Namespace) -> bool:
-    """Whether any filter flag was given (then only those filters apply)."""
-    flags = [getattr(args, f"filter_{axis}") for axis in AXES]
-    return any(v is not None for v in (*flags, args.approach, args.facing, args.direction_to_obj))
-
-
-def canonical_filters(args: argparse.Namespace) -> tuple[str, dict[str, Any]] | None:
-    """The robot arm's canonical filters (its ``tasks/pick/<robot>[_<arm>].yaml``'s pick
-    keys, ``FILTER_KEYS``) and that file's path, when no filter flag and no ``--no-filters``
-    was given and the robot has such a file; what a pick of the robot filters by default."""
-    if getattr(args, "no_filters", False) or given_filters(args):
-        return None
-    from harness.config import load_task
-    from harness.config.robot_registry import canonical_task_files
-
-    files = canonical_task_files(str(args.robot))
-    by_stem = {path.stem: path for path in files}
-    path = by_stem.get(f"{args.robot}_{args.arm}") or by_stem.get(str(args.robot))
-    if path is None:
-        return None
-    pick = load_task(path).pick.model_dump(mode="json")
-    values = {key: pick[key] for key in FILTER_KEYS if pick.get(key) is not None}
-    try:
-        shown = path.relative_to(Path.cwd())
-    except ValueError:
-        shown = path
-    return str(shown), values
-
-
-def pick_from_args(args: argparse.Namespace, defaults: dict[str, Any] | None = None) -> PickConfig:
-    """The pick block the command-line options describe, validated like a YAML one;
-    ``defaults``: pick keys applied first (the robot's canonical filters)."""
-    data: dict[str, Any] = {
-        **(defaults or {}),
-        "semantics": args.semantics,
-        "grasp_scale": args.grasp_scale,
-    }
+def pick_from_args(args: argparse.Namespace) -> PickConfig:
+    """The pick block the command-line options describe, validated like a YAML one."""
+    data: dict[str, Any] = {"semantics": args.semantics, "grasp_scale": args.grasp_scale}
     for axis in AXES:
         value = _filter_value(f"--filter-{axis}", getattr(args, f"filter_{axis}"))
         if value is not None:
@@ -279,22 +239,16 @@ def inspect(args: argparse.Namespace) -> int:
     if args.plot:
         check_suffix(args.plot, PLOT_SUFFIXES, "--plot")
     convention = robot_convention(args.robot, args.arm)
-    canonical = canonical_filters(args)
-    pick = pick_from_args(args, canonical[1] if canonical else None)
+    pick = pick_from_args(args)
     grasps = load_grasp_file(args.file)
     poses = ee_poses_for_pick(grasps, convention, pick)
     rng = np.random.default_rng(args.seed)
     rule = Semantics.from_pick(pick).candidates
     selection = select_candidates(poses, convention, pick, object_pose(args.object_pose), rng, rule)
     info = summary(selection, args)
-    info["filters_from"] = canonical[0] if canonical is not None else None
     if args.json:
         print(json.dumps(info))  # JSON escapes controls itself (ensure_ascii); say() would break it
     else:
-        if canonical is not None:
-            say(f"filters     the canonical ones of {canonical[0]} (--no-filters for none)")
-        elif not args.no_filters and not given_filters(args):
-            say(f"filters     none: {args.robot} has no canonical task file in tasks/pick")
         say(format_text(selection, info))
     if args.plot:
         result = selection.filter_result

@@ -9,20 +9,18 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from rich.console import Group
 from rich.table import Table
 from rich.text import Text
 
-from harness.commands.console import make_console, videos_possible, visible
-from harness.commands.summary_table import summary_table
+from harness.commands.console import make_console, styled, videos_possible
 from harness.report import (
+    FAIL_PREFIX,
     build_report,
     compare_runs,
     format_value,
     varying_params,
 )
 from harness.report.answer import sweep_answers
-from harness.report.current import current_settings
 from harness.report.frames import column as column_of
 from harness.report.frames import frame_of, series_rows
 from harness.report.tables import setting_params
@@ -50,9 +48,8 @@ def main(args: argparse.Namespace) -> int:
         console.print("replaying one success and one failure per robot arm for the videos ...")
     with run_lock(run_dir):  # a sweep still filling the directory: refused, not raced
         paths = build_report(run_dir, export=True, objective=args.objective, videos=args.videos)
-    summary = pd.read_csv(paths.summary_csv)
-    console.print(summary_table(summary, paths.objective))
-    print_answers(console, summary, paths.objective, run_dir)
+    console.print(summary_table(pd.read_csv(paths.summary_csv), f"success per point ({run_dir})"))
+    print_answers(console, pd.read_csv(paths.summary_csv), paths.objective)
     for label, path in (
         ("summary", paths.summary_csv),
         ("best", paths.best_csv),
@@ -65,15 +62,19 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_answers(
-    console: Any, summary: pd.DataFrame, objective: str, run_dir: Path | None = None
-) -> None:
-    """The first screen's answers, one line per robot, arm and object (``run_dir``: where the
-    tasks' own settings are read, what a tie keeps)."""
-    params = setting_params(summary)  # an object axis alone is no setting (mesh=banana)
-    current = current_settings(run_dir, summary) if run_dir is not None else None
-    for answer in sweep_answers(summary, objective, params, current):
-        console.print(answer_block(answer))
+def print_answers(console: Any, summary: pd.DataFrame, objective: str) -> None:
+    """The first screen's answers, one line per robot, arm and object."""
+    params = setting_params(summary) or varying_params(summary)
+    for answer in sweep_answers(summary, objective, params):
+        console.print(
+            styled(
+                "best for [bold]{unit}[/]: {rest}",
+                unit=answer.unit,
+                rest=f"{answer.decision} — {answer.setting}: {answer.rate} · {answer.other_rate}; "
+                f"runner-up {answer.runner_up}; {answer.reason}",
+            ),
+            soft_wrap=True,
+        )
     console.print(
         f"ranked by the {objective} rate; a best swept setting is not confirmed on fresh "
         "seeds: harness tune",
@@ -81,33 +82,48 @@ def print_answers(
     )
 
 
-# The decision's colour: green is for a tested switch only (harness.report.tune_link); a
-# candidate chosen on the sweep's own seeds is cyan, no clear winner and keep are uncoloured.
-DECISION_STYLES = (("switch", "green"), ("best swept", "cyan"), ("no setting", "red"))
-
-
-def answer_block(answer: Any) -> Group:
-    """One unit's answer in a few wrapped lines: the decision first, then the setting, its
-    rates, the others compared and why the rest miss (fits any width, cuts nothing)."""
-    style = next((s for prefix, s in DECISION_STYLES if answer.decision.startswith(prefix)), "")
-    rows = Table.grid(padding=(0, 1))
-    rows.add_column(no_wrap=True)
-    rows.add_column(overflow="fold")
-    head = Text(visible(answer.unit), style="bold")
-    head.append(": ").append(answer.decision, style=style)
-    for label, text in (
-        ("  setting", answer.setting),
-        ("  rate", f"{answer.rate} · {answer.other_rate}"),
-        ("  others", answer.runner_up),
-        ("  why", answer.reason),
-    ):
-        rows.add_row(label, text)
-    return Group(head, rows)
-
-
 def _short(column: str) -> str:
     """``param.pick.approach_filter`` -> ``approach_filter`` (the last part of the key)."""
     return column.split(".")[-1]
+
+
+def valid_cells(row: Any) -> list[str]:
+    """``valid k/m``, its rate and Wilson interval; blank when no episode was judged."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", "", ""]
+    return [
+        f"{int(row['valid'])}/{judged}",
+        f"{row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
+
+
+def summary_table(summary: pd.DataFrame, title: str) -> Table:
+    """The per-point summary as a rich table (robot, arm, object, swept values, rate, CI)."""
+    params = [c for c in summary.columns if c.startswith("param.")]
+    shown = setting_params(summary) or varying_params(summary) or params
+    table = Table(title=title)
+    for column in ("robot", "arm", "object", *[_short(p) for p in shown]):
+        table.add_column(column)
+    for column in ("k/n", "rate", "95% CI", "valid", "valid rate", "valid CI", "top failure"):
+        table.add_column(column, justify="right")
+    fail_columns = [c for c in summary.columns if c.startswith(FAIL_PREFIX)]
+    for row in series_rows(summary):
+        fails = {c.removeprefix(FAIL_PREFIX): int(row[c]) for c in fail_columns if row[c] > 0}
+        top = max(sorted(fails), key=fails.__getitem__) if fails else ""
+        table.add_row(
+            str(row["robot"]),
+            str(row["arm"]),
+            str(row["object"]),
+            *[format_value(row[p]) for p in shown],
+            f"{int(row['successes'])}/{int(row['n'])}",
+            f"{row['rate']:.0%}" if row["n"] else "",
+            f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
+            *valid_cells(row),
+            f"{top} ({fails[top]})" if top else "",
+        )
+    return table
 
 
 def _verdict(comparison: pd.DataFrame, objective: str) -> str:

@@ -129,7 +129,7 @@ def _fmt(value: Any, scale: float, pattern: str) -> str:
 
 def main(args: argparse.Namespace) -> int:
     from harness.runs.expansion import absolute_paths, expand
-    from harness.runs.progress import ProgressLines, starting_text
+    from harness.runs.progress import ProgressLines
     from harness.runs.rundir import RunDir
 
     if args.episodes < 1:
@@ -168,12 +168,8 @@ def main(args: argparse.Namespace) -> int:
     rows: list[dict[str, Any]] = []
     start = time.perf_counter()
     # Without a terminal the live table shows only at the end: plain lines meanwhile.
+    lines = None if console.is_terminal else ProgressLines("run", len(episodes)).start()
     workers = getattr(args, "workers", 1) or 1
-    lines = None
-    if not console.is_terminal:
-        lines = ProgressLines("run", len(episodes))
-        lines.starting = starting_text(workers if workers > 1 else None)
-        lines.start()
     try:
         with Live(_table(rows, len(episodes)), console=console, refresh_per_second=8) as live:
 
@@ -194,10 +190,9 @@ def main(args: argparse.Namespace) -> int:
     if lines is not None:
         lines.stop()  # its last line: how long the run took
     run.finalize()
-    say("writing the report ...")
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
-    finish_run(run.path, announce=say)
+    finish_run(run.path)
     wall_s = time.perf_counter() - start
     for task in tasks:
         console.print(
@@ -258,10 +253,10 @@ def _print_outcome(
             ),
             soft_wrap=True,
         )
+    extra = ", skipped.txt" if interndata else ""
+    console.print(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")
     if (line := error_rows_line(errors, len(rows), run_dir)) is not None:
         say(f"error: {line}" if too_many_errors(errors, len(rows)) else line, file=sys.stderr)
-    extra = ", skipped.txt" if interndata else ""
-    say(f"run directory: {run_dir}  (episodes.csv, summary.csv, report{extra})")  # the last line
     if len(rows) != planned:
         return 130
     return 1 if too_many_errors(errors, len(rows)) else 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 
@@ -64,12 +65,9 @@ def main(args: argparse.Namespace) -> int:
         share=False if getattr(args, "no_share", False) else None,
     )
     stats = outcome.stats
-    if not args.no_progress:
-        say(f"writing the report{' and its videos (replayed episodes)' if args.videos else ''} ...")
     from harness.report.finish import finish_run  # scipy, matplotlib: only after the run
 
-    announce = None if args.no_progress else say
-    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos, announce=announce)
+    finish_run(outcome.run_dir, objective=args.objective, videos=args.videos)  # built once
     if outcome.skipped_existing:
         console.print(f"resumed: {outcome.skipped_existing} episode(s) were already done")
     console.print(
@@ -92,26 +90,73 @@ def main(args: argparse.Namespace) -> int:
                 run_dir=outcome.run_dir,
             )
         )
-    say(f"run directory: {outcome.run_dir}")  # the last line, for scripts and for people
-    if stats.interrupted:
         return 130
     return 1 if failing else 0
+
+
+def _cell(value: object) -> str:
+    """Compact cell text: ``["downward", 140.0]`` -> ``downward 140``."""
+    import json
+
+    if isinstance(value, str) and value.startswith("["):
+        try:
+            items = json.loads(value)
+        except json.JSONDecodeError:
+            return value
+        return " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in items)
+    return str(value)
+
+
+def _valid(row: Any) -> list[str]:
+    """The valid rate beside the reference rate: ``v/m r%`` and its Wilson interval."""
+    judged = int(row.get("n_judged", 0) or 0)
+    if not judged:
+        return ["", ""]
+    return [
+        f"{int(row['valid'])}/{judged} {row['valid_rate']:.0%}",
+        f"{row['valid_ci_low']:.2f}–{row['valid_ci_high']:.2f}",
+    ]
 
 
 def print_summary(run_dir: Path, console: Console) -> None:
     """The per-point summary table and the paths of the report and the recording."""
     import pandas as pd
+    from rich.table import Table
 
     summary_path = run_dir / "summary.csv"
     if summary_path.is_file():
         summary = pd.read_csv(summary_path)
+        table = Table(title=f"success per point ({run_dir})")
+        keys = [c for c in ("robot", "arm", "object") if c in summary.columns]
+        # Swept keys, minus those the key columns already show (object.mesh -> object).
+        params = [
+            c
+            for c in summary.columns
+            if c.startswith("param.") and c not in ("param.object.mesh", "param.objects.0.mesh")
+        ]
+        for column in [*keys, *params]:
+            table.add_column(column.removeprefix("param.").removeprefix("pick."))
+        for column in ("n", "rate", "95% CI", "valid", "valid CI", "top failure"):
+            table.add_column(column, justify="right")
+        fail_columns = [c for c in summary.columns if c.startswith("fail.")]
+        for _, cells in summary.iterrows():
+            row: Any = cells  # the pandas stubs type a row's cell as a Series union
+            fails = {c.removeprefix("fail."): int(row[c]) for c in fail_columns if row[c] > 0}
+            top = max(fails, key=fails.__getitem__) if fails else ""
+            table.add_row(
+                *[_cell(row[c]) for c in [*keys, *params]],
+                str(int(row["n"])),
+                f"{row['rate']:.0%}" if row["n"] else "",  # n = 0: every row an error
+                f"{row['wilson_lo']:.2f}–{row['wilson_hi']:.2f}" if row["n"] else "",
+                *_valid(row),
+                f"{top} ({fails[top]})" if top else "",
+            )
+        console.print(table)
         from harness.commands.report import print_answers
-        from harness.commands.summary_table import summary_table
         from harness.report.objective import effective_objective, resolve_objective
 
         objective = effective_objective(summary, resolve_objective(run_dir, None))
-        console.print(summary_table(summary, objective))
-        print_answers(console, summary, objective, run_dir)  # the first screen, in short
+        print_answers(console, summary, objective)  # the report's first screen, in short
         counts = summary["fallback"].tolist() if "fallback" in summary.columns else []
         if sum(counts):
             console.print(

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 from harness.commands.console import say
 from harness.errors import HarnessError
-from harness.viz.viewer import native_command, rerun_viewer, web_command
 
 
 def has_display() -> bool:
@@ -66,7 +66,8 @@ def _connects(family: int, address: object) -> bool:
 
 def _web_hint(path: Path) -> str:
     """The browser alternative, as a command that runs as printed (``rerun_viewer``)."""
-    return f"serve it to a browser: {web_command(path, rerun_viewer())}"
+    native = rerun_viewer() or f"{sys.executable} -m rerun"
+    return f"serve it to a browser: {native} --bind 127.0.0.1 --web-viewer {path}"
 
 
 RRD_MAGIC = b"RRF"  # an .rrd stream starts with the FourCC RRF2 (rerun-sdk 0.41; RRF0/1 before)
@@ -122,18 +123,28 @@ def _open_viewer(viewer: str, path: Path) -> int:
     raise HarnessError(f"{path}: the Rerun viewer failed ({last}); {_web_hint(path)}")
 
 
+def rerun_viewer() -> str | None:
+    """The ``rerun`` binary of the installed rerun-sdk: beside this interpreter (a venv's
+    ``bin/``, which is often not on PATH, e.g. under nox), else on PATH; None without it."""
+    beside = Path(sys.executable).parent / ("rerun.exe" if sys.platform == "win32" else "rerun")
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("rerun")
+
+
 def open_instructions(path: Path, viewer: str | None) -> list[str]:
     """How to open ``path`` without a display here: commands that run as printed (the viewer
     binary by its full path, or ``python -m rerun`` with this interpreter), a browser option."""
     python = sys.executable
+    native = viewer or f"{python} -m rerun"
     lines = [f"no display here; to look at {path}:"]
     if viewer is None:
         lines.append(f"  - install the viewer: {python} -m pip install 'rerun-sdk==0.41.*'")
-    lines.append(f"  - on a machine with a display: {native_command(path, viewer)}")
+    lines.append(f"  - on a machine with a display: {native} {path}")
     if viewer is not None:
-        lines.append(f"    (or: {native_command(path, None)})")
+        lines.append(f"    (or: {python} -m rerun {path})")
     return [
         *lines,
-        f"  - or serve it to a browser:     {web_command(path, viewer)}",
+        f"  - or serve it to a browser:     {native} --bind 127.0.0.1 --web-viewer {path}",
         "  - or drag the file onto https://rerun.io/viewer (version 0.41)",
     ]

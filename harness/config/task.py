@@ -202,21 +202,6 @@ class TimingChoice(StrictModel):
         return np.where(is_lift, lift_a, arm_a), np.where(is_lift, lift_j, arm_j)
 
 
-def _robot_relative_to_file(data: Any) -> Any:
-    """``robot: ../my_robot`` (a relative robot folder or robot.yaml) is found next to the task
-    file, as its meshes are; a path that is not there keeps its meaning relative to the
-    working directory."""
-    if not isinstance(data, dict) or not data.get("source"):
-        return data
-    text = data.get("robot")
-    if not isinstance(text, str) or not ("/" in text or text.endswith(".yaml")):
-        return data
-    if Path(text).expanduser().is_absolute():
-        return data
-    candidate = Path(str(data["source"])).resolve().parent / text
-    return {**data, "robot": str(candidate.resolve())} if candidate.exists() else data
-
-
 def _split_robot_mapping(data: Any) -> Any:
     """``robot: {name: fr3, gripper: {...}}`` -> ``robot: fr3`` + ``gripper: {...}``."""
     if not isinstance(data, dict) or not isinstance(data.get("robot"), dict):
@@ -296,7 +281,7 @@ class TaskConfig(StrictModel):
     @model_validator(mode="before")
     @classmethod
     def _robot_mapping(cls, data: Any) -> Any:
-        return _robot_relative_to_file(_split_robot_mapping(data))
+        return _split_robot_mapping(data)
 
     @model_validator(mode="after")
     def _consistent(self) -> TaskConfig:

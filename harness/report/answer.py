@@ -2,14 +2,10 @@
 fail.
 
 For a sweep the answer is the swept setting with the highest Wilson lower bound of the
-objective's rate (``ranked_points``) when its interval lies above the runner-up's, worded as a
-candidate ("not confirmed on fresh seeds; run harness tune"): the sweep chose it on the same
-seeds it is measured on. When the two intervals overlap (ties included) there is no clear
-winner: the answer keeps the current setting (``harness.report.current``: the task's own
-filters), names the settings swept and whether the task's own was among them, and shows the
-kept setting's rate (or says it was not measured). When every setting scores zero the answer is
-"no setting helps" with the dominant cause; with nothing swept, "keep the current setting" with
-that setting shown. Each answer carries the rate with its 95% Wilson interval, the
+objective's rate (``ranked_points``), worded as a candidate ("not confirmed on fresh seeds; run
+harness tune"): the sweep chose it on the same seeds it is measured on. When every setting
+scores zero the answer is "no setting helps" with the dominant cause; with one setting run,
+"keep" (nothing was compared). Each answer carries the rate with its 95% Wilson interval, the
 other rate beside it, the runner-up, and the one-line reason: the dominant causes of the
 episodes that did not meet the objective at that setting.
 
@@ -21,26 +17,20 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from harness.report.current import Current
 from harness.report.frames import frame_of, series_rows
-from harness.report.labels import format_value, point_label
+from harness.report.labels import point_label
 from harness.report.objective import RATES, REFERENCE, other
 from harness.report.sections import Table
 from harness.report.stats import wilson_interval
 from harness.report.tables import FAIL_PREFIX, GAP_PREFIX, GROUP_KEY, ranked_points
 
 UNCONFIRMED = "not confirmed on fresh seeds; run harness tune"
-KEEP = "keep the current setting"
-KEEP_UNSWEPT = f"{KEEP} (nothing was swept)"
-NO_CLEAR = f"no clear winner: {KEEP}"
-BEST_UNTESTED = "best swept setting (untested)"
 NO_SETTING = "no setting helps"
 REASON_LIMIT = 3  # causes named in the one-line reason
 
@@ -105,64 +95,8 @@ def cause_line(counts: Counter[str], total: int, limit: int = REASON_LIMIT) -> s
     return f"{missed} of {total} miss: " + ", ".join(f"{r} {c}" for r, c in ranked)
 
 
-def clear_winner(rows: list[Any], rate: Any) -> bool:
-    """Whether the best point's interval lies above the runner-up's (the rows ranked best
-    first): overlapping intervals, ties included, name no winner."""
-    _, n_best, _, lo_best, _ = rate.of(rows[0])
-    _, n_next, _, _, hi_next = rate.of(rows[1])
-    if not n_best:
-        return False
-    return not n_next or lo_best > hi_next
-
-
-def no_clear_winner(rows: list[Any], params: list[str], own: Current | None, rate: Any) -> str:
-    """What a unit without a clear winner swept, whether the task's own setting was among
-    them, and the two best: ``swept approach_filter downward 120 / 140 / 160 (the task's own
-    among them); best ...: valid 18/40 (45%, ...); next ...: valid 17/40 (42%, ...)``."""
-    if own is None:
-        whose = ""
-    elif own.point_id is not None:
-        whose = " (the task's own setting among them)"
-    else:
-        whose = " (the task's own setting not among them)"
-    return (
-        f"swept {swept_values(rows, params)}{whose}; best {point_label(rows[0], params)}: "
-        f"{rate.text(rows[0])}; next {point_label(rows[1], params)}: {rate.text(rows[1])}"
-    )
-
-
-def swept_values(rows: list[Any], params: list[str]) -> str:
-    """``approach_filter downward 120 / 140 / 160``: each swept key with its values run."""
-    parts = []
-    for name in params:
-        values: list[str] = []
-        for row in rows:
-            text = format_value(row[name])
-            if text not in values:
-                values.append(text)
-        parts.append(f"{name.split('.')[-1]} {' / '.join(values)}")
-    return "; ".join(parts) or "no swept key"
-
-
-def own_row(rows: list[Any], own: Current | None) -> tuple[str, Any]:
-    """The current setting's label and its row among ``rows`` (None when it was not swept)."""
-    if own is None:
-        return "the current setting", None
-    for row in rows:
-        if int(row["point_id"]) == own.point_id:
-            return f"{own.label} (the task's own)", row
-    return f"{own.label} (the task's own, not swept)", None
-
-
-def sweep_answers(
-    summary: pd.DataFrame,
-    objective: str,
-    params: list[str],
-    current: Mapping[tuple[str, str, str], Current] | None = None,
-) -> list[Answer]:
-    """One answer per robot, arm and object of a sweep (see the module docstring);
-    ``current``: each unit's own setting (``harness.report.current``), what a tie or a run
-    with nothing swept keeps."""
+def sweep_answers(summary: pd.DataFrame, objective: str, params: list[str]) -> list[Answer]:
+    """One answer per robot, arm and object of a sweep (see the module docstring)."""
     if summary.empty:
         return []
     ranked = ranked_points(summary, objective)
@@ -207,30 +141,14 @@ def sweep_answers(
                 "upstream of the filter (task, object or robot), not a setting to pick"
             )
             reason = cause_line(pooled_causes, sum(int(r["n"]) for r in rows)) + " (all settings)"
-        elif len(rows) == 1:  # nothing swept for this unit: the task's own setting ran
-            decision, note = KEEP_UNSWEPT, "nothing was swept: nothing compared"
-            own = (current or {}).get((robot, arm, obj))
-            label = own.label if own is not None else "the task's setting"
+        elif len(rows) > 1 and rate.of(rows[1])[:2] == (k, n):
+            decision, note = "tie with the runner-up", "a tie: keep the current setting"
             reason = cause_line(causes(best, objective), total)
-        elif not clear_winner(rows, rate):
-            own = (current or {}).get((robot, arm, obj))
-            decision = NO_CLEAR
-            note = "no clear winner: the best and the next setting's intervals overlap"
-            runner = no_clear_winner(rows, params, own, rate)
-            label, current_row = own_row(rows, own)
-            if current_row is not None:
-                best = current_row  # the rates shown are the setting kept
-                reason = cause_line(causes(best, objective), int(best["n"]))
-            elif own is not None:
-                shown = f"{objective}: not measured (not swept)"
-                other_shown = f"{beside.name}: not measured"
-                reason = "the task's own setting was not run: sweep it beside the others"
-            else:  # no sweep.yaml to read the task's own setting from
-                shown = f"{objective}: the current setting is not recorded in this run"
-                other_shown = f"{beside.name}: not recorded"
-                reason = "no sweep.yaml: the task's own setting cannot be read back"
+        elif len(rows) == 1:
+            decision, note = "keep", "one setting run: nothing compared"
+            reason = cause_line(causes(best, objective), total)
         else:
-            decision, note = BEST_UNTESTED, UNCONFIRMED
+            decision, note = "best swept setting (untested)", UNCONFIRMED
             reason = cause_line(causes(best, objective), total)
         shown = shown or rate.text(best)
         other_shown = other_shown or beside.text(best)

@@ -18,8 +18,6 @@
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,7 +26,6 @@ import pandas as pd
 from harness.files import refuse_planted_links, write_atomic
 from harness.report import failure_groups
 from harness.report.answer import FirstScreen, answer_table, sweep_answers
-from harness.report.current import current_settings
 from harness.report.episode_sections import (
     errors_table,
     examples_table,
@@ -70,7 +67,7 @@ from harness.report.tune_link import (
     relative,
     tune_answers,
 )
-from harness.report.videos import VIDEOS_DIR, Clip, load_clips, render_clips
+from harness.report.videos import Clip, load_clips, render_clips
 from harness.runs.store import JSONL_NAME, ResultStore
 from harness.writes import output_dir
 
@@ -137,8 +134,8 @@ def first_screen(
 ) -> FirstScreen:
     """The answer tables (a tune's decisions first, when ``run_dir`` is its screening or race),
     the objective line and links to tunes of the same tasks."""
-    params = setting_params(summary)  # an object axis alone is no setting (mesh=banana)
-    answers = sweep_answers(summary, objective, params, current_settings(run_dir, summary))
+    params = setting_params(summary) or varying_params(summary)
+    answers = sweep_answers(summary, objective, params)
     tune = own_tune(run_dir)
     tables: list[Table] = []
     links: list[tuple[str, str]] = []
@@ -182,7 +179,6 @@ def build_report(
     export: bool = False,
     objective: str | None = None,
     videos: bool = False,
-    announce: Callable[[str], None] | None = None,
 ) -> ReportPaths:
     """Rebuild summary.csv, best.csv, plots/, report.md and report.html of ``run_dir``.
 
@@ -191,7 +187,7 @@ def build_report(
     (``valid`` or ``reference``; None: the run's recorded one, else ``valid``) ranks the
     settings, colours the heatmaps and answers the first screen; it is recorded in
     ``report.json``. ``videos`` replays one success and one failure per robot arm and embeds
-    their MP4s (a few seconds of work per clip); ``announce`` gets a line when they are written.
+    their MP4s (a few seconds of work per clip).
     """
     run_dir = Path(run_dir)
     refuse_planted_links(run_dir, REPORT_OUTPUTS)  # a write must never follow a planted link
@@ -235,15 +231,7 @@ def build_report(
         screen = FirstScreen(screen.tables, used, screen.tune_path, screen.tune_links, note)
     found = findings(frame, best)
     # Without rendering, the videos of an earlier report stay on the page (videos/clips.json).
-    if videos:
-        start = time.perf_counter()
-        clips = render_clips(run_dir, frame)
-        if announce is not None:
-            made = sum(clip.path is not None for clip in clips)
-            took = time.perf_counter() - start
-            announce(f"videos: {made} clip(s) in {run_dir / VIDEOS_DIR} ({took:.1f} s)")
-    else:
-        clips = load_clips(run_dir)
+    clips = render_clips(run_dir, frame) if videos else load_clips(run_dir)
     report_md = run_dir / "report.md"
     report_html = run_dir / "report.html"
     write_atomic(

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from harness.report.advice import failure_advice, validity_advice
 from harness.report.frames import column, frame_of, series_rows
 from harness.report.labels import point_label
 from harness.report.placement import REACH_STAGES, outcome_kinds
 from harness.report.tables import rated
 
+FARTHER_M = 0.02  # reach failures this much farther (median) than successes: a reach boundary
 MIN_SHARE = 0.1  # a failure or gap below this share of the arm's episodes is not a finding
 ADVICE = {
     "table_penetration": "a finger goes through the table, which the task file lets it do "
@@ -83,23 +83,28 @@ def _failure_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
     top, count = _top([f"{r} at {s}" for r, s in zip(reasons, stages, strict=True)])
     evidence = f"{len(failed)} of {n} episodes fail; {count} are {top}"
     found = []
-    top_reason, top_stage = top.split(" at ", 1)
-    mine = failed[
-        (column(failed, "failure_reason").astype(str) == top_reason).to_numpy()
-        & (stage.reindex(failed.index).replace("", "?") == top_stage).to_numpy()
-    ]
-    robot = str(group["robot"].iloc[0]) if "robot" in group else subject.split()[0]
-    advice = failure_advice(robot, top_reason, top_stage, frame_of(mine), group)
+    top_stage = top.split(" at ", 1)[1]
     if top_stage in REACH_STAGES and "object_distance_m" in group:
         distance = column(group, "object_distance_m").astype(float)
         bad = distance[~success & (stage.reindex(group.index) == top_stage)]
         good = distance[success]
+        change = (
+            f"{top}: the grasp poses are out of reach at the same distances as the successes: "
+            "check the approach filter and the object's yaw range (see the placement plot)"
+        )
         if len(good) and len(bad):
             evidence += (
                 f"; their objects lie at a median {np.median(bad):.2f} m from the arm base "
                 f"(successes {np.median(good):.2f} m, range {good.min():.2f}–{good.max():.2f} m)"
             )
-    found.append(Finding(subject, f"{top}: {advice.text()}", evidence))
+            if np.median(bad) > np.median(good) + FARTHER_M:
+                change = (
+                    "objects are placed beyond its reach: narrow the placement region towards "
+                    "the arm (see the placement plot)"
+                )
+        found.append(Finding(subject, change, evidence))
+    else:
+        found.append(Finding(subject, f"fix the main failure, {top}", evidence))
     if "collision_a" in failed:
         pairs = (
             failed["collision_a"].fillna("").astype(str)
@@ -137,9 +142,7 @@ def _validity_findings(subject: str, group: pd.DataFrame) -> list[Finding]:
     if reason == "table_penetration" and "table_penetration_m" in invalid:
         depth = column(invalid, "table_penetration_m").astype(float) * 1e3
         evidence += f", {depth.min():.1f}–{depth.max():.1f} mm into the table"
-    cause = validity_advice(reason, frame_of(invalid[column(invalid, "invalid_reason") == reason]))
-    change = f"{cause.text()}" if cause is not None else ADVICE.get(reason, f"check {reason}")
-    return [Finding(subject, change, evidence)]
+    return [Finding(subject, ADVICE.get(reason, f"check {reason}"), evidence)]
 
 
 def _best_findings(best: pd.DataFrame) -> list[Finding]:

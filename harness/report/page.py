@@ -69,7 +69,6 @@ table.answer td { vertical-align: top; }
 td.decision { font-weight: 600; white-space: nowrap; }
 td.decision.go { background: #dafbe1 !important; }
 td.decision.keep { background: #eaeef2 !important; }
-td.decision.maybe { background: #ddf4ff !important; }
 td.decision.none { background: #ffebe9 !important; }
 td.decision.wait { background: #fff8c5 !important; }
 details.section > summary h2 { display: inline; border: none; font-size: 1.25em; margin: 0; }
@@ -199,18 +198,14 @@ MEANING = {
 
 
 def decision_kind(decision: str) -> str:
-    """The colour class of a decision cell: go (green: a switch tested on fresh seeds, the
-    only green), maybe (blue: a best swept setting, chosen on the seeds it is measured on),
-    keep (grey: keep the current setting, no clear winner), none, wait."""
+    """The colour class of a decision cell: go (switch / best swept), keep, none, wait."""
     if decision.startswith(NO_SETTING) or decision.startswith("no rated"):
         return "none"
     if decision.startswith("undecided"):
         return "wait"
-    if decision.startswith("switch"):
-        return "go"
-    if decision.startswith("best swept"):
-        return "maybe"
-    return "keep"
+    if decision.startswith(("keep", "tie")):
+        return "keep"
+    return "go"
 
 
 def _answer_context(table: Table) -> dict[str, Any]:
@@ -312,17 +307,4 @@ def render_page(
         clips=[_clip_context(run_dir, c, links or {}) for c in clips],
         plots=[_figure(n, p) for n, p in others.items()],
         sorter=SORTER + FILTER + OPEN_TARGET,
-        **recording_commands(run_dir),
     )
-
-
-def recording_commands(run_dir: Path) -> dict[str, str]:
-    """The commands that open one of the run's recordings, as ``harness view`` prints them
-    (``harness.viz.viewer``), with the run's absolute path: they run from any directory."""
-    from harness.viz.viewer import rerun_viewer, web_command
-
-    example = Path(run_dir).resolve() / "episodes" / "ID.rrd"
-    return {
-        "view_command": f"harness view {example}",
-        "web_command": web_command(example, rerun_viewer()),
-    }

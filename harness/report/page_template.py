@@ -65,7 +65,7 @@ TEMPLATE = """<!DOCTYPE html>
 </details>
 {% endif %}
 
-<p class="note" id="recordings">Recordings (<code>.rrd</code>, linked from episode ids; a plain click downloads the file): open one with <code>{{ view_command }}</code> (the viewer where there is a display, else the commands below), or serve it to a browser with <code>{{ web_command }}</code> (it prints the address to open), as <code>harness view</code> prints them.</p>
+<p class="note" id="recordings">Recordings (<code>.rrd</code>, linked from episode ids): open one with <code>harness view RUN_DIR/episodes/ID.rrd</code>, or in a browser with <code>rerun --web-viewer RUN_DIR/episodes/ID.rrd</code> (<code>pip install rerun-sdk==0.41.*</code>); a plain click downloads the file.</p>
 
 {% for t in tables %}
 <details class="section" id="{{ t.id }}"><summary><h2>{{ t.title }}</h2> <span class="count">({{ t.rows|length }} row{{ '' if t.rows|length == 1 else 's' }})</span></summary>

@@ -1,13 +1,11 @@
 """Progress of long commands: a rich bar on a terminal, plain lines everywhere else.
 
-On a terminal the sweep shows a rich bar (episodes per second, the running success rate,
-``elapsed 0:01:22, 0:00:26 left``). Without one (CI, ``nohup``, a pipe, a notebook) a bar prints
-nothing until it ends, so ``ProgressLines`` prints ``LABEL: done/total UNIT (p%), r UNIT/s,
-elapsed 0:01:22, 0:00:26 left`` every ``progress_interval()`` seconds (``EVERY_S`` unless the
-command's ``--progress-every`` set it), whether or not anything finished since the last line,
-and a last line when it ends; a job done before the first line prints nothing. Until the first
-episode finishes neither shows a bar, a rate or a time left (none can be known while the
-workers import and build their scenes): they say ``starting N workers`` and the time elapsed.
+On a terminal the sweep shows a rich bar (episodes per second, time left, the running success
+rate). Without one (CI, ``nohup``, a pipe) a bar prints nothing until it ends, so
+``ProgressLines`` prints ``LABEL: done/total UNIT (p%), r/s, ETA ...`` every
+``progress_interval()`` seconds (``EVERY_S`` unless the command's ``--progress-every`` set it),
+whether or not anything finished since the last line, and a last line when it ends; a job done
+before the first line prints nothing.
 """
 
 from __future__ import annotations
@@ -44,25 +42,6 @@ def stdout_is_terminal() -> bool:
         return False
 
 
-def clock(seconds: float) -> str:
-    """``0:01:22``: elapsed and remaining times in progress lines and the bar."""
-    seconds = max(0, round(seconds))
-    return f"{seconds // 3600}:{seconds % 3600 // 60:02d}:{seconds % 60:02d}"
-
-
-def elapsed_left(elapsed_s: float, left_s: float | None) -> str:
-    """``elapsed 0:01:22, 0:00:26 left`` (``elapsed 0:01:22`` while nothing says what is left)."""
-    left = f", {clock(left_s)} left" if left_s is not None else ""
-    return f"elapsed {clock(elapsed_s)}{left}"
-
-
-def starting_text(workers: int | None) -> str:
-    """``starting 2 workers`` (``starting`` for an in-process run)."""
-    if not workers:
-        return "starting"
-    return f"starting {workers} worker{'s' if workers != 1 else ''}"
-
-
 def duration(seconds: float) -> str:
     """``47s``, ``3m05s``, ``1h02m``: short, for progress lines."""
     seconds = max(0, round(seconds))
@@ -92,7 +71,6 @@ class ProgressLines:
         self.stream = stream
         self.done = 0  # finished in this process (the rate counts only these)
         self.note = ""
-        self.starting = ""  # said instead of a rate and a time left until the first one ends
         self.printed = 0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -111,22 +89,19 @@ class ProgressLines:
             self.note = note
 
     def line(self) -> str:
-        """``sweep: 30/400 episodes (8%), 0.50 episodes/s, elapsed 0:01:00, 0:12:20 left, NOTE``;
-        before the first one finishes: ``sweep: 0/400 episodes, starting 2 workers, elapsed
-        0:00:30`` (no rate and no time left: nothing measures them yet)."""
         elapsed = max(time.monotonic() - self.start_time, 1e-9)
         finished = self.already + self.done
         share = f" ({finished / self.total:.0%})" if self.total else ""
-        if not self.done:
-            what = self.starting or "none finished yet"
-            head = f"{self.label}: {finished}/{self.total} {self.unit}"
-            return f"{head}, {what}, {elapsed_left(elapsed, None)}"
         rate = self.done / elapsed
-        left = max(self.total - finished, 0) / rate
+        if self.done:
+            left = max(self.total - finished, 0) / rate
+            eta = f"ETA {duration(left)}"
+        else:
+            eta = f"ETA - (none finished in {duration(elapsed)})"
         note = f", {self.note}" if self.note else ""
         return (
             f"{self.label}: {finished}/{self.total} {self.unit}{share}, "
-            f"{rate:.2f} {self.unit}/s, {elapsed_left(elapsed, left)}{note}"
+            f"{rate:.2f} {self.unit}/s, {eta}{note}"
         )
 
     def _print(self, text: str) -> None:
@@ -173,7 +148,7 @@ class SweepProgress:
         self.total = total
         # Until the first row arrives the bar says what is happening (spawning workers, imports
         # and scene builds take seconds), not "0.00 ep/s".
-        self.starting = starting_text(workers)
+        self.starting = f"starting {workers} worker(s)" if workers else "starting"
         self.already = already
         self.enabled = enabled
         self.successes = 0
@@ -185,13 +160,28 @@ class SweepProgress:
         if not self.enabled:
             return self._count
         if not stdout_is_terminal():
-            self.lines = ProgressLines(self.label, self.total, already=self.already)
-            self.lines.starting = self.starting
-            self.lines.start()
+            self.lines = ProgressLines(self.label, self.total, already=self.already).start()
+            self.lines.note = self.starting
             return self._line
-        from rich.progress import Progress
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
 
-        self.bar = Progress(*bar_columns())
+        self.bar = Progress(
+            TextColumn("[bold]{task.fields[status]}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[rate]:.2f} ep/s"),
+            TextColumn("success {task.fields[success]}"),
+            TimeElapsedColumn(),
+            TextColumn("left"),
+            TimeRemainingColumn(),
+        )
         self.bar.start()
         self.task_id = self.bar.add_task(
             self.label,
@@ -200,7 +190,6 @@ class SweepProgress:
             rate=0.0,
             success="-",
             status=self.starting,
-            running=False,
         )
         self.start = time.perf_counter()
         return self._advance
@@ -223,7 +212,6 @@ class SweepProgress:
             rate=self.finished / elapsed,
             success=f"{self.successes}/{self.finished}",
             status=self.label,
-            running=True,
         )
 
     def __exit__(self, *exc: object) -> None:
@@ -231,42 +219,3 @@ class SweepProgress:
             self.lines.stop()
         elif self.enabled:
             self.bar.stop()
-
-
-BAR_WIDTH = 10  # with 120/400, 0.91/s, success 100/120 and both times the line fits 80 columns
-
-
-def bar_columns() -> list[Any]:
-    """The bar's columns: ``LABEL ━━━━ 30/400 0.50/s success 20/30 elapsed 0:01:00, 0:12:20
-    left``; while ``running`` is false (the workers start) only ``starting N workers elapsed
-    0:00:12``: no bar, count, rate or time left that nothing has measured yet."""
-    from rich.progress import BarColumn, MofNCompleteColumn, ProgressColumn, Task, TextColumn
-    from rich.text import Text
-
-    class Running(ProgressColumn):
-        """``column`` once the first episode finished, nothing before."""
-
-        def __init__(self, column: ProgressColumn) -> None:
-            super().__init__()
-            self.column = column
-
-        def render(self, task: Task) -> Any:
-            return self.column.render(task) if task.fields.get("running") else Text("")
-
-    class ElapsedLeft(ProgressColumn):
-        """``elapsed 0:01:22, 0:00:26 left``; ``elapsed 0:00:12`` until a rate is measured."""
-
-        max_refresh = 0.5
-
-        def render(self, task: Task) -> Text:
-            left = task.time_remaining if task.fields.get("running") else None
-            return Text(elapsed_left(task.elapsed or 0.0, left), style="progress.elapsed")
-
-    return [
-        TextColumn("[bold]{task.fields[status]}"),
-        Running(BarColumn(bar_width=BAR_WIDTH)),
-        Running(MofNCompleteColumn()),
-        Running(TextColumn("{task.fields[rate]:.2f}/s")),
-        Running(TextColumn("success {task.fields[success]}")),
-        ElapsedLeft(),
-    ]

@@ -4,8 +4,7 @@ One frame should tell a person why the episode ended as it did:
 
 - a planning failure: the configuration that failed (``EpisodeTrace.failure_qpos``: the best
   IK attempt at an unreachable target, or the colliding configuration) with the colliding
-  pair's contact point marked, or the joint at its limit there (``limit_joint``: the part that
-  stops the reach), else the unreached IK target;
+  pair's contact point marked, or the unreached IK target;
 - a finger through the table (``table_penetration``): the executed frame where the robot is
   deepest below the table top, the deepest point marked;
 - a drop or a slip (``dropped``, ``lift_below_threshold``, ``not_lifted``, ``slipped_in_hold``,
@@ -119,43 +118,7 @@ def _planning_cause(row: Any, trace: Any, model: Any) -> Cause:
         and len(trace.tested_T_world_grasp)
         else _target_point(trace)
     )
-    limit = _limit_joint(row, model, trace)
-    if limit is not None:  # the joint that stops the reach is the part to mark
-        name, side, anchor = limit
-        where = stage.removeprefix("plan:").removeprefix("feasibility:") or "target"
-        label = f"{name} at its {side} limit: {where} out of reach"
-        millimetres = _number(row.get("ik_residual_mm"))
-        if math.isfinite(millimetres):
-            label += f", best IK attempt {millimetres:.0f} mm off"
-        return Cause(trace.failure_qpos, None, anchor, label)
     return Cause(trace.failure_qpos, None, point, label)
-
-
-def _number(value: Any) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
-
-
-def _limit_joint(row: Any, model: Any, trace: Any) -> tuple[str, str, np.ndarray] | None:
-    """``limit_joint`` (``left_joint5:upper``) and where that joint sits in the failing
-    configuration (its anchor), or None when the row names no joint the model has."""
-    import mujoco
-
-    name, _, side = str(row.get("limit_joint") or "").partition(":")
-    if not name:
-        return None
-    try:
-        joint = model.joint(name).id
-    except KeyError:
-        return None
-    data = mujoco.MjData(model)
-    if model.nmocap:
-        data.mocap_pos[:], data.mocap_quat[:] = trace.mocap_pos, trace.mocap_quat
-    data.qpos[:] = trace.failure_qpos
-    mujoco.mj_kinematics(model, data)
-    return name, side or "", np.array(data.xanchor[joint])
 
 
 def _pair_point(model: Any, qpos: np.ndarray, row: Any, trace: Any) -> np.ndarray | None:

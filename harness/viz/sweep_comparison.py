@@ -20,14 +20,6 @@ import numpy as np
 import pandas as pd
 
 TIMELINE = "episode"
-# One colour per setting in every panel (matplotlib's tab10, RGB): the same setting reads the
-# same in each robot, arm and object's view; settings take colours in sorted order.
-PALETTE: tuple[tuple[int, int, int], ...] = (
-    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-    (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207),
-)  # fmt: skip
-# The rate axis runs past 1 so the legend, in its top-left corner, sits above every rate.
-AXIS_TOP = 1.6
 MAX_SERIES = 10  # settings drawn per robot, arm and object (best final rate first)
 UNIT_KEYS = ("robot", "arm", "object")
 UNRATED = ("error", "not_runnable")  # harness.failures.UNRATED_REASONS: never in a rate
@@ -41,7 +33,6 @@ class Series:
     name: str
     rates: np.ndarray  # running objective rate after 1..n episodes
     final: float
-    setting: str = ""  # the setting's label, the same in every unit (its colour's key)
 
 
 @dataclass(frozen=True)
@@ -121,34 +112,24 @@ def comparison_units(episodes: pd.DataFrame, objective: str) -> list[Unit]:
             met = column(rows, verdict).astype(str).str.lower().eq("true").to_numpy()
             rates = np.cumsum(met) / np.arange(1, len(met) + 1)
             label = _label(rows.iloc[0], settings)
-            entity = f"{origin}/{_part(label)}"
-            series.append(Series(entity, f"{label} ({objective})", rates, rates[-1], label))
+            series.append(
+                Series(f"{origin}/{_part(label)}", f"{label} ({objective})", rates, rates[-1])
+            )
         series.sort(key=lambda s: -s.final)
         left_out = max(0, len(series) - MAX_SERIES)
-        # Short enough to show whole above a panel of a grid (the settings are in the legend).
-        name = f"{robot} {arm} {obj} ({objective})"
-        name += f", best {MAX_SERIES} of {len(series)}" if left_out else ""
+        name = f"{robot} {arm} {obj}: running {objective} rate per setting"
+        name += f" (best {MAX_SERIES} of {len(series)})" if left_out else ""
         units.append(Unit(origin, name, series[:MAX_SERIES]))
     return units
 
 
-def setting_colors(units: list[Unit]) -> dict[str, tuple[int, int, int]]:
-    """One colour per setting label over every unit (``PALETTE``, in sorted label order)."""
-    labels = sorted({series.setting for unit in units for series in unit.series})
-    return {label: PALETTE[k % len(PALETTE)] for k, label in enumerate(labels)}
-
-
 def log_comparison(rec: Any, units: list[Unit]) -> None:
-    """Each series: its name and its setting's colour once (static), then its running rate on
-    the episode timeline."""
+    """Each series: its name once (static), then its running rate on the episode timeline."""
     import rerun as rr
 
-    colors = setting_colors(units)
     for unit in units:
         for series in unit.series:
-            color = colors.get(series.setting, PALETTE[0])
-            lines = rr.SeriesLines(names=[series.name], colors=[color])
-            rec.log(series.entity, lines, static=True)
+            rec.log(series.entity, rr.SeriesLines(names=[series.name]), static=True)
             steps = np.arange(1, len(series.rates) + 1, dtype=np.int64)
             rec.send_columns(
                 series.entity,
@@ -158,16 +139,15 @@ def log_comparison(rec: Any, units: list[Unit]) -> None:
 
 
 def comparison_views(units: list[Unit]) -> list[Any]:
-    """One time-series view per robot, arm and object: the legend in the top-left corner above
-    the rates (the axis runs to ``AXIS_TOP``, past the highest rate 1), not over the data."""
+    """One time-series view per robot, arm and object, legend on, rate axis 0..1."""
     import rerun.blueprint as rrb
 
     return [
         rrb.TimeSeriesView(
             name=unit.name,
             origin=unit.origin,
-            plot_legend=rrb.PlotLegend(corner=rrb.components.Corner2D.LeftTop, visible=True),
-            axis_y=rrb.ScalarAxis(range=(0.0, AXIS_TOP)),
+            plot_legend=rrb.PlotLegend(visible=True),
+            axis_y=rrb.ScalarAxis(range=(0.0, 1.05)),
         )
         for unit in units
     ]

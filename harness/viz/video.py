@@ -6,13 +6,12 @@ root pose; replaying those with ``mj_kinematics`` reproduces every frame without
 physics again. Frames are resampled to a fixed rate and written with imageio's ffmpeg plugin
 (the ffmpeg binary ships inside the imageio-ffmpeg wheel, nothing is downloaded).
 
-The camera looks from the side of the arm's reach (``side_azimuth``) at the gripper and the
-object, with the arm out of the line of sight. Every frame carries a caption band (robot, arm,
-object, seed; the outcome headline with both verdicts, coloured green / orange / red for valid,
-invalid, failed) and the cause's label. The video holds ``HOLD_S`` on the cause frame with the
-cause marked (a red sphere); an episode that never moved (a planning failure) shows its reset
-pose briefly, then the configuration that failed. For a finger through the table the table is
-drawn translucent, so the finger shows. The poster (``<video>.png``) is that cause frame.
+Every frame carries a caption band (robot, arm, object, seed; the outcome headline with both
+verdicts, coloured green / orange / red for valid / invalid / failed) and the cause's label. The
+video holds ``HOLD_S`` on the cause frame with the cause marked (a red sphere); an episode that
+never moved (a planning failure) shows its reset pose briefly, then the configuration that
+failed. For a finger through the table the table is drawn translucent, so the finger shows.
+The poster (``<video>.png``) is that cause frame.
 """
 
 from __future__ import annotations
@@ -33,11 +32,7 @@ WIDTH, HEIGHT = 640, 480
 HOLD_S = 1.5  # seconds the video rests on the cause frame
 START_S = 0.5  # seconds of the reset pose before a configuration that was never executed
 MARK_RADIUS_M = 0.018
-VIEW_DISTANCE_M = 0.9  # the gripper and the object fill the frame (1.5 m left a banana tiny)
-CAUSE_DISTANCE_M = 0.45  # the camera closes in on the cause while the video holds on it
-ELEVATION_DEG = -22.0  # a little from above: the fingers and the table top both show
-TABLE_ELEVATION_DEG = -6.0  # a finger through the table, seen through the translucent top
-FRONT_DEG = 25.0  # the side view turned towards the object's far side (``side_azimuth``)
+CAUSE_DISTANCE_M = 0.6  # the camera closes in on the cause while the video holds on it
 TABLE_ALPHA = 0.35  # the table's opacity when a finger went through it
 
 
@@ -49,55 +44,14 @@ def frame_indices(trace_time: np.ndarray, fps: int = FPS) -> np.ndarray:
     return np.clip(np.searchsorted(trace_time, times, side="right") - 1, 0, len(trace_time) - 1)
 
 
-def _camera(mujoco: Any, look_at: np.ndarray, distance: float, azimuth: float) -> Any:
+def _camera(mujoco: Any, look_at: np.ndarray, distance: float = 1.5) -> Any:
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
     camera.lookat[:] = look_at
     camera.distance = distance
-    camera.azimuth = azimuth
-    camera.elevation = ELEVATION_DEG
+    camera.azimuth = 140.0
+    camera.elevation = -28.0
     return camera
-
-
-def side_azimuth(base_xy: np.ndarray, object_xy: np.ndarray, root_xy: np.ndarray) -> float:
-    """The free camera's azimuth (degrees, MuJoCo's: the direction it looks) for a side view of
-    the arm's reach: across the line from the arm base to the object, turned ``FRONT_DEG``
-    towards the object's far side so the gripper is seen in front of its arm, from the side
-    away from the robot's root (a two-arm robot's other arm stays behind the camera's subject).
-    Nothing of the arm stands between the camera and the gripper: the old fixed view looked
-    from behind the robot, so a link filled the frame (issue 56)."""
-    reach = np.asarray(object_xy, dtype=float) - np.asarray(base_xy, dtype=float)
-    length = float(np.linalg.norm(reach))
-    reach = reach / length if length > 1e-6 else np.array([0.0, 1.0])
-    best: tuple[float, float] | None = None
-    for side in (1.0, -1.0):
-        normal = side * np.array([-reach[1], reach[0]])  # the camera stands along +normal
-        turn = np.radians(FRONT_DEG)
-        toward = normal * np.cos(turn) + reach * np.sin(turn)  # a little past the object
-        camera_xy = np.asarray(object_xy, dtype=float) + toward
-        away = float(np.linalg.norm(camera_xy - np.asarray(root_xy, dtype=float)))
-        azimuth = float(np.degrees(np.arctan2(-toward[1], -toward[0])))  # looks back at it
-        if best is None or away > best[0] + 1e-6:
-            best = (away, azimuth)
-    return best[1] if best is not None else 90.0
-
-
-def framing(result: Any, trace: Any) -> tuple[np.ndarray, float]:
-    """Where the camera looks (between the object and the gripper's grasp pose, a little
-    above the table) and its side azimuth (``side_azimuth``)."""
-    object_xyz = np.asarray(trace.T_world_object_start)[:3, 3]
-    grasp = trace.T_world_grasp if trace.T_world_grasp is not None else trace.T_world_pregrasp
-    look_at = object_xyz + np.array([0.0, 0.0, 0.06])
-    if grasp is not None:
-        look_at = (look_at + np.asarray(grasp)[:3, 3]) / 2.0
-    scene = getattr(result, "scene", None)
-    arm = str(result.row.get("arm") or "")
-    try:
-        base_xy = np.asarray(scene.T_world_base(arm))[:2, 3]  # type: ignore[union-attr]
-    except Exception:  # no scene kept: the robot's root stands in for the arm base
-        base_xy = np.asarray(trace.mocap_pos)[0, :2] if len(trace.mocap_pos) else np.zeros(2)
-    root_xy = np.asarray(trace.mocap_pos)[0, :2] if len(trace.mocap_pos) else base_xy
-    return look_at, side_azimuth(base_xy, object_xyz[:2], root_xy)
 
 
 def _frames(trace: Any, cause: Cause, fps: int) -> list[tuple[np.ndarray, bool]]:
@@ -147,13 +101,12 @@ def write_episode_video(
     data.mocap_pos[:] = trace.mocap_pos
     data.mocap_quat[:] = trace.mocap_quat
     frames = _frames(trace, cause, fps)
-    look_at, azimuth = framing(result, trace)
-    camera = _camera(mujoco, look_at, VIEW_DISTANCE_M, azimuth)
+    # Between the object and the robots (which stand at -y, facing +y), a little above the table.
+    look_at = np.asarray(trace.T_world_object_start)[:3, 3] + [0.0, -0.2, 0.15]
+    camera = _camera(mujoco, look_at)
     close = camera
     if cause.point is not None and outcome_kind(row) != "valid":
-        close = _camera(mujoco, cause.point, CAUSE_DISTANCE_M, azimuth)
-        if "through the table" in cause.label:  # level with the table top: the finger below it
-            close.elevation = TABLE_ELEVATION_DEG
+        close = _camera(mujoco, cause.point, CAUSE_DISTANCE_M)
     poster_path = path.with_suffix(".png")
     check_target(path)
     check_target(poster_path)
@@ -280,8 +233,6 @@ class Overlay:
         self.headline = headline(row)
         self.cause = cause_label
         self.color = KIND_COLORS[outcome_kind(row)]
-        # The cause's label in red, a valid episode's ("held: ...") in its own green.
-        self.cause_color = self.color if outcome_kind(row) == "valid" else (255, 90, 90)
         size = max(9, round(width / 40))  # 16 px at 640 wide
         self.font = ImageFont.load_default(size=size)
         self.size = size
@@ -320,7 +271,7 @@ class Overlay:
             draw.rectangle(
                 (0, height - line - 6, width, height), fill=(20, 22, 26, 200 if marked else 140)
             )
-            fill = self.cause_color if marked else (220, 220, 220)
+            fill = (255, 90, 90) if marked else (220, 220, 220)
             font = self._fit(self.cause, width - 12)
             draw.text((6, height - line - 3), self.cause, fill=fill, font=font)
         return np.asarray(picture)

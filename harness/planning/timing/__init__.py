@@ -19,7 +19,6 @@ A ``Trajectory`` is a sequence of timed segments (transport, approach, lift, gri
 that the executor samples by time; ``Trajectory.concatenate`` plays several plans as one.
 """
 
-import harness.deferred_pyplot  # noqa: F401  (before toppra imports pyplot: see it)
 from harness.planning.timing.errors import TimingError
 from harness.planning.timing.inputs import DUPLICATE_TOLERANCE, TimingLimits
 from harness.planning.timing.method import TimingMethod, plan_timing
