@@ -78,17 +78,8 @@ def _node(data: Any, path: KeyPath, where: str) -> CommentedMap:
 
 
 def _same(old: Any, new: Any) -> bool:
-    """Whether a parsed value equals ``new`` (numbers by value: 90 == 90.0)."""
-    try:
-        return (
-            json.dumps(
-                json.loads(json.dumps(list(old) if isinstance(old, list) else old)), sort_keys=True
-            )
-            == json.dumps(new, sort_keys=True)
-            or old == new
-        )
-    except (TypeError, ValueError):
-        return False
+    """Whether a parsed value equals ``new`` (a flow list elementwise; 90 == 90.0)."""
+    return (list(old) if isinstance(old, list) else old) == new
 
 
 def set_values(text: str, edits: dict[KeyPath, dict[str, Any | None]], where: str = "file") -> str:

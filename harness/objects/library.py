@@ -140,7 +140,7 @@ def library_objects() -> list[LibraryObject]:
 def usd_text(mesh: trimesh.Trimesh) -> str:
     """The mesh as a USD layer (ASCII) in the reference's asset form: ``/World/Aligned`` a rigid
     body with ``physics:mass`` and a bound physics material, its points in millimetres."""
-    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+    from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
 
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -164,7 +164,6 @@ def usd_text(mesh: trimesh.Trimesh) -> str:
     UsdShade.MaterialBindingAPI.Apply(prim).Bind(
         material, UsdShade.Tokens.weakerThanDescendants, "physics"
     )
-    del Sdf
     return str(stage.GetRootLayer().ExportToString())
 
 
